@@ -1,0 +1,134 @@
+"""Input validation shared by every public entry point.
+
+Errors are ``ValueError`` or ``TypeError`` whose message quotes what was
+received, so that a user can see what to fix without reading a traceback
+into scipy. Inputs are copied, never modified.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "check_points",
+    "check_cells",
+    "check_labels",
+    "check_positive",
+    "check_nonnegative_int",
+]
+
+
+def check_points(points, *, name="points", min_dim=1):
+    """Return ``points`` as a new C-contiguous float64 array of shape (n, dim)."""
+    if isinstance(points, (str, bytes)) or points is None:
+        raise TypeError(f"{name} must be an array of shape (n_points, dim), got {type(points).__name__}")
+    try:
+        arr = np.array(points, dtype=np.float64, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be a numeric array of shape (n_points, dim): {exc}") from None
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must have shape (n_points, dim), got an array of shape {arr.shape}")
+    if arr.shape[1] < min_dim:
+        raise ValueError(f"{name} has shape {arr.shape}; expected at least {min_dim} coordinate(s) per point")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name} is empty (shape {arr.shape})")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row = int(np.argwhere(bad)[0, 0])
+        raise ValueError(f"{name} contains NaN or infinite coordinates (first at row {row}: {arr[row]})")
+    return np.ascontiguousarray(arr)
+
+
+def check_cells(cells, n_points, *, name="simplices", n_per_cell=None):
+    """Return ``cells`` as a new int64 array of shape (n_cells, m) with valid indices."""
+    if isinstance(cells, (str, bytes)) or cells is None:
+        raise TypeError(f"{name} must be an integer array, got {type(cells).__name__}")
+    raw = np.asarray(cells)
+    if raw.dtype == object:
+        raise ValueError(f"{name} must be a rectangular integer array; got ragged rows")
+    if raw.dtype.kind == "b":
+        raise TypeError(f"{name} must hold integer vertex indices, got booleans")
+    if raw.dtype.kind == "f":
+        if raw.size and not np.all(np.isfinite(raw) & (raw == np.round(raw))):
+            raise TypeError(f"{name} must hold integer vertex indices, got non-integer values")
+    elif raw.dtype.kind not in "iu":
+        raise TypeError(f"{name} must hold integer vertex indices, got dtype {raw.dtype}")
+    arr = np.array(raw, dtype=np.int64, copy=True)
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must have shape (n_cells, vertices_per_cell), got shape {arr.shape}")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name} is empty (shape {arr.shape})")
+    if n_per_cell is not None and arr.shape[1] != n_per_cell:
+        raise ValueError(f"{name} has shape {arr.shape}; expected {n_per_cell} vertices per cell")
+    lo, hi = arr.min(), arr.max()
+    if lo < 0 or hi >= n_points:
+        bad = int(np.argwhere((arr < 0) | (arr >= n_points))[0, 0])
+        raise ValueError(
+            f"{name} row {bad} ({arr[bad].tolist()}) indexes a vertex outside 0..{n_points - 1}"
+        )
+    srt = np.sort(arr, axis=1)
+    rep = (srt[:, 1:] == srt[:, :-1]).any(axis=1)
+    if rep.any():
+        bad = int(np.flatnonzero(rep)[0])
+        raise ValueError(f"{name} row {bad} ({arr[bad].tolist()}) repeats a vertex")
+    return arr
+
+
+def check_labels(labels, n_expected, *, what):
+    """Validate a two-class label array.
+
+    Returns
+    -------
+    classes : ndarray of shape (2,)
+        The two distinct values, sorted as ``np.unique`` sorts them.
+    region1 : ndarray of bool of shape (n_expected,)
+        True where the label equals ``classes[1]``.
+    """
+    if isinstance(labels, (str, bytes)) or labels is None:
+        raise TypeError(f"labels must be an array with one label per {what}, got {type(labels).__name__}")
+    arr = np.asarray(labels)
+    if arr.ndim != 1:
+        arr = arr.squeeze() if arr.ndim == 2 and 1 in arr.shape else arr
+    if arr.ndim != 1:
+        raise ValueError(f"labels must be one-dimensional, got an array of shape {np.shape(labels)}")
+    if arr.shape[0] != n_expected:
+        raise ValueError(
+            f"labels has length {arr.shape[0]} but the domain has {n_expected} {what}s "
+            f"(labels are given on={what}s)"
+        )
+    if arr.dtype.kind == "f" and np.isnan(arr).any():
+        raise ValueError(f"labels contain NaN (first at index {int(np.flatnonzero(np.isnan(arr))[0])})")
+    if arr.dtype == object and any(v is None for v in arr):
+        raise ValueError("labels contain None")
+    classes, inverse = np.unique(arr, return_inverse=True)
+    if classes.shape[0] == 1:
+        raise ValueError(f"labels hold one class only ({classes[0]!r}); two are needed to have a boundary")
+    if classes.shape[0] > 2:
+        shown = ", ".join(repr(c) for c in classes[:5])
+        raise ValueError(
+            f"labels hold {classes.shape[0]} classes ({shown}{', ...' if classes.shape[0] > 5 else ''}); "
+            "relax separates exactly two"
+        )
+    return classes, inverse.reshape(-1) == 1
+
+
+def check_positive(value, name, *, allow_zero=False):
+    """Return ``value`` as a float, refusing non-numbers, NaN and (non-)positive values."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    value = float(value)
+    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")
+    return value
+
+
+def check_nonnegative_int(value, name):
+    """Return ``value`` as an int >= 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    if value < 0:
+        raise ValueError(f"{name} must be >= 0, got {value}")
+    return int(value)

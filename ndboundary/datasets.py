@@ -1,0 +1,140 @@
+"""Built-in example domains and labellings with a known smooth truth.
+
+Used by the demo, the tests and the benchmarks; nothing is downloaded.
+"""
+
+from __future__ import annotations
+
+from itertools import permutations
+
+import numpy as np
+
+from .simplicial import SimplicialComplex
+
+__all__ = ["kuhn_grid", "icosphere", "label_by", "circle", "flower", "ball", "torus"]
+
+
+def kuhn_grid(n, dim=2, *, jitter=0.0, lo=-1.0, hi=1.0, random_state=None):
+    """Kuhn (Freudenthal) triangulation of the cube ``[lo, hi]^dim`` with ``n`` cells a side.
+
+    Each cube is split into ``dim!`` simplices sharing its main diagonal (2 triangles,
+    6 tetrahedra, 24 4-simplices). Interior vertices are moved by up to
+    ``jitter * (hi - lo) / n`` along each axis, uniformly at random.
+
+    Parameters
+    ----------
+    n : int
+    dim : int, default=2
+    jitter : float, default=0.0
+        Fraction of the cell size; below 0.5 keeps every simplex positive.
+    lo, hi : float
+    random_state : int, Generator or None
+
+    Returns
+    -------
+    SimplicialComplex
+    """
+    if n < 1 or dim < 1:
+        raise ValueError(f"n and dim must be positive, got n={n}, dim={dim}")
+    if not 0 <= jitter < 0.5:
+        raise ValueError(f"jitter must be in [0, 0.5), got {jitter}")
+    s = (hi - lo) / n
+    axes = np.meshgrid(*([np.arange(n + 1)] * dim), indexing="ij")
+    grid = np.stack([a.ravel() for a in axes], axis=1)
+    points = lo + s * grid.astype(np.float64)
+    strides = (n + 1) ** np.arange(dim - 1, -1, -1)
+    cells = np.stack(np.meshgrid(*([np.arange(n)] * dim), indexing="ij"), axis=-1).reshape(-1, dim)
+    origin = cells @ strides
+    simplices = []
+    for perm in permutations(range(dim)):
+        steps = np.cumsum([0] + [strides[p] for p in perm])
+        simplices.append(origin[:, None] + steps[None, :])
+    simplices = np.concatenate(simplices)
+    # orient every simplex positively
+    neg = _signed_volumes(points, simplices) < 0
+    simplices[neg, 0], simplices[neg, 1] = simplices[neg, 1].copy(), simplices[neg, 0].copy()
+    if jitter > 0:
+        rng = np.random.default_rng(random_state)
+        interior = np.all((grid > 0) & (grid < n), axis=1)
+        shift = np.zeros_like(points)
+        shift[interior] = rng.uniform(-jitter * s, jitter * s, size=(interior.sum(), dim))
+        # halve the shift of the vertices of any simplex the jitter would flatten or invert
+        floor = 0.1 * s**dim / np.prod(np.arange(1, dim + 1))
+        for _ in range(30):
+            bad = _signed_volumes(points + shift, simplices) < floor
+            if not bad.any():
+                break
+            shift[np.unique(simplices[bad])] *= 0.5
+        points = points + shift
+    return SimplicialComplex(points, simplices)
+
+
+def _signed_volumes(points, simplices):
+    X = points[simplices]
+    return np.linalg.det(X[:, 1:, :] - X[:, :1, :])
+
+
+def icosphere(subdivisions=5, radius=1.0):
+    """Triangulated sphere by repeated midpoint subdivision of an icosahedron.
+
+    ``subdivisions=5`` gives 10 242 vertices and 20 480 triangles, outward oriented.
+    """
+    p = (1 + 5**0.5) / 2
+    v = np.array(
+        [[-1, p, 0], [1, p, 0], [-1, -p, 0], [1, -p, 0], [0, -1, p], [0, 1, p],
+         [0, -1, -p], [0, 1, -p], [p, 0, -1], [p, 0, 1], [-p, 0, -1], [-p, 0, 1]],
+        dtype=np.float64,
+    )
+    f = np.array(
+        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]],
+        dtype=np.int64,
+    )
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    for _ in range(subdivisions):
+        e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+        key = np.sort(e, axis=1)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        mid = v[uniq].mean(axis=1)
+        mid /= np.linalg.norm(mid, axis=1, keepdims=True)
+        nf = f.shape[0]
+        m = v.shape[0] + inv.reshape(3, nf).T  # midpoints of edges 01, 12, 20
+        v = np.concatenate([v, mid])
+        f = np.concatenate([
+            np.stack([f[:, 0], m[:, 0], m[:, 2]], 1),
+            np.stack([f[:, 1], m[:, 1], m[:, 0]], 1),
+            np.stack([f[:, 2], m[:, 2], m[:, 1]], 1),
+            m,
+        ])
+    return SimplicialComplex(radius * v, f)
+
+
+# --- smooth truths: signed functions, negative inside -------------------------
+
+def circle(x, r=0.6):
+    """Signed distance to the circle of radius ``r`` about the origin (first two coordinates)."""
+    return np.linalg.norm(x[:, :2], axis=1) - r
+
+
+def flower(x, r=0.55, amplitude=0.2, lobes=5):
+    """Signed radial offset from the flower ``r (1 + amplitude cos(lobes theta))``."""
+    th = np.arctan2(x[:, 1], x[:, 0])
+    return np.linalg.norm(x[:, :2], axis=1) - r * (1 + amplitude * np.cos(lobes * th))
+
+
+def ball(x, r=0.6):
+    """Signed distance to the sphere of radius ``r`` about the origin, any dimension."""
+    return np.linalg.norm(x, axis=1) - r
+
+
+def torus(x, R=0.55, r=0.25):
+    """Signed distance to the torus of radii ``R``, ``r`` around the z axis."""
+    q = np.linalg.norm(x[:, :2], axis=1) - R
+    return np.hypot(q, x[:, 2]) - r
+
+
+def label_by(domain, truth, *, on="elements"):
+    """Label each element (by its centroid) or vertex: 1 inside ``truth < 0``, else 0."""
+    x = domain.element_centroids() if on == "elements" else domain.points
+    return (truth(x) < 0).astype(np.int64)

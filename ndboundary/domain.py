@@ -1,0 +1,156 @@
+"""The interface every domain hands to the pipeline.
+
+A domain is a small object over ``n_vertices`` points and ``n_elements``
+elements that builds a handful of sparse operators once and caches them:
+
+``mass`` (M)
+    lumped vertex mass, a positive array of shape (n_vertices,).
+``G``
+    gradient, sparse of shape (n_elements * dim, n_vertices): vertex scalars to
+    one ``dim``-vector per element, row ``e * dim + d`` holding component ``d``
+    of element ``e``.
+``A``
+    element measures, shape (n_elements,).
+``K``
+    stiffness, symmetric positive semidefinite with ``K @ 1 == 0``.
+
+Sign convention: ``K`` is the *positive* semidefinite stiffness matrix; the
+Laplace-Beltrami operator is ``Delta = -M^{-1} K``.  The weak divergence
+``div(X) = G^T diag(A) X`` is consistent with ``K``: ``div(G f) == K f``.
+
+The pipeline in :mod:`ndboundary.pipeline` never asks which kind of domain it
+holds; adding a domain type means subclassing :class:`Domain` and providing the
+``_build_*`` methods.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Domain"]
+
+
+class Domain:
+    """Base class of the domains: the operators the relaxation needs, cached."""
+
+    points: np.ndarray
+
+    # -- sizes ----------------------------------------------------------------
+    @property
+    def n_vertices(self) -> int:
+        """Number of vertices."""
+        return int(self.points.shape[0])
+
+    @property
+    def dim(self) -> int:
+        """Dimension of the space the vertices live in (length of the field vectors)."""
+        return int(self.points.shape[1])
+
+    @property
+    def n_elements(self) -> int:
+        """Number of elements."""
+        raise NotImplementedError
+
+    # -- operators (built lazily, cached) ---------------------------------------
+    @cached_property
+    def G(self) -> sp.csr_matrix:
+        """Gradient operator, sparse of shape (n_elements * dim, n_vertices)."""
+        return self._build_gradient().tocsr()
+
+    @cached_property
+    def A(self) -> np.ndarray:
+        """Element measures (length, area, volume, ...), shape (n_elements,)."""
+        return self._build_measures()
+
+    @cached_property
+    def K(self) -> sp.csr_matrix:
+        """Stiffness matrix (positive semidefinite, ``K @ 1 == 0``), shape (n_vertices, n_vertices)."""
+        return self._build_stiffness().tocsr()
+
+    @cached_property
+    def mass(self) -> np.ndarray:
+        """Lumped vertex masses, shape (n_vertices,), all positive."""
+        return self._build_mass()
+
+    @property
+    def M(self) -> sp.dia_matrix:
+        """Lumped mass as a sparse diagonal matrix."""
+        return sp.diags(self.mass)
+
+    @cached_property
+    def adjacency(self) -> sp.csr_matrix:
+        """Element adjacency (0/1, symmetric, empty diagonal), shape (n_elements, n_elements)."""
+        return self._build_adjacency().tocsr()
+
+    @cached_property
+    def incidence(self) -> sp.csr_matrix:
+        """Vertex-element incidence (0/1), shape (n_vertices, n_elements)."""
+        return self._build_incidence().tocsr()
+
+    @cached_property
+    def edges(self) -> np.ndarray:
+        """Unique vertex pairs ``(i, j)`` with ``i < j`` joined by an element edge, shape (n_edges, 2)."""
+        return self._build_edges()
+
+    def div(self, X) -> np.ndarray:
+        """Weak divergence ``G^T diag(A) X`` of a per-element field ``X`` of shape (n_elements, dim)."""
+        X = np.asarray(X, dtype=np.float64).reshape(self.n_elements, self.dim)
+        return self.G.T @ (X * self.A[:, None]).reshape(-1)
+
+    def gradient(self, f) -> np.ndarray:
+        """Per-element gradient of the vertex function ``f``, shape (n_elements, dim)."""
+        f = np.asarray(f, dtype=np.float64).reshape(self.n_vertices)
+        return (self.G @ f).reshape(self.n_elements, self.dim)
+
+    # -- geometry -------------------------------------------------------------
+    def mean_edge_length(self) -> float:
+        """Mean length of the unique edges: the mesh size ``h`` of the method."""
+        e = self.edges
+        return float(np.linalg.norm(self.points[e[:, 0]] - self.points[e[:, 1]], axis=1).mean())
+
+    def element_centroids(self) -> np.ndarray:
+        """Element centroids, shape (n_elements, dim)."""
+        raise NotImplementedError
+
+    # -- hooks for the pipeline -------------------------------------------------
+    def _split_elements(self, mask):
+        """Return a domain in which the elements selected by ``mask`` are split at their
+        barycentre, and the index of the parent element of every new element.
+
+        The first ``n_vertices`` vertices of the new domain are this domain's.
+        """
+        raise NotImplementedError
+
+    def _interface_facets(self, region1) -> np.ndarray:
+        """Vertex indices of the facets between elements of different labels (the jagged boundary)."""
+        raise NotImplementedError
+
+    def _level_set_simplices(self) -> np.ndarray:
+        """Simplices over this domain's vertices on which vertex values are interpolated linearly."""
+        raise NotImplementedError
+
+    # -- to implement -----------------------------------------------------------
+    def _build_gradient(self):
+        raise NotImplementedError
+
+    def _build_measures(self):
+        raise NotImplementedError
+
+    def _build_stiffness(self):
+        A = sp.diags(np.repeat(self.A, self.dim))
+        return self.G.T @ A @ self.G
+
+    def _build_mass(self):
+        raise NotImplementedError
+
+    def _build_adjacency(self):
+        raise NotImplementedError
+
+    def _build_incidence(self):
+        raise NotImplementedError
+
+    def _build_edges(self):
+        raise NotImplementedError

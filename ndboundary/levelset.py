@@ -1,0 +1,267 @@
+"""Level sets of piecewise-linear functions on simplices ("marching simplices"), any dimension.
+
+On every edge whose end values lie on both sides of ``c`` (a value exactly ``c``
+counts as above) a vertex is placed at the linear crossing; it is shared by every
+simplex around that edge. Inside a k-simplex with ``a`` vertices below and ``b``
+above, the crossing is the product of simplices ``Delta^{a-1} x Delta^{b-1}``; it is
+cut into ``C(k-1, a-1)`` (k-1)-simplices by the staircase triangulation taken in
+the global vertex order, which agrees on shared faces, so the result is a
+conforming complex: a closed polyline or a watertight surface where the boundary
+is closed. Every output simplex is oriented so that the function increases along
+its normal (for k = dim, by the sign of a determinant in space; for k < dim, in
+the oriented frame of the input simplex).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from itertools import combinations
+from math import factorial
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["LevelSet", "marching_simplices"]
+
+
+class LevelSet:
+    """A (k-1)-dimensional simplicial complex: the level set of a function on k-simplices.
+
+    Attributes
+    ----------
+    points : ndarray of shape (n_points, dim)
+    simplices : ndarray of int of shape (n_simplices, k)
+        Vertex indices; segments for k = 2, triangles for k = 3, tetrahedra for k = 4.
+    edges : ndarray of int of shape (n_points, 2)
+        The domain edge each point lies on.
+    value : float
+        The level.
+    """
+
+    def __init__(self, points, simplices, edges, value):
+        self.points = points
+        self.simplices = simplices
+        self.edges = edges
+        self.value = float(value)
+
+    @property
+    def n_points(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def n_simplices(self) -> int:
+        return int(self.simplices.shape[0])
+
+    def __len__(self):
+        return self.n_simplices
+
+    def simplex_measures(self) -> np.ndarray:
+        """Length / area / volume of every output simplex."""
+        if self.n_simplices == 0:
+            return np.zeros(0)
+        X = self.points[self.simplices]
+        Ed = X[:, 1:, :] - X[:, :1, :]
+        k = Ed.shape[1]
+        if k == 0:
+            return np.ones(self.n_simplices)
+        det = np.linalg.det(Ed @ Ed.transpose(0, 2, 1))
+        return np.sqrt(np.clip(det, 0, None)) / factorial(k)
+
+    def measure(self) -> float:
+        """Total length (curves), area (surfaces) or volume."""
+        return float(self.simplex_measures().sum())
+
+    def facets(self) -> np.ndarray:
+        """All oriented boundary facets of the output simplices (with repetition), shape (m, k-1)."""
+        k = self.simplices.shape[1]
+        out = []
+        for i in range(k):
+            f = np.delete(self.simplices, i, axis=1)
+            if i % 2 == 1 and f.shape[1] >= 2:
+                f = f[:, [1, 0] + list(range(2, f.shape[1]))]
+            out.append(f)
+        return np.concatenate(out) if out else np.zeros((0, k - 1), dtype=np.int64)
+
+    def is_closed(self) -> bool:
+        """True when every facet is shared by exactly two simplices with opposite orientations."""
+        if self.n_simplices == 0 or self.simplices.shape[1] < 2:
+            return False
+        f = self.facets()
+        if f.shape[1] == 1:
+            # curves: every point starts exactly one segment and ends exactly one
+            starts = np.bincount(self.simplices[:, 0], minlength=self.n_points)
+            ends = np.bincount(self.simplices[:, 1], minlength=self.n_points)
+            used = (starts + ends) > 0
+            return bool(np.all(starts[used] == 1) and np.all(ends[used] == 1))
+        # oriented facets: each must meet its reverse exactly once
+        key = _canonical_oriented(f)
+        uniq, counts = np.unique(key, axis=0, return_counts=True)
+        if np.any(counts != 1):
+            return False
+        rev = f.copy()
+        rev[:, [0, 1]] = rev[:, [1, 0]]
+        rkey = _canonical_oriented(rev)
+        both = np.concatenate([key, rkey])
+        _, c2 = np.unique(both, axis=0, return_counts=True)
+        return bool(np.all(c2 == 2))
+
+    def n_components(self) -> int:
+        """Number of connected components."""
+        if self.n_simplices == 0:
+            return 0
+        k = self.simplices.shape[1]
+        i = np.repeat(self.simplices[:, :1], k - 1, axis=1).ravel()
+        j = self.simplices[:, 1:].ravel()
+        g = sp.coo_matrix((np.ones(i.size), (i, j)), shape=(self.n_points, self.n_points))
+        n, lab = connected_components(g, directed=False)
+        used = np.zeros(self.n_points, dtype=bool)
+        used[self.simplices.ravel()] = True
+        return int(np.unique(lab[used]).size)
+
+    def euler_characteristic(self) -> int:
+        """Alternating sum of the numbers of faces of every dimension."""
+        if self.n_simplices == 0:
+            return 0
+        k = self.simplices.shape[1]
+        chi = 0
+        for d in range(1, k + 1):
+            faces = np.concatenate([np.sort(self.simplices[:, list(c)], axis=1) for c in combinations(range(k), d)])
+            chi += (-1) ** (d - 1) * np.unique(faces, axis=0).shape[0]
+        return int(chi)
+
+    def __repr__(self):
+        return f"LevelSet(value={self.value}, n_points={self.n_points}, n_simplices={self.n_simplices})"
+
+
+def _canonical_oriented(f):
+    """Rotate/permute each oriented facet to a canonical representative of its orientation class."""
+    f = np.asarray(f)
+    m = f.shape[1]
+    order = np.argsort(f, axis=1)
+    srt = np.take_along_axis(f, order, axis=1)
+    parity = _permutation_parity(order)
+    return np.concatenate([srt, parity[:, None]], axis=1)
+
+
+def _permutation_parity(perm):
+    """Parity (0 even, 1 odd) of each row permutation, by counting inversions."""
+    m = perm.shape[1]
+    inv = np.zeros(perm.shape[0], dtype=np.int64)
+    for i in range(m):
+        for j in range(i + 1, m):
+            inv += perm[:, i] > perm[:, j]
+    return inv % 2
+
+
+@lru_cache(maxsize=None)
+def _staircase(a, b):
+    """Monotone lattice paths from (0, 0) to (a-1, b-1): each is a list of (below, above) positions."""
+    paths = []
+
+    def walk(p, q, acc):
+        acc = acc + [(p, q)]
+        if p == a - 1 and q == b - 1:
+            paths.append(acc)
+            return
+        if p < a - 1:
+            walk(p + 1, q, acc)
+        if q < b - 1:
+            walk(p, q + 1, acc)
+
+    walk(0, 0, [])
+    return np.array(paths, dtype=np.int64)  # (n_paths, a+b-1, 2)
+
+
+def marching_simplices(points, simplices, values, value=0.5):
+    """Extract the level set ``values == value`` of a piecewise-linear function.
+
+    Parameters
+    ----------
+    points : ndarray of shape (n_vertices, dim)
+    simplices : ndarray of int of shape (n_simplices, k + 1)
+    values : ndarray of shape (n_vertices,)
+        Must be finite.
+    value : float, default=0.5
+
+    Returns
+    -------
+    LevelSet
+    """
+    points = np.asarray(points, dtype=np.float64)
+    simplices = np.asarray(simplices, dtype=np.int64)
+    values = np.asarray(values, dtype=np.float64)
+    if not np.all(np.isfinite(values)):
+        raise ValueError("values contain NaN or infinite entries")
+    V, D = points.shape
+    k1 = simplices.shape[1]
+    above = values >= value
+    nab = above[simplices].sum(axis=1)
+    cut = (nab > 0) & (nab < k1)
+    S = simplices[cut]
+    if S.shape[0] == 0:
+        return LevelSet(np.zeros((0, D)), np.zeros((0, k1 - 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), value)
+    # sort every simplex's vertices by global index; the staircase uses that order
+    parity = sorting_parity(S)
+    S = np.sort(S, axis=1)
+    ab = above[S]
+    # pattern code: bit i set when sorted vertex i is above
+    code = (ab * (1 << np.arange(k1))).sum(axis=1)
+    out_edges, out_owner, out_local = [], [], []
+    for c in np.unique(code):
+        sel = np.flatnonzero(code == c)
+        bits = np.array([(c >> i) & 1 for i in range(k1)], dtype=bool)
+        lo, hi = np.flatnonzero(~bits), np.flatnonzero(bits)
+        for path in _staircase(lo.size, hi.size):  # path: (k, 2) positions in lo / hi
+            loc = np.stack([lo[path[:, 0]], hi[path[:, 1]]], axis=-1)  # (k, 2) local positions
+            out_edges.append(S[sel][:, loc])  # (n, k, 2) directed below -> above
+            out_owner.append(sel)
+            out_local.append(np.broadcast_to(loc, (sel.size,) + loc.shape))
+    E = np.concatenate(out_edges)  # (m, k, 2)
+    owner = np.concatenate(out_owner)
+    local = np.concatenate(out_local)
+    m, k = E.shape[:2]
+    flat = E.reshape(-1, 2)
+    keys = flat[:, 0] * V + flat[:, 1]
+    ukeys, inv = np.unique(keys, return_inverse=True)
+    ue = np.stack([ukeys // V, ukeys % V], axis=1)
+    f0, f1 = values[ue[:, 0]], values[ue[:, 1]]
+    t = (value - f0) / (f1 - f0)  # f1 >= value > f0, so the denominator is positive
+    pts = points[ue[:, 0]] + t[:, None] * (points[ue[:, 1]] - points[ue[:, 0]])
+    tris = inv.reshape(m, k)
+    if k >= 2:
+        flip = _orientation(points, values, S, parity, owner, local, t[tris]) < 0
+        tris[flip, 0], tris[flip, 1] = tris[flip, 1].copy(), tris[flip, 0].copy()
+    return LevelSet(pts, tris, ue, value)
+
+
+def _orientation(points, values, S, parity, owner, local, t):
+    """Sign telling whether each output simplex has the function increasing along its normal.
+
+    Computed in the reference (barycentric) coordinates of the owning simplex, where no
+    element is thin, then carried to space by the owner's orientation: the sign of its
+    volume for full-dimensional simplices, its winding as given otherwise.
+    """
+    m, k = t.shape
+    k1 = S.shape[1]
+    rows = np.arange(m)[:, None]
+    xi = np.zeros((m, k, k1))
+    xi[rows, np.arange(k)[None, :], local[:, :, 0]] = 1.0 - t
+    xi[rows, np.arange(k)[None, :], local[:, :, 1]] += t
+    xi = xi[:, :, 1:]  # drop the first barycentric coordinate: reference coordinates in R^k
+    f = values[S[owner]]
+    dphi = f[:, 1:] - f[:, :1]  # gradient of the function in reference coordinates
+    cols = np.concatenate([xi[:, 1:, :] - xi[:, :1, :], dphi[:, None, :]], axis=1)
+    sign = np.sign(np.linalg.det(cols))
+    X = points[S]
+    if k1 - 1 == points.shape[1]:
+        own = np.sign(np.linalg.det(X[:, 1:, :] - X[:, :1, :]))
+    else:
+        own = parity
+    return sign * own[owner]
+
+
+def sorting_parity(simplices):
+    """+1 where sorting a simplex's vertices is an even permutation, -1 where odd."""
+    order = np.argsort(simplices, axis=1)
+    return 1 - 2 * _permutation_parity(order)
