@@ -54,6 +54,11 @@ class Domain:
         """Number of elements."""
         raise NotImplementedError
 
+    @property
+    def element_dim(self) -> int:
+        """Dimension k of the elements (2 for triangles and polygons, 3 for solids): ``A`` scales as h^k."""
+        raise NotImplementedError
+
     # -- operators (built lazily, cached) ---------------------------------------
     @cached_property
     def G(self) -> sp.csr_matrix:

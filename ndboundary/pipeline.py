@@ -291,7 +291,7 @@ def relax(
     tick = prog.step("smoothing", tick)
 
     # 4. integration, lengths in units of h
-    k = _measure_dim(work)
+    k = work.element_dim
     Kh = work.K * h ** (2 - k)
     mh = mass / h**k
     d = work.div(Xs) * h ** (1 - k)
@@ -319,9 +319,3 @@ def relax(
         solver={"heat": heat_info, "integration": int_info},
         params={"lam": lam, "smoothing": smoothing, "t": t_factor, "form": form, "pad": bool(pad), "on": on, "h": h},
     )
-
-
-def _measure_dim(domain):
-    """Dimension k of the elements' measure (A scales as h^k)."""
-    k = getattr(domain, "simplex_dim", None)
-    return int(k) if k is not None else int(getattr(domain, "element_dim"))

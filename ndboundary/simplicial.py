@@ -117,6 +117,10 @@ class SimplicialComplex(Domain):
         """The dimension k of the simplices (2 for triangles, 3 for tetrahedra)."""
         return int(self.simplices.shape[1] - 1)
 
+    @property
+    def element_dim(self) -> int:
+        return self.simplex_dim
+
     # -- geometry ------------------------------------------------------------------
     def _geometry(self):
         """Barycentric gradients (E, k+1, dim) and volumes (E,), refusing degenerate simplices."""
