@@ -1,0 +1,99 @@
+"""Marching simplices: exactness on linear functions, shared vertices, watertightness, orientation."""
+
+import numpy as np
+import pytest
+
+from ndboundary import SimplicialComplex, marching_simplices
+from ndboundary.datasets import icosphere, kuhn_grid
+
+
+@pytest.mark.parametrize("dim, n", [(2, 9), (3, 5), (4, 3)])
+def test_linear_function_gives_flat_level_set(dim, n, rng):
+    dom = kuhn_grid(n, dim, jitter=0.2, random_state=0)
+    a = rng.standard_normal(dim)
+    a /= np.linalg.norm(a)
+    ls = marching_simplices(dom.points, dom.simplices, dom.points @ a, 0.1)
+    assert ls.n_simplices > 0
+    assert ls.simplices.shape[1] == dim
+    np.testing.assert_allclose(ls.points @ a, 0.1, atol=1e-12)
+    # oriented so the function increases along the normal: in the plane, (d, a) is right-handed
+    if dim == 2:
+        d = ls.points[ls.simplices[:, 1]] - ls.points[ls.simplices[:, 0]]
+        assert np.all(d[:, 0] * a[1] - d[:, 1] * a[0] > 0)
+    # a flat cut of a convex cube is one connected open piece
+    assert ls.n_components() == 1
+    assert not ls.is_closed()
+
+
+@pytest.mark.parametrize("dim, n, chi", [(2, 12, 0), (3, 8, 2)])
+def test_sphere_level_set_is_closed_and_oriented(dim, n, chi):
+    dom = kuhn_grid(n, dim, jitter=0.25, random_state=3)
+    ls = marching_simplices(dom.points, dom.simplices, np.linalg.norm(dom.points, axis=1), 0.6)
+    assert ls.is_closed()
+    assert ls.n_components() == 1
+    assert ls.euler_characteristic() == chi
+    # vertices are shared: every level-set point lies on one distinct domain edge
+    assert np.unique(ls.edges, axis=0).shape[0] == ls.n_points
+    if dim == 3:
+        # outward orientation: the signed volume enclosed is positive
+        P = ls.points[ls.simplices]
+        vol = np.einsum("ij,ij->i", P[:, 0], np.cross(P[:, 1], P[:, 2])).sum() / 6
+        assert vol == pytest.approx(4 / 3 * np.pi * 0.6**3, rel=0.15)
+
+
+def test_four_dimensional_level_set_is_a_closed_tetrahedral_complex():
+    dom = kuhn_grid(4, 4, jitter=0.1, random_state=0)
+    ls = marching_simplices(dom.points, dom.simplices, np.linalg.norm(dom.points, axis=1), 0.7)
+    assert ls.simplices.shape[1] == 4
+    assert ls.is_closed()
+    assert ls.n_components() == 1
+    assert ls.euler_characteristic() == 0  # a closed 3-manifold
+
+
+def test_staircase_split_of_a_tetrahedron():
+    tet = np.vstack([np.zeros(3), np.eye(3)])
+    two_two = marching_simplices(tet, [[0, 1, 2, 3]], np.array([0.0, 0.0, 1.0, 1.0]), 0.5)
+    assert two_two.n_simplices == 2 and two_two.n_points == 4
+    one_three = marching_simplices(tet, [[0, 1, 2, 3]], np.array([0.0, 1.0, 1.0, 1.0]), 0.5)
+    assert one_three.n_simplices == 1 and one_three.n_points == 3
+    # the crossing is the rectangle through the midpoints of edges 02, 03, 12, 13
+    assert two_two.measure() == pytest.approx(0.5 * np.sqrt(0.5))
+
+
+def test_values_equal_to_the_level_count_as_above():
+    tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    ls = marching_simplices(tri, [[0, 1, 2]], np.array([0.0, 0.5, 1.0]), 0.5)
+    assert ls.n_simplices == 1
+    # vertex 1 (value exactly 0.5) is above: the crossings are vertex 1 itself and edge 0-2's midpoint
+    np.testing.assert_allclose(ls.points[np.lexsort(ls.points.T)], [[1.0, 0.0], [0.0, 0.5]])
+    assert np.all(np.isfinite(ls.points))
+
+
+def test_empty_level_set():
+    dom = kuhn_grid(3, 2)
+    ls = marching_simplices(dom.points, dom.simplices, np.zeros(dom.n_vertices), 0.5)
+    assert ls.n_simplices == 0 and ls.measure() == 0.0 and ls.n_components() == 0
+
+
+def test_nan_values_are_refused():
+    dom = kuhn_grid(2, 2)
+    with pytest.raises(ValueError, match="NaN"):
+        marching_simplices(dom.points, dom.simplices, np.full(dom.n_vertices, np.nan))
+
+
+def test_curve_on_a_surface_is_consistently_oriented():
+    dom = icosphere(3)
+    ls = marching_simplices(dom.points, dom.simplices, dom.points[:, 2], 0.3)
+    assert ls.is_closed() and ls.n_components() == 1
+    # seen from above (+z), the curve around the cap z > 0.3 turns one way everywhere
+    d = ls.points[ls.simplices[:, 1]] - ls.points[ls.simplices[:, 0]]
+    m = 0.5 * (ls.points[ls.simplices[:, 1]] + ls.points[ls.simplices[:, 0]])
+    turn = m[:, 0] * d[:, 1] - m[:, 1] * d[:, 0]
+    assert np.all(turn > 0) or np.all(turn < 0)
+    assert ls.measure() == pytest.approx(2 * np.pi * np.sqrt(1 - 0.09), rel=0.02)
+
+
+def test_segments_give_points():
+    dom = SimplicialComplex([[0.0], [1.0], [2.0]], [[0, 1], [1, 2]])
+    ls = marching_simplices(dom.points, dom.simplices, np.array([0.0, 1.0, 0.0]), 0.5)
+    np.testing.assert_allclose(np.sort(ls.points[:, 0]), [0.5, 1.5])

@@ -1,0 +1,200 @@
+"""The relaxation: quality against known smooth truths, invariants, padding, label handling."""
+
+import numpy as np
+import pytest
+
+import ndboundary
+from ndboundary import SimplicialComplex, relax
+from ndboundary.datasets import ball, circle, flower, icosphere, kuhn_grid, label_by, torus
+from ndboundary.metrics import as_complex, curve_distance, fidelity
+
+
+def flower_truth():
+    th = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
+    r = 0.55 * (1 + 0.2 * np.cos(5 * th))
+    pts = np.stack([r * np.cos(th), r * np.sin(th)], axis=1)
+    length = np.linalg.norm(np.roll(pts, 1, axis=0) - pts, axis=1).sum()
+    return curve_distance(pts), length
+
+
+TRUTHS_2D = {"circle": (circle, 2 * np.pi * 0.6), "flower": flower_truth()}
+
+
+def quality_2d(n, name, **kwargs):
+    dom = kuhn_grid(n, 2, jitter=0.25, random_state=0)
+    truth = circle if name == "circle" else flower
+    distance, length = TRUTHS_2D[name]
+    res = relax(dom, label_by(dom, truth), on="elements", **kwargs)
+    ls = res.level_set()
+    jag = as_complex(dom.points, res.boundary.facets)
+    s = 2.0 / n  # the grid's cell size, the h of the figures
+    return res, ls, fidelity(ls, distance, s), ls.measure() / length - 1, fidelity(jag, distance, s), jag.measure() / length - 1
+
+
+@pytest.mark.parametrize("name", ["circle", "flower"])
+@pytest.mark.parametrize("n", [80, 160])
+def test_2d_quality_with_defaults(n, name):
+    res, ls, f, excess, fj, jag_excess = quality_2d(n, name)
+    assert ls.n_components() == 1 and ls.is_closed()
+    assert f["mean"] <= 0.12 and f["max"] <= 0.45 and abs(excess) <= 0.015
+    # the jagged boundary it replaces is far worse
+    assert fj["mean"] > 0.2 and fj["max"] > 0.7 and jag_excess > 0.3
+
+
+def test_paper_settings_are_rougher_than_defaults():
+    _, _, f_def, ex_def, _, _ = quality_2d(80, "circle")
+    _, _, f_pap, ex_pap, _, _ = quality_2d(80, "circle", **ndboundary.PAPER)
+    assert f_pap["mean"] > 1.5 * f_def["mean"]
+    assert ex_pap > 0.03 > abs(ex_def)
+
+
+def test_unweighted_form_is_available():
+    _, ls, f, excess, _, _ = quality_2d(80, "circle", form="plain")
+    assert ls.is_closed() and f["mean"] < 0.2 and abs(excess) < 0.03
+
+
+@pytest.fixture(scope="module")
+def tet_grid():
+    return kuhn_grid(24, 3, jitter=0.25, random_state=0)
+
+
+def test_3d_ball_quality(tet_grid):
+    res = relax(tet_grid, label_by(tet_grid, ball), on="elements")
+    ls = res.level_set()
+    f = fidelity(ls, ball, 2 / 24)
+    assert ls.is_closed() and ls.n_components() == 1 and ls.euler_characteristic() == 2
+    assert f["mean"] <= 0.12 and f["max"] <= 0.5
+    assert abs(ls.measure() / (4 * np.pi * 0.36) - 1) <= 0.02
+
+
+def test_3d_solid_torus_topology(tet_grid):
+    ls = relax(tet_grid, label_by(tet_grid, torus), on="elements").level_set()
+    assert ls.is_closed() and ls.n_components() == 1 and ls.euler_characteristic() == 0
+
+
+def test_curve_on_a_surface():
+    dom = icosphere(5)
+    assert 10000 < dom.n_vertices < 11000
+    res = relax(dom, label_by(dom, lambda x: x[:, 2] - 0.3), on="elements")
+    ls = res.level_set()
+    rho = np.sqrt(1 - 0.3**2)
+    f = fidelity(ls, lambda x: np.hypot(np.linalg.norm(x[:, :2], axis=1) - rho, x[:, 2] - 0.3), dom.mean_edge_length())
+    assert ls.is_closed() and ls.n_components() == 1
+    assert f["mean"] <= 0.12
+
+
+def test_4d_level_set_is_closer_than_the_jagged_boundary():
+    dom = kuhn_grid(6, 4, jitter=0.1, random_state=0)
+    res = relax(dom, label_by(dom, ball), on="elements")
+    ls = res.level_set()
+    assert ls.simplices.shape[1] == 4 and ls.is_closed()
+    f = fidelity(ls, ball, 1.0)
+    f_jag = fidelity(as_complex(dom.points, res.boundary.sources[:, None]), ball, 1.0)
+    assert f["mean"] <= 0.85 * f_jag["mean"]
+
+
+def rigid(points, rng, scale):
+    Q, _ = np.linalg.qr(rng.standard_normal((points.shape[1],) * 2))
+    Q[:, 0] *= np.sign(np.linalg.det(Q))  # a rotation, not a reflection: orientation is kept
+    shift = rng.standard_normal(points.shape[1]) * 100
+    return lambda x: scale * x @ Q.T + shift
+
+
+@pytest.mark.parametrize("dim, n", [(2, 30), (3, 8)])
+def test_similarity_invariance(dim, n, rng):
+    dom = kuhn_grid(n, dim, jitter=0.25, random_state=1)
+    labels = label_by(dom, ball)
+    T = rigid(dom.points, rng, 1000.0)
+    a = relax(dom, labels, on="elements")
+    b = relax(SimplicialComplex(T(dom.points), dom.simplices), labels, on="elements")
+    np.testing.assert_allclose(b.phi, a.phi, rtol=1e-7, atol=1e-7)
+    la, lb = a.level_set(), b.level_set()
+    assert np.array_equal(la.edges, lb.edges) and np.array_equal(la.simplices, lb.simplices)
+    size = np.ptp(lb.points, axis=0).max()
+    np.testing.assert_allclose(lb.points, T(la.points), rtol=0, atol=1e-6 * size)
+
+
+def test_padding_splits_elements_with_every_vertex_on_the_boundary():
+    dom = kuhn_grid(12, 2, jitter=0.2, random_state=0)
+    labels = np.zeros(dom.n_elements, dtype=int)
+    labels[[100, 101, 140]] = 1  # isolated triangles: all their vertices lie on zeta
+    res = relax(dom, labels, on="elements")
+    assert res.field.shape[0] > dom.n_elements  # padded
+    assert res.phi.shape == (dom.n_vertices,) and np.all(np.isfinite(res.phi))
+    assert np.all(np.isfinite(res.smoothed_field))
+    ls = res.level_set()
+    assert ls.n_simplices > 0 and np.all(np.isfinite(ls.points))
+    # without padding the flat elements have no field direction
+    raw = relax(dom, labels, on="elements", pad=False)
+    assert raw.field.shape[0] == dom.n_elements
+    assert np.any(np.linalg.norm(raw.field, axis=1) == 0) or np.all(np.isfinite(raw.phi))
+
+
+def test_phi_orders_the_regions():
+    dom = kuhn_grid(80, 2, jitter=0.25, random_state=0)
+    labels = label_by(dom, circle)
+    res = relax(dom, labels, on="elements")
+    h = dom.mean_edge_length()
+    inside = circle(dom.points) < -h
+    outside = circle(dom.points) > h
+    assert np.all(res.phi[inside] > 0.5) and np.all(res.phi[outside] < 0.5)
+    # near the boundary phi - 1/2 grows linearly with the signed distance (in units of h); the
+    # boundary term flattens it across zeta, so the slope is below one
+    near = np.abs(circle(dom.points)) < 4 * h
+    sd = -circle(dom.points[near]) / h
+    slope, offset = np.polyfit(sd, res.phi[near] - 0.5, 1)
+    assert 0.3 < slope < 1.2 and abs(offset) < 0.1
+    assert np.corrcoef(sd, res.phi[near])[0, 1] > 0.95
+
+
+def test_label_types_and_region_order():
+    dom = kuhn_grid(20, 2, jitter=0.2, random_state=0)
+    ints = label_by(dom, circle)
+    ref = relax(dom, ints, on="elements")
+    np.testing.assert_array_equal(ref.classes, [0, 1])
+    for labels in (ints.astype(bool), np.where(ints == 1, "in", "a_out"), ints * 7 - 3):
+        res = relax(dom, labels, on="elements")
+        np.testing.assert_allclose(res.phi, ref.phi, atol=1e-8)
+    # swapping which label sorts second swaps the regions
+    swapped = relax(dom, np.where(ints == 1, "a_in", "out"), on="elements")
+    assert list(swapped.classes) == ["a_in", "out"]
+    np.testing.assert_allclose(swapped.phi - 0.5, -(ref.phi - 0.5), atol=1e-6)
+
+
+def test_vertex_labels():
+    dom = kuhn_grid(60, 2, jitter=0.25, random_state=0)
+    labels = label_by(dom, circle, on="vertices")
+    res = relax(dom, labels, on="vertices")
+    assert res.boundary.edges is not None and res.boundary.S.shape[0] == res.boundary.edges.shape[0]
+    ls = res.level_set()
+    f = fidelity(ls, circle, 2 / 60)
+    jag = fidelity(as_complex(res.boundary.points, np.arange(res.boundary.points.shape[0])[:, None]), circle, 2 / 60)
+    assert ls.is_closed() and ls.n_components() == 1
+    assert f["mean"] < 0.2 and f["mean"] < 0.7 * jag["mean"]
+    assert abs(ls.measure() / (2 * np.pi * 0.6) - 1) < 0.015
+    # the relaxed boundary moves by less than a cell: vertices further away keep their label
+    far = np.abs(circle(dom.points)) > 2 / 60
+    np.testing.assert_array_equal(res.phi[far] > 0.5, labels[far] == 1)
+
+
+def test_timings_and_solver_reports():
+    dom = kuhn_grid(20, 2, jitter=0.2, random_state=0)
+    res = relax(dom, label_by(dom, circle), on="elements")
+    assert set(res.timings) >= {"heat", "field", "smoothing", "integration", "total"}
+    assert res.solver["heat"].residual < 1e-8 and res.solver["integration"].residual < 1e-8
+
+
+def test_verbose_reports_steps(capsys):
+    dom = kuhn_grid(10, 2)
+    relax(dom, label_by(dom, circle), on="elements", verbose=True)
+    err = capsys.readouterr().err
+    for step in ("heat", "field", "smoothing", "integration", "total"):
+        assert step in err
+
+
+def test_level_set_value_must_be_finite():
+    dom = kuhn_grid(10, 2)
+    res = relax(dom, label_by(dom, circle), on="elements")
+    with pytest.raises(ValueError, match="finite"):
+        res.level_set(np.nan)
+    assert res.level_set(0.3).n_simplices > 0
