@@ -42,6 +42,21 @@ def _flower_distance():
     return curve_distance(np.stack([r * np.cos(th), r * np.sin(th)], axis=1))
 
 
+def _save_picture(result, labels, path):
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+    except ImportError:
+        print("matplotlib is not installed: no picture (pip install 'ndboundary[plot]')", file=sys.stderr)
+        return
+    from .plot import figure_relaxation
+
+    fig = figure_relaxation(result, labels, zoom=(-0.75, 0.75, -0.75, 0.75))
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
 def cmd_demo(args):
     from . import datasets as ds
     from .metrics import as_complex, fidelity
@@ -72,6 +87,8 @@ def cmd_demo(args):
             stem = "flower2d" if dom.dim == 2 else "ball3d"
             _write_obj(out / f"{stem}_relaxed.obj", ls)
             _write_obj(out / f"{stem}_jagged.obj", jag)
+            if dom.dim == 2:
+                _save_picture(res, labels, out / f"{stem}.png")
     if out is not None:
         print(f"wrote the jagged and relaxed boundaries to {out}/")
     print("h = grid cell size; excess = length (2-D) or area (3-D) over the true boundary's")
