@@ -159,11 +159,11 @@ def _vertex_boundary(domain, region1):
 
 
 def _normalize_rows(X):
-    n = np.linalg.norm(X, axis=1)
-    out = np.zeros_like(X)
-    ok = n > 0
-    out[ok] = X[ok] / n[ok, None]
-    return out
+    """Rows scaled to unit length; zero rows stay zero. Modifies and returns ``X``."""
+    n2 = np.einsum("ij,ij->i", X, X)
+    inv = np.divide(1.0, np.sqrt(n2), out=np.zeros_like(n2), where=n2 > 0)
+    X *= inv[:, None]
+    return X
 
 
 def relax(
@@ -285,9 +285,17 @@ def relax(
     # 3. smoothing, Jacobi order
     Xs = X
     if smoothing:
-        W = (work.adjacency + sp.identity(work.n_elements, format="csr")).tocsr()
-        for _ in range(smoothing):
-            Xs = _normalize_rows(W @ Xs)
+        # a domain whose field vectors live in per-element frames (PointCloud) hands out
+        # its own averaging operator on the flattened field
+        smoothing_operator = getattr(work, "_smoothing_operator", None)
+        if smoothing_operator is None:
+            W = (work.adjacency + sp.identity(work.n_elements, format="csr")).tocsr()
+            for _ in range(smoothing):
+                Xs = _normalize_rows(W @ Xs)
+        else:
+            W = smoothing_operator()
+            for _ in range(smoothing):
+                Xs = _normalize_rows((W @ Xs.reshape(-1)).reshape(Xs.shape))
     tick = prog.step("smoothing", tick)
 
     # 4. integration, lengths in units of h
