@@ -7,7 +7,7 @@ Laplacian, a gradient and a divergence.
 
 from .domain import Domain
 from .levelset import LevelSet, marching_simplices
-from .pipeline import DEFAULT_LAM, DEFAULT_SMOOTHING, PAPER, Boundary, RelaxResult, relax
+from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, RelaxResult, relax
 from .simplicial import SimplicialComplex
 
 __version__ = "0.1.0"
@@ -22,5 +22,6 @@ __all__ = [
     "marching_simplices",
     "DEFAULT_LAM",
     "DEFAULT_SMOOTHING",
+    "DEFAULT_MU",
     "PAPER",
 ]

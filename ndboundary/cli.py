@@ -95,6 +95,48 @@ def cmd_demo(args):
     return 0
 
 
+def cmd_relax(args):
+    from . import io
+    from .pipeline import relax
+
+    for path in (args.mesh, args.labels):
+        if not Path(path).exists():
+            raise _CLIError(f"no such file: {path}")
+    domain = io.read_mesh(args.mesh)
+    labels = io.read_labels(args.labels)
+    n = len(labels)
+    if n == domain.n_elements and args.on in ("auto", "elements"):
+        on = "elements"
+    elif n == domain.n_vertices and args.on in ("auto", "vertices"):
+        on = "vertices"
+    else:
+        raise _CLIError(
+            f"{args.labels} holds {n} labels but {args.mesh} has {domain.n_elements} elements and "
+            f"{domain.n_vertices} vertices"
+        )
+    show = not args.quiet and sys.stderr.isatty() and domain.n_vertices >= 50_000
+    kwargs = {}
+    if args.lam is not None:
+        kwargs["lam"] = args.lam
+    if args.smoothing is not None:
+        kwargs["smoothing"] = args.smoothing
+    res = relax(domain, labels, on=on, verbose=show, **kwargs)
+    ls = res.level_set()
+    io.write_phi(args.output, res, labels=labels if on == "elements" else None)
+    if args.boundary:
+        io.write_level_set(args.boundary, ls)
+    t = res.timings
+    print(
+        f"{args.mesh}: {domain.n_vertices} vertices, {domain.n_elements} elements, labels on {on}\n"
+        f"jagged boundary: {res.boundary.S.shape[0]} points; relaxed boundary: {ls.n_points} points, "
+        f"{ls.n_simplices} simplices, {ls.n_components()} component(s)\n"
+        f"time: heat {t['heat']:.3f} s, field {t['field']:.3f} s, smoothing {t['smoothing']:.3f} s, "
+        f"integration {t['integration']:.3f} s, total {t['total']:.3f} s\n"
+        f"wrote {args.output}" + (f" and {args.boundary}" if args.boundary else "")
+    )
+    return 0
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="ndboundary",
@@ -110,6 +152,23 @@ def build_parser():
     demo.add_argument("--out", metavar="DIR", help="write the jagged and relaxed boundaries here")
     demo.add_argument("--verbose", action="store_true", help="print per-step times")
     demo.set_defaults(func=cmd_demo)
+
+    rel = sub.add_parser(
+        "relax",
+        help="relax the boundary of a labelled mesh read from files",
+        description="Read a mesh and one label per element (or per vertex), relax the boundary "
+        "between the two labels, write phi and the labels (VTU for ParaView) and the smooth boundary.",
+    )
+    rel.add_argument("mesh", help="OBJ, OFF, PLY, STL, MEDIT .mesh, VTK/VTU, Gmsh .msh or .hedra file")
+    rel.add_argument("labels", help="one label per line (optionally after 'SCALAR_FIELD n'), or .npy")
+    rel.add_argument("-o", "--output", required=True, metavar="OUT.vtu", help="where to write phi and the labels")
+    rel.add_argument("--boundary", metavar="OUT.obj", help="where to write the relaxed boundary (OBJ, PLY or VTK)")
+    rel.add_argument("--lam", type=float, help="weight of the boundary term (default 2.0)")
+    rel.add_argument("--smoothing", type=int, help="field smoothing passes (default 60)")
+    rel.add_argument("--on", choices=("auto", "elements", "vertices"), default="auto",
+                     help="what the labels are given on (default: by their count)")
+    rel.add_argument("--quiet", action="store_true", help="no progress display")
+    rel.set_defaults(func=cmd_relax)
     return parser
 
 

@@ -110,6 +110,16 @@ class Domain:
         f = np.asarray(f, dtype=np.float64).reshape(self.n_vertices)
         return (self.G @ f).reshape(self.n_elements, self.dim)
 
+    def _smoothing_operator(self):
+        """The averaging operator of the field smoothing: uniform weights over each element
+        and its neighbours, ``I + adjacency`` (acting on the (n_elements, dim) field)."""
+        return (self.adjacency + sp.identity(self.n_elements, format="csr")).tocsr()
+
+    def _tangent_projection(self, X):
+        """Project per-element vectors onto the elements' tangent spaces (identity when
+        elements are full-dimensional)."""
+        return X
+
     # -- geometry -------------------------------------------------------------
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method."""

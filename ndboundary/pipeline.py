@@ -6,8 +6,11 @@
    in region 1, so that ``X`` flows from region 0 across zeta into region 1.
 3. **Smoothing**: ``smoothing`` passes of uniform averaging of each element's vector
    with its neighbours', renormalised after each pass (Jacobi order, as one sparse product).
-4. **Integration**: ``phi = argmin ||Delta phi - div X'||_M^2 + lam ||S phi - 1/2||^2``, i.e.
-   ``(K M^{-1} K + lam S^T S) phi = K M^{-1} d + lam S^T 1/2`` with ``d = G^T A X'``.
+4. **Integration**: ``phi = argmin ||Delta phi - div X'||_M^2 + mu ||grad phi - X'||_A^2
+   + lam ||S phi - 1/2||^2``, i.e. ``(K M^{-1} K + mu K + lam S^T S) phi = K M^{-1} d + mu d
+   + lam S^T 1/2`` with ``d = G^T A X'``. ``mu = 0`` is the paper's energy; the small
+   default first-order term keeps phi from bending where the squared Laplacian leaves it
+   nearly free (far from zeta on thin parts of a surface).
 
 Lengths are measured in units of ``h`` before step 4 (``K`` scales as ``h^{k-2}``, ``M``
 as ``h^k``), so ``lam`` is dimensionless: a scaled, rotated or translated copy of the
@@ -33,19 +36,23 @@ from .domain import Domain
 from .levelset import LevelSet, marching_simplices
 from .solvers import SolveInfo, solve_heat, solve_integration
 
-__all__ = ["relax", "RelaxResult", "Boundary", "DEFAULT_LAM", "DEFAULT_SMOOTHING", "PAPER"]
+__all__ = ["relax", "RelaxResult", "Boundary", "DEFAULT_LAM", "DEFAULT_SMOOTHING", "DEFAULT_MU", "PAPER"]
 
 #: Default weight of the boundary term (dimensionless, see the module docstring).
 DEFAULT_LAM = 2.0
 #: Default number of field smoothing passes.
 DEFAULT_SMOOTHING = 60
+#: Default weight of the first-order fit ``||grad phi - X'||^2`` added to the paper's
+#: Laplacian fit: it anchors phi to the field far from zeta, where the squared
+#: Laplacian alone lets phi bend freely (thin parts of a surface far from the boundary).
+DEFAULT_MU = 0.03
 #: The paper's own setting (Fig. 8, Table 1): few passes and a strong boundary term.
-PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain"}
+PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain", "mu": 0.0}
 
-# Below this fraction of the largest heat gradient the direction of grad u is
-# solver noise, not signal: such elements start with no direction and take one from
-# their neighbours during smoothing.
-_GRAD_FLOOR = 1e-9
+# Where the heat is below this fraction of its maximum, its gradient is at the level of
+# the iterative solver's error (absolute, not relative): the field there follows the
+# graph distance to zeta instead, which points the same way and is exact in any range.
+_HEAT_FLOOR = 1e-5
 
 
 @dataclass
@@ -158,6 +165,50 @@ def _vertex_boundary(domain, region1):
     return Boundary(sources, S, 0.5 * (domain.points[cut[:, 0]] + domain.points[cut[:, 1]]), cut)
 
 
+def _element_max(domain, f):
+    """Per element, the largest value of the vertex function ``f`` over its vertices."""
+    inc = domain.incidence.T.tocsr()  # (n_elements, n_vertices), 0/1; every row is non-empty
+    return np.maximum.reduceat(f[inc.indices], inc.indptr[:-1])
+
+
+def _graph_distance(domain, sources):
+    """Shortest-path distance along the domain's edges from the vertices ``sources``.
+
+    Vertices that no path reaches get distance 0 (they get no field direction).
+    """
+    from scipy.sparse.csgraph import dijkstra
+
+    e = domain.edges
+    w = np.linalg.norm(domain.points[e[:, 0]] - domain.points[e[:, 1]], axis=1)
+    graph = sp.csr_matrix((w, (e[:, 0], e[:, 1])), shape=(domain.n_vertices,) * 2)
+    dist = dijkstra(graph, directed=False, indices=sources, min_only=True)
+    dist[~np.isfinite(dist)] = 0.0
+    return dist
+
+
+def _pin_components_without_boundary(domain, S, targets, elem_region1):
+    """Hold phi at 1/2 -/+ 1 on the connected parts of the domain that zeta does not reach.
+
+    There the field term alone leaves phi free up to a constant; pinning it keeps the
+    system definite and puts the part on its own side of 1/2.
+    """
+    from scipy.sparse.csgraph import connected_components
+
+    e = domain.edges
+    graph = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(domain.n_vertices,) * 2)
+    n_comp, comp = connected_components(graph, directed=False)
+    if n_comp == 1:
+        return S, targets
+    touched = np.zeros(n_comp, dtype=bool)
+    touched[comp[S.nonzero()[1]]] = True
+    free = np.flatnonzero(~touched[comp])
+    if free.size == 0:
+        return S, targets
+    vert_region1 = (domain.incidence @ elem_region1.astype(np.float64)) > 0
+    rows = sp.csr_matrix((np.ones(free.size), (np.arange(free.size), free)), shape=(free.size, domain.n_vertices))
+    return sp.vstack([S, rows]).tocsr(), np.concatenate([targets, np.where(vert_region1[free], 1.5, -0.5)])
+
+
 def _normalize_rows(X):
     """Rows scaled to unit length; zero rows stay zero. Modifies and returns ``X``."""
     n2 = np.einsum("ij,ij->i", X, X)
@@ -173,6 +224,7 @@ def relax(
     on,
     lam=DEFAULT_LAM,
     smoothing=DEFAULT_SMOOTHING,
+    mu=DEFAULT_MU,
     t=None,
     form="mass",
     pad=True,
@@ -225,6 +277,7 @@ def relax(
     if solver not in ("auto", "pcg", "direct"):
         raise ValueError(f"solver must be 'auto', 'pcg' or 'direct', got {solver!r}")
     lam = check_positive(lam, "lam")
+    mu = check_positive(mu, "mu", allow_zero=True)
     smoothing = check_nonnegative_int(smoothing, "smoothing")
     t_factor = 1.0 if t is None else check_positive(t, "t")
     rtol = check_positive(rtol, "rtol")
@@ -261,6 +314,8 @@ def relax(
         elem_region1 = (domain.incidence.T @ region1.astype(np.float64))[parent] > 0
         straddle = straddle[parent]
     S = sp.hstack([boundary.S, sp.csr_matrix((boundary.S.shape[0], work.n_vertices - V))]).tocsr()
+    targets = np.full(S.shape[0], 0.5)
+    S, targets = _pin_components_without_boundary(work, S, targets, elem_region1)
     tick = prog.step("pad", tick)
 
     # 1. heat
@@ -270,11 +325,13 @@ def relax(
     u, heat_info = solve_heat(mass, work.K, t_factor * h * h, b, rtol=rtol)
     tick = prog.step("heat", tick)
 
-    # 2. field
-    g = work.gradient(u)
-    gn = np.linalg.norm(g, axis=1)
-    floor = _GRAD_FLOOR * gn.max() if gn.size else 0.0
-    X = np.where((gn > floor)[:, None], g / np.where(gn > 0, gn, 1.0)[:, None], 0.0)
+    # 2. field: the heat gradient where the heat is resolved; further away, where u is
+    # below the solver's accuracy, the gradient of the graph distance to zeta
+    X = _normalize_rows(work.gradient(u))
+    far = _element_max(work, u) < _HEAT_FLOOR * u.max()
+    if far.any():
+        dist = _graph_distance(work, boundary.sources)
+        X[far] = -_normalize_rows(work.gradient(dist)[far])
     X[elem_region1] *= -1.0
     if straddle.any():
         ind = np.zeros(work.n_vertices)
@@ -282,20 +339,15 @@ def relax(
         X[straddle] = _normalize_rows(work.gradient(ind)[straddle])
     tick = prog.step("field", tick)
 
-    # 3. smoothing, Jacobi order
+    # 3. smoothing, Jacobi order: average, keep in the tangent space, renormalise
     Xs = X
     if smoothing:
-        # a domain whose field vectors live in per-element frames (PointCloud) hands out
-        # its own averaging operator on the flattened field
-        smoothing_operator = getattr(work, "_smoothing_operator", None)
-        if smoothing_operator is None:
-            W = (work.adjacency + sp.identity(work.n_elements, format="csr")).tocsr()
-            for _ in range(smoothing):
-                Xs = _normalize_rows(W @ Xs)
-        else:
-            W = smoothing_operator()
-            for _ in range(smoothing):
-                Xs = _normalize_rows((W @ Xs.reshape(-1)).reshape(Xs.shape))
+        W = work._smoothing_operator()
+        project = work._tangent_projection
+        flat = W.shape[0] != work.n_elements  # an operator on the flattened field
+        for _ in range(smoothing):
+            Y = (W @ Xs.reshape(-1)).reshape(Xs.shape) if flat else W @ Xs
+            Xs = _normalize_rows(project(Y))
     tick = prog.step("smoothing", tick)
 
     # 4. integration, lengths in units of h
@@ -307,8 +359,8 @@ def relax(
         mh_used = np.ones_like(mh)
     else:
         mh_used = mh
-    rhs = Kh @ (d / mh_used) + lam * (S.T @ np.full(S.shape[0], 0.5))
-    psi, int_info = solve_integration(Kh, mh_used, S, lam, rhs, rtol=rtol, method=solver)
+    rhs = Kh @ (d / mh_used) + mu * d + lam * (S.T @ targets)
+    psi, int_info = solve_integration(Kh, mh_used, S, lam, rhs, mu=mu, rtol=rtol, method=solver)
     tick = prog.step("integration", tick)
 
     timings = dict(prog.times)
@@ -325,5 +377,5 @@ def relax(
         domain=domain,
         timings=timings,
         solver={"heat": heat_info, "integration": int_info},
-        params={"lam": lam, "smoothing": smoothing, "t": t_factor, "form": form, "pad": bool(pad), "on": on, "h": h},
+        params={"lam": lam, "smoothing": smoothing, "mu": mu, "t": t_factor, "form": form, "pad": bool(pad), "on": on, "h": h},
     )

@@ -220,6 +220,21 @@ class SimplicialComplex(Domain):
         first = np.unique(ids, return_index=True)[1]
         return facets[first[mixed]]
 
+    @cached_property
+    def _tangent_frames(self):
+        """Orthonormal bases of the simplices' tangent spaces, (E, dim, k); None when k = dim."""
+        if self.simplex_dim == self.dim:
+            return None
+        X = self.points[self.simplices]
+        Q, _ = np.linalg.qr((X[:, 1:, :] - X[:, :1, :]).transpose(0, 2, 1))
+        return Q
+
+    def _tangent_projection(self, X):
+        Q = self._tangent_frames
+        if Q is None:
+            return X
+        return np.einsum("edk,ek->ed", Q, np.einsum("edk,ed->ek", Q, X))
+
     # -- hooks -------------------------------------------------------------------
     def _split_elements(self, mask):
         mask = np.asarray(mask, dtype=bool)

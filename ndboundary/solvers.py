@@ -78,8 +78,8 @@ def solve_heat(mass, K, t, b, *, rtol=1e-10, maxiter=2000):
     return u, SolveInfo("cg-jacobi", iters, res)
 
 
-def solve_integration(K, mass, S, lam, rhs, *, rtol=1e-10, maxiter=200, method="auto"):
-    """Solve ``(K M^{-1} K + lam S^T S) phi = rhs``.
+def solve_integration(K, mass, S, lam, rhs, *, mu=0.0, rtol=1e-10, maxiter=200, method="auto"):
+    """Solve ``(K M^{-1} K + mu K + lam S^T S) phi = rhs``.
 
     Parameters
     ----------
@@ -94,7 +94,7 @@ def solve_integration(K, mass, S, lam, rhs, *, rtol=1e-10, maxiter=200, method="
         falling back to direct when it does not converge in ``maxiter`` iterations.
     """
     Minv = sp.diags(1.0 / mass)
-    Q = (K @ Minv @ K + lam * (S.T @ S)).tocsr()
+    Q = (K @ Minv @ K + mu * K + lam * (S.T @ S)).tocsr()
     Q = (Q + Q.T) * 0.5
     if method == "direct":
         phi = factorize_spd(Q)(rhs)
