@@ -198,3 +198,37 @@ def test_level_set_value_must_be_finite():
     with pytest.raises(ValueError, match="finite"):
         res.level_set(np.nan)
     assert res.level_set(0.3).n_simplices > 0
+
+
+def test_far_field_beyond_the_heat_resolution_stays_clean():
+    # a small region in a corner: most of the domain lies tens of h from zeta, where
+    # u is below the iterative solver's accuracy
+    dom = kuhn_grid(160, 2, jitter=0.25, random_state=0)
+    labels = label_by(dom, lambda x: np.linalg.norm(x - 0.75, axis=1) - 0.1)
+    res = relax(dom, labels, on="elements")
+    ls = res.level_set()
+    assert ls.n_components() == 1 and ls.is_closed()
+    assert abs(ls.measure() / (2 * np.pi * 0.1) - 1) < 0.015
+    assert np.all(res.phi[np.linalg.norm(dom.points - 0.75, axis=1) > 0.2] < 0.5)
+
+
+def test_component_without_boundary_is_held_on_its_side():
+    a = kuhn_grid(10, 2, jitter=0.2, random_state=0)
+    b_points = a.points + [5.0, 0.0]  # a second, separate square
+    dom = SimplicialComplex(np.vstack([a.points, b_points]), np.vstack([a.simplices, a.simplices + a.n_vertices]))
+    labels = np.r_[label_by(a, circle), np.ones(a.n_elements, dtype=int)]
+    res = relax(dom, labels, on="elements")
+    assert np.all(np.isfinite(res.phi))
+    assert np.all(res.phi[a.n_vertices:] > 0.5)
+    assert res.level_set().n_components() == 1
+
+
+def test_mu_zero_is_the_papers_energy():
+    dom = kuhn_grid(30, 2, jitter=0.2, random_state=0)
+    labels = label_by(dom, circle)
+    a = relax(dom, labels, on="elements", mu=0.0)
+    b = relax(dom, labels, on="elements")
+    assert a.params["mu"] == 0.0 and b.params["mu"] == ndboundary.DEFAULT_MU
+    assert not np.allclose(a.phi, b.phi)
+    # both still follow the boundary
+    assert a.level_set().n_components() == b.level_set().n_components() == 1
