@@ -8,13 +8,19 @@ Laplacian, a gradient and a divergence.
 from .domain import Domain
 from .levelset import LevelSet, marching_simplices
 from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, RelaxResult, relax
+from .polygon import PolygonMesh
+from .polyhedral import PolyhedralMesh
 from .simplicial import SimplicialComplex
+from . import io
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Domain",
     "SimplicialComplex",
+    "PolygonMesh",
+    "PolyhedralMesh",
+    "io",
     "relax",
     "RelaxResult",
     "Boundary",

@@ -147,6 +147,12 @@ class Domain:
         """Simplices over this domain's vertices on which vertex values are interpolated linearly."""
         raise NotImplementedError
 
+    def _level_set_complex(self, f):
+        """A simplicial complex carrying the vertex function ``f`` piecewise linearly:
+        ``(points, simplices, values)``. Domains whose elements are not simplices split
+        them, adding centre vertices whose values interpolate ``f``."""
+        return self.points, self._level_set_simplices(), np.asarray(f, dtype=np.float64)
+
     # -- to implement -----------------------------------------------------------
     def _build_gradient(self):
         raise NotImplementedError

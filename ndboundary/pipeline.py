@@ -124,7 +124,8 @@ class RelaxResult:
         value = float(value)
         if not np.isfinite(value):
             raise ValueError(f"value must be finite, got {value!r}")
-        return marching_simplices(self.domain.points, self.domain._level_set_simplices(), self.phi, value)
+        points, simplices, values = self.domain._level_set_complex(self.phi)
+        return marching_simplices(points, simplices, values, value)
 
 
 class _Progress:

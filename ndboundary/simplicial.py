@@ -45,21 +45,30 @@ def group_rows(rows):
     return ids, int(new.sum())
 
 
-def facet_adjacency(facet_ids, n_elements, facets_per_element):
-    """Element adjacency from a per-element list of facet ids: elements sharing a facet.
+def shared_facet_adjacency(facet_ids, owner, n_elements):
+    """Element adjacency: elements sharing a facet id (more than two sharing one are chained).
 
-    ``facet_ids`` has length ``n_elements * facets_per_element`` (element-major).
-    Where more than two elements share a facet they are chained in element order.
+    ``facet_ids[i]`` is the id of a facet of element ``owner[i]``.
     """
-    owner = np.repeat(np.arange(n_elements), facets_per_element)
     order = np.lexsort((owner, facet_ids))
     f, o = facet_ids[order], owner[order]
-    same = f[1:] == f[:-1]
+    same = (f[1:] == f[:-1]) & (o[1:] != o[:-1])
     i, j = o[:-1][same], o[1:][same]
     adj = sp.coo_matrix((np.ones(i.size), (i, j)), shape=(n_elements, n_elements))
     adj = (adj + adj.T).tocsr()
     adj.data[:] = 1.0
     return adj
+
+
+def mixed_facets(facet_ids, owner, region1):
+    """Indices (into ``facet_ids``) of one occurrence of every facet shared by both labels."""
+    n_groups = int(facet_ids.max()) + 1
+    lab = np.asarray(region1, dtype=np.float64)[owner]
+    cnt = np.bincount(facet_ids, minlength=n_groups)
+    ones = np.bincount(facet_ids, weights=lab, minlength=n_groups)
+    mixed = (cnt >= 2) & (ones > 0) & (ones < cnt)
+    first = np.unique(facet_ids, return_index=True)[1]
+    return first[mixed]
 
 
 class SimplicialComplex(Domain):
@@ -199,7 +208,7 @@ class SimplicialComplex(Domain):
 
     def _build_adjacency(self):
         E, k1 = self.simplices.shape
-        return facet_adjacency(self._facets[1], E, k1)
+        return shared_facet_adjacency(self._facets[1], np.repeat(np.arange(E), k1), E)
 
     def _build_edges(self):
         k1 = self.simplices.shape[1]
@@ -212,30 +221,8 @@ class SimplicialComplex(Domain):
         """Facets shared by a region-0 and a region-1 simplex: the jagged boundary, (n, k)."""
         facets, ids = self._facets
         k1 = self.simplices.shape[1]
-        lab = np.repeat(np.asarray(region1, dtype=np.int64), k1)
-        n_groups = int(ids.max()) + 1
-        cnt = np.bincount(ids, minlength=n_groups)
-        ones = np.bincount(ids, weights=lab, minlength=n_groups)
-        mixed = (cnt >= 2) & (ones > 0) & (ones < cnt)
-        first = np.unique(ids, return_index=True)[1]
-        return facets[first[mixed]]
+        return facets[mixed_facets(ids, np.repeat(np.arange(self.n_elements), k1), region1)]
 
-    @cached_property
-    def _tangent_frames(self):
-        """Orthonormal bases of the simplices' tangent spaces, (E, dim, k); None when k = dim."""
-        if self.simplex_dim == self.dim:
-            return None
-        X = self.points[self.simplices]
-        Q, _ = np.linalg.qr((X[:, 1:, :] - X[:, :1, :]).transpose(0, 2, 1))
-        return Q
-
-    def _tangent_projection(self, X):
-        Q = self._tangent_frames
-        if Q is None:
-            return X
-        return np.einsum("edk,ek->ed", Q, np.einsum("edk,ed->ek", Q, X))
-
-    # -- hooks -------------------------------------------------------------------
     def _split_elements(self, mask):
         mask = np.asarray(mask, dtype=bool)
         idx = np.flatnonzero(mask)
