@@ -8,6 +8,8 @@ Laplacian, a gradient and a divergence.
 from .domain import Domain
 from .levelset import LevelSet, marching_simplices
 from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, RelaxResult, relax
+from .classifier import LevelSetClassifier
+from .pointcloud import PointCloud, delaunay_complex
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .simplicial import SimplicialComplex
@@ -20,6 +22,9 @@ __all__ = [
     "SimplicialComplex",
     "PolygonMesh",
     "PolyhedralMesh",
+    "PointCloud",
+    "delaunay_complex",
+    "LevelSetClassifier",
     "io",
     "relax",
     "RelaxResult",

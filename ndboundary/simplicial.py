@@ -116,6 +116,17 @@ class SimplicialComplex(Domain):
             )
         self._bary_grads, self._volumes = self._geometry()
 
+    @classmethod
+    def from_delaunay(cls, points):
+        """The Delaunay triangulation of data points (scipy's Qhull), flat slivers dropped.
+
+        Practical up to about 6 dimensions; beyond, use :class:`~ndboundary.PointCloud`.
+        See :func:`ndboundary.delaunay_complex`.
+        """
+        from .pointcloud import delaunay_complex
+
+        return delaunay_complex(points)
+
     # -- sizes -------------------------------------------------------------------
     @property
     def n_elements(self) -> int:

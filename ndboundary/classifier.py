@@ -1,0 +1,438 @@
+"""A classifier whose decision boundary is a relaxed level set over the training data.
+
+:class:`LevelSetClassifier` builds one domain over the training samples (a kNN
+:class:`~ndboundary.pointcloud.PointCloud`, or a Delaunay complex in low dimension),
+takes the class labels as vertex labels and relaxes each class's jagged boundary
+against the rest into the level set ``phi = 1/2`` of a smooth function
+(:func:`ndboundary.relax`). Since ``grad phi`` is close to unit length, ``phi - 1/2``
+behaves like a signed distance (in units of the mean neighbour distance ``h``) to the
+relaxed boundary: it is the decision function.
+
+New points get ``phi`` from the fitted function alone, so the prediction of a point
+never depends on the other points predicted with it:
+
+* kNN graph: the neighbour-weighted first-order extension
+  ``sum_j w_j (phi_j + grad phi_j . T_j^T (x - x_j)) / sum_j w_j`` over the ``x``'s
+  nearest training points, with tangent gradients and frames ``T_j``;
+* Delaunay: barycentric interpolation in the containing simplex; outside the convex
+  hull, the first-order extension from the nearest vertex with its area-weighted
+  gradient.
+"""
+
+from __future__ import annotations
+
+import numbers
+import sys
+import time
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import minimize_scalar
+from scipy.sparse.csgraph import laplacian
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from .pipeline import relax
+from .pointcloud import DELAUNAY_MAX_DIM, PointCloud, delaunay_complex
+
+__all__ = ["LevelSetClassifier"]
+
+_CHUNK = 8192
+
+
+class LevelSetClassifier(ClassifierMixin, BaseEstimator):
+    """Classify by the relaxed level sets of the class labels over a graph of the samples.
+
+    Parameters
+    ----------
+    n_neighbors : int, default=15
+        Neighbours per sample of the kNN graph (and of the extension to new points).
+    graph : {"knn", "delaunay", "auto"}, default="knn"
+        Domain over the samples: a kNN :class:`~ndboundary.pointcloud.PointCloud`, a
+        Delaunay complex (2 to 6 features, distinct samples), or ``"auto"``: Delaunay
+        for 2 or 3 features and distinct samples, kNN otherwise.
+    lam : float, default=1.0
+        Weight of the boundary term of the integration (see :func:`ndboundary.relax`):
+        larger stays closer to the jagged kNN boundary, smaller relaxes further.
+    smoothing : int, default=1
+        Field smoothing passes. One pass over a kNN stencil averages about as many
+        vectors as several passes over a triangle mesh; more passes move the boundary
+        away from the (voted) labels and cost accuracy on noisy data.
+    vote : int, default=1
+        Passes of neighbourhood majority voting applied to the training labels before
+        the relaxation (0: relax the raw labels). One pass replaces every label by the
+        majority over the sample and its neighbours, removing isolated labels that
+        would otherwise each be enclosed by their own level set.
+    unlabeled : int, float, str or None, default=None
+        The label that marks an unlabelled sample (``-1`` to follow
+        :class:`~sklearn.semi_supervised.LabelSpreading`). None: every label is a class.
+    intrinsic_dim : int or None, default=None
+        Tangent dimension of the kNN operators; estimated when None.
+    random_state : int, Generator or None, default=None
+        Seed of the approximate neighbour search (used beyond 20 000 samples).
+    verbose : bool, default=False
+        Print progress to stderr.
+
+    Attributes
+    ----------
+    classes_ : ndarray of shape (n_classes,)
+    n_features_in_ : int
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Only when ``X`` has string column names.
+    domain_ : Domain
+        The graph over the distinct training samples' coordinates.
+    phi_ : ndarray of shape (n_samples, n_relaxations)
+        The relaxed functions on the training samples: one column for two classes
+        (``phi > 1/2`` means ``classes_[1]``), one per class otherwise.
+    transduction_ : ndarray of shape (n_samples,)
+        The labels of the training samples, unlabelled ones filled in by
+        harmonic extension before the relaxation.
+    proba_scale_ : float
+        Slope of the logistic map from ``phi`` to probabilities, fitted on
+        leave-one-out estimates of ``phi`` at the training samples.
+
+    Notes
+    -----
+    Semi-supervised use follows :class:`sklearn.semi_supervised.LabelSpreading`:
+    with ``unlabeled=-1``, samples with ``y == -1`` are unlabelled (opt-in, so that
+    ``-1`` stays an ordinary class label by default). They join the graph, and their labels are
+    first given by the harmonic extension of the labelled ones (the graph Laplacian
+    solved with the labelled samples fixed), then the relaxation runs on all samples.
+
+    Examples
+    --------
+    >>> from sklearn.datasets import make_moons
+    >>> from ndboundary import LevelSetClassifier
+    >>> X, y = make_moons(200, noise=0.2, random_state=0)
+    >>> clf = LevelSetClassifier().fit(X, y)
+    >>> clf.score(X, y) > 0.9
+    True
+    """
+
+    def __init__(
+        self,
+        *,
+        n_neighbors=15,
+        graph="knn",
+        lam=1.0,
+        smoothing=1,
+        vote=1,
+        unlabeled=None,
+        intrinsic_dim=None,
+        random_state=None,
+        verbose=False,
+    ):
+        self.n_neighbors = n_neighbors
+        self.graph = graph
+        self.lam = lam
+        self.smoothing = smoothing
+        self.vote = vote
+        self.unlabeled = unlabeled
+        self.intrinsic_dim = intrinsic_dim
+        self.random_state = random_state
+        self.verbose = verbose
+
+    # -- helpers -------------------------------------------------------------------------
+    def _log(self, msg, t0):
+        if self.verbose:
+            print(f"[LevelSetClassifier] {msg} ({time.perf_counter() - t0:.2f} s)", file=sys.stderr, flush=True)
+
+    def _check_params(self):
+        if isinstance(self.n_neighbors, bool) or not isinstance(self.n_neighbors, numbers.Integral):
+            raise TypeError(f"n_neighbors must be an integer, got {type(self.n_neighbors).__name__}")
+        if self.n_neighbors < 2:
+            raise ValueError(f"n_neighbors must be >= 2, got {self.n_neighbors}")
+        if self.graph not in ("knn", "delaunay", "auto"):
+            raise ValueError(f"graph must be 'knn', 'delaunay' or 'auto', got {self.graph!r}")
+
+    def _build_domain(self, X):
+        graph = self.graph
+        distinct = np.unique(X, axis=0).shape[0] == X.shape[0]
+        if graph == "auto":
+            graph = "delaunay" if 2 <= X.shape[1] <= 3 and distinct and X.shape[0] > X.shape[1] + 1 else "knn"
+        if graph == "delaunay":
+            if not 2 <= X.shape[1] <= DELAUNAY_MAX_DIM:
+                raise ValueError(
+                    f"graph='delaunay' needs 2 to {DELAUNAY_MAX_DIM} features, got {X.shape[1]}; use graph='knn'"
+                )
+            return delaunay_complex(X), "delaunay"
+        return (
+            PointCloud(X, n_neighbors=self.n_neighbors, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state),
+            "knn",
+        )
+
+    def _harmonic_labels(self, domain, codes, labelled):
+        """Fill unlabelled codes by the harmonic extension of the labelled indicators."""
+        n = codes.shape[0]
+        e = domain.edges
+        W = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(n, n))
+        L = laplacian((W + W.T).tocsr()).tocsr()
+        u = ~labelled
+        Luu = L[u][:, u]
+        Lul = L[u][:, labelled]
+        n_cls = int(codes[labelled].max()) + 1
+        F = np.zeros((labelled.sum(), n_cls))
+        F[np.arange(F.shape[0]), codes[labelled]] = 1.0
+        # a small shift keeps components without labels solvable: they get the prior
+        prior = F.mean(axis=0)
+        eps = 1e-8 * max(float(L.diagonal().mean()), 1.0)
+        rhs = -(Lul @ F) + eps * prior[None, :]
+        from scipy.sparse.linalg import splu
+
+        lu = splu((Luu + eps * sp.identity(Luu.shape[0])).tocsc())
+        Fu = lu.solve(np.asarray(rhs))
+        out = codes.copy()
+        out[u] = np.argmax(Fu, axis=1)
+        return out
+
+    # -- fit -------------------------------------------------------------------------------
+    def fit(self, X, y):
+        """Build the graph over ``X`` and relax every class's boundary.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+        y : array-like of shape (n_samples,)
+            Class labels; the value ``unlabeled`` (if set) marks an unlabelled sample.
+
+        Returns
+        -------
+        self : LevelSetClassifier
+        """
+        self._check_params()
+        X, y = validate_data(self, X, y, ensure_min_samples=2, dtype=np.float64)
+        check_classification_targets(y)
+        t0 = time.perf_counter()
+        labelled = np.ones(y.shape[0], dtype=bool)
+        if self.unlabeled is not None:
+            labelled = y != self.unlabeled
+        if not labelled.any():
+            raise ValueError(f"y holds no labelled sample (every label is the unlabeled marker {self.unlabeled!r})")
+        self.classes_, codes_l = np.unique(y[labelled], return_inverse=True)
+        codes = np.full(y.shape[0], -1, dtype=np.int64)
+        codes[labelled] = codes_l.reshape(-1)
+        n_cls = self.classes_.shape[0]
+        self._X = X
+        if n_cls == 1 or np.unique(X, axis=0).shape[0] < 2:
+            self._constant = int(np.argmax(np.bincount(codes[labelled], minlength=n_cls)))
+            self.transduction_ = self.classes_[np.where(labelled, codes, self._constant)]
+            self.domain_ = None
+            self.phi_ = np.zeros((X.shape[0], 1 if n_cls <= 2 else n_cls))
+            self.proba_scale_ = 1.0
+            return self
+        self._constant = None
+        self.domain_, self._graph = self._build_domain(X)
+        self._log(f"built the {self._graph} graph over {X.shape[0]} samples", t0)
+        if not labelled.all():
+            codes = self._harmonic_labels(self.domain_, codes, labelled)
+            self._log("harmonic extension of the labels", t0)
+        self.transduction_ = self.classes_[codes]
+        votes = self._vote(codes, n_cls)
+        targets = [votes == 1] if n_cls == 2 else [votes == c for c in range(n_cls)]
+        phis = []
+        for c, target in enumerate(targets):
+            if target.all() or not target.any():
+                phis.append(np.full(X.shape[0], 1.0 if target.all() else 0.0))
+                continue
+            res = relax(self.domain_, target, on="vertices", lam=self.lam, smoothing=self.smoothing)
+            phis.append(res.phi)
+            self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
+        self.phi_ = np.stack(phis, axis=1)
+        self._prepare_extension()
+        self.proba_scale_ = self._fit_proba_scale(codes, labelled)
+        self._log("fitted", t0)
+        return self
+
+    def _vote(self, codes, n_cls):
+        """Labels after ``vote`` passes of neighbourhood majority voting (ties keep the label)."""
+        if self.vote == 0:
+            return codes
+        n = codes.shape[0]
+        inc = self.domain_.incidence[:, :n] if self._graph == "knn" else None
+        if inc is None:
+            e = self.domain_.edges
+            W = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(n, n))
+            W = (W + W.T + sp.identity(n)).tocsr()
+        else:
+            W = inc.T.tocsr()
+        F = np.zeros((n, n_cls))
+        F[np.arange(n), codes] = 1.0
+        for _ in range(self.vote):
+            F = W @ F
+            F = F / F.sum(axis=1, keepdims=True)
+        F[np.arange(n), codes] += 1e-9
+        return np.argmax(F, axis=1)
+
+    def _prepare_extension(self):
+        dom = self.domain_
+        if self._graph == "knn":
+            u = dom.unique_inverse
+            n_u = dom.unique_points.shape[0]
+            cnt = np.bincount(u, minlength=n_u).astype(np.float64)
+            phi_u = np.stack([np.bincount(u, weights=p, minlength=n_u) for p in self.phi_.T], axis=1) / cnt[:, None]
+            grads = []
+            for p in self.phi_.T:
+                g = dom.gradient(p)[: dom.points.shape[0]]  # (N, m)
+                gu = np.stack([np.bincount(u, weights=g[:, a], minlength=n_u) for a in range(g.shape[1])], axis=1)
+                grads.append(gu / cnt[:, None])
+            self._phi_u = phi_u  # (n_u, r)
+            self._grad_u = np.stack(grads, axis=1)  # (n_u, r, m)
+            self._scale = dom.distances.mean(axis=1)  # (n_u,)
+        else:
+            from scipy.spatial import Delaunay
+
+            from sklearn.neighbors import NearestNeighbors
+
+            self._tri = Delaunay(dom.points)
+            self._nn_vertices = NearestNeighbors(n_neighbors=2).fit(dom.points)
+            # per-vertex gradient: measure-weighted mean over its simplices
+            Gp = []
+            inc = dom.incidence.multiply(dom.A[None, :]).tocsr()
+            wsum = np.asarray(inc.sum(axis=1)).ravel()
+            for p in self.phi_.T:
+                g = dom.gradient(p)
+                Gp.append(np.asarray(inc @ g) / wsum[:, None])
+            self._grad_v = np.stack(Gp, axis=1)  # (n, r, D)
+
+    def _extend_knn(self, X, exclude_self=False):
+        dom = self.domain_
+        k = min(self.n_neighbors, dom.unique_points.shape[0] - (1 if exclude_self else 0))
+        out = np.empty((X.shape[0], self._phi_u.shape[1]))
+        for a in range(0, X.shape[0], _CHUNK):
+            c = slice(a, min(X.shape[0], a + _CHUNK))
+            if exclude_self:
+                ind, dist = dom.kneighbors(X[c], k + 1)
+                ind, dist = ind[:, 1:], dist[:, 1:]
+            else:
+                ind, dist = dom.kneighbors(X[c], k)
+            off = dom.tangent_offsets(X[c], ind)  # (b, q, m)
+            vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
+            s = self._scale[ind]
+            w = 1.0 / (dist**2 + s**2)
+            out[c] = np.einsum("bq,bqr->br", w, vals) / w.sum(axis=1)[:, None]
+        return out
+
+    def _extend_delaunay(self, X, exclude_self=False):
+        dom = self.domain_
+        P = dom.points
+        out = np.empty((X.shape[0], self.phi_.shape[1]))
+        simplex = self._tri.find_simplex(X) if not exclude_self else np.full(X.shape[0], -1)
+        inside = simplex >= 0
+        if inside.any():
+            s = simplex[inside]
+            T = self._tri.transform[s]
+            b = np.einsum("nij,nj->ni", T[:, :-1, :], X[inside] - T[:, -1, :])
+            bary = np.concatenate([b, 1.0 - b.sum(axis=1, keepdims=True)], axis=1)
+            verts = self._tri.simplices[s]
+            out[inside] = np.einsum("nv,nvr->nr", bary, self.phi_[verts])
+        rest = np.flatnonzero(~inside)
+        if rest.size:
+            dist, ind = self._nn_vertices.kneighbors(X[rest], n_neighbors=2)
+            j = ind[:, 1] if exclude_self else ind[:, 0]
+            off = X[rest] - P[j]
+            out[rest] = self.phi_[j] + np.einsum("nrd,nd->nr", self._grad_v[j], off)
+        return out
+
+    def _phi(self, X, exclude_self=False):
+        if self._graph == "knn":
+            return self._extend_knn(X, exclude_self)
+        return self._extend_delaunay(X, exclude_self)
+
+    def _fit_proba_scale(self, codes, labelled):
+        phi = self._phi(self._X, exclude_self=True)[labelled]
+        c = codes[labelled]
+        if phi.shape[1] == 1:
+            z = phi[:, 0] - 0.5
+            sgn = np.where(c == 1, 1.0, -1.0)
+
+            def loss(la):
+                return np.logaddexp(0.0, -np.exp(la) * sgn * z).mean()
+        else:
+
+            def loss(la):
+                s = np.exp(la) * phi
+                s = s - s.max(axis=1, keepdims=True)
+                return (np.log(np.exp(s).sum(axis=1)) - s[np.arange(s.shape[0]), c]).mean()
+
+        res = minimize_scalar(loss, bounds=(-8.0, 8.0), method="bounded")
+        return float(np.exp(res.x))
+
+    # -- predict ------------------------------------------------------------------------------
+    def _validate_predict(self, X):
+        check_is_fitted(self)
+        return validate_data(self, X, reset=False, dtype=np.float64)
+
+    def decision_function(self, X):
+        """Relaxed level-set function minus 1/2 at ``X``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        ndarray of shape (n_samples,) or (n_samples, n_classes)
+            For two classes, positive means ``classes_[1]``; approximately the signed
+            distance to the decision boundary in units of the mean neighbour distance.
+            For more, one column per class (class versus the rest).
+        """
+        X = self._validate_predict(X)
+        if self._constant is not None:
+            n_cls = self.classes_.shape[0]
+            if n_cls <= 2:
+                return np.full(X.shape[0], 0.5 if self._constant == 1 else -0.5)
+            out = np.full((X.shape[0], n_cls), -0.5)
+            out[:, self._constant] = 0.5
+            return out
+        phi = self._phi(X) - 0.5
+        return phi[:, 0] if phi.shape[1] == 1 else phi
+
+    def predict(self, X):
+        """Class labels of ``X``: the class with the largest ``phi``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        ndarray of shape (n_samples,)
+        """
+        d = self.decision_function(X)
+        if self.classes_.shape[0] == 1:
+            return np.full(d.shape[0], self.classes_[0])
+        idx = (d > 0).astype(np.int64) if d.ndim == 1 else np.argmax(d, axis=1)
+        return self.classes_[idx]
+
+    def predict_proba(self, X):
+        """Class probabilities: a logistic (softmax) map of ``phi``, same ranking.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_classes)
+        """
+        d = self.decision_function(X)
+        if self.classes_.shape[0] == 1:
+            return np.ones((d.shape[0], 1))
+        if d.ndim == 1:
+            p1 = 0.5 * (1.0 + np.tanh(0.5 * self.proba_scale_ * d))
+            return np.stack([1.0 - p1, p1], axis=1)
+        s = self.proba_scale_ * d
+        s = s - s.max(axis=1, keepdims=True)
+        e = np.exp(s)
+        return e / e.sum(axis=1, keepdims=True)
+
+    def predict_log_proba(self, X):
+        """Logarithm of :meth:`predict_proba`."""
+        with np.errstate(divide="ignore"):
+            return np.log(self.predict_proba(X))
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.allow_nan = False
+        return tags

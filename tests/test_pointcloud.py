@@ -1,0 +1,168 @@
+import numpy as np
+import pytest
+
+from ndboundary import relax
+from ndboundary.pointcloud import PointCloud, delaunay_complex, estimate_intrinsic_dim, kneighbors
+
+
+def _manifold(n, D, rng, m=2):
+    """Points on a curved m-dimensional sheet, isometrically placed in R^D."""
+    t = rng.uniform(-1, 1, size=(n, m))
+    base = np.concatenate([t, 0.3 * np.sin(2 * t[:, :1])], axis=1)  # (n, m + 1)
+    Q, _ = np.linalg.qr(np.random.default_rng(1).normal(size=(D, m + 1)))
+    return base @ Q.T, t
+
+
+@pytest.fixture
+def cloud(rng):
+    X = rng.normal(size=(300, 3))
+    return PointCloud(X, n_neighbors=12, intrinsic_dim=3)
+
+
+def test_operator_identities(cloud):
+    K, G, A = cloud.K, cloud.G, cloud.A
+    n = cloud.n_vertices
+    assert G.shape == (cloud.n_elements * cloud.dim, n)
+    assert np.abs(K @ np.ones(n)).max() < 1e-9
+    assert abs(K - K.T).max() < 1e-12
+    assert np.linalg.eigvalsh(K.toarray()).min() > -1e-9
+    f = np.random.default_rng(2).normal(size=n)
+    assert np.allclose(cloud.div(cloud.gradient(f)), K @ f)
+    assert np.all(cloud.mass > 0) and np.all(A > 0)
+    assert abs(cloud.adjacency - cloud.adjacency.T).max() == 0
+    assert cloud.incidence.shape == (n, cloud.n_elements)
+
+
+def test_gradient_exact_on_linear_functions(rng):
+    X, t = _manifold(400, 5, rng, m=2)
+    pc = PointCloud(X[:, :], n_neighbors=10, intrinsic_dim=3)
+    a = np.array([0.3, -1.2, 0.5, 2.0, 0.1])
+    g = np.einsum("ndm,nm->nd", pc.frames[pc.unique_inverse], pc.gradient(X @ a))
+    # the ambient gradient projected on each tangent frame
+    proj = np.einsum("ndm,nem,e->nd", pc.frames[pc.unique_inverse], pc.frames[pc.unique_inverse], a)
+    assert np.allclose(g, proj, atol=1e-4)  # the ridge term of the fit, 1e-10 of the trace
+
+
+def test_gradient_exact_in_flat_tangent_space(rng):
+    X = rng.normal(size=(200, 2))
+    pc = PointCloud(X, n_neighbors=8)
+    a = np.array([1.5, -2.0])
+    g = np.einsum("ndm,nm->nd", pc.frames[pc.unique_inverse], pc.gradient(X @ a))
+    assert np.allclose(g, a, atol=1e-7)
+
+
+def test_same_result_in_10_and_500_dimensions(rng):
+    X10, t = _manifold(300, 10, rng)
+    X500, _ = _manifold(300, 500, np.random.default_rng(0))
+    labels = (t[:, 0] + 0.3 * t[:, 1] > 0).astype(int)
+    a = PointCloud(X10, n_neighbors=12, intrinsic_dim=2)
+    b = PointCloud(X500, n_neighbors=12, intrinsic_dim=2)
+    # the distinct points are sorted differently in 10 and 500 dimensions: compare in sample order
+    assert np.array_equal(a._stencil, b._stencil)
+    assert a.G.nnz == b.G.nnz and a.K.shape == b.K.shape
+    ra = relax(a, labels, on="vertices", smoothing=3)
+    rb = relax(b, labels, on="vertices", smoothing=3)
+    assert np.allclose(ra.phi, rb.phi, atol=1e-6)
+
+
+def test_exact_and_approximate_neighbours_agree(rng):
+    X = rng.normal(size=(2000, 8))
+    ie, _ = kneighbors(X, 10, method="exact")
+    ia, _ = kneighbors(X, 10, method="approximate", random_state=0)
+    recall = np.mean([len(set(a) & set(b)) / 10 for a, b in zip(ie, ia)])
+    assert recall > 0.95
+    assert ie.shape == ia.shape and not np.any(ia == np.arange(2000)[:, None])
+
+
+def test_intrinsic_dimension_estimate(rng):
+    X, _ = _manifold(2000, 20, rng, m=2)
+    pc = PointCloud(X, n_neighbors=15)
+    assert pc.intrinsic_dim == 2
+    assert 1.5 < estimate_intrinsic_dim(pc.distances) < 2.6
+
+
+def test_duplicates(rng):
+    X = rng.normal(size=(100, 2))
+    X = np.concatenate([X, X[:20]])
+    labels = np.r_[(X[:100, 0] > 0).astype(int), 1 - (X[:20, 0] > 0).astype(int)]
+    pc = PointCloud(X, n_neighbors=8)
+    assert pc.unique_points.shape[0] == 100
+    r = relax(pc, labels, on="vertices")
+    assert np.all(np.isfinite(r.phi))
+    # duplicates with different labels form cut edges
+    assert any(set(e) == {0, 100} for e in r.boundary.edges.tolist())
+
+
+def test_constant_features(rng):
+    X = np.c_[rng.normal(size=(150, 2)), np.ones(150), np.zeros(150)]
+    pc = PointCloud(X, n_neighbors=10)
+    r = relax(pc, (X[:, 0] > 0).astype(int), on="vertices")
+    assert np.all(np.isfinite(r.phi))
+    assert ((r.phi > 0.5) == (X[:, 0] > 0)).mean() > 0.95
+
+
+def test_disconnected_clusters(rng):
+    X = np.concatenate([rng.normal(size=(60, 2)), rng.normal(size=(60, 2)) + 100, rng.normal(size=(60, 2)) - 100])
+    labels = np.r_[(X[:60, 0] > 0).astype(int), np.ones(60, int), np.zeros(60, int)]
+    pc = PointCloud(X, n_neighbors=8)
+    assert pc.n_components == 3 and pc.bridges.shape == (2, 2)
+    assert np.abs(pc.K @ np.ones(180)).max() < 1e-9
+    r = relax(pc, labels, on="vertices")
+    assert np.all(np.isfinite(r.phi))
+    assert ((r.phi > 0.5) == labels.astype(bool)).mean() > 0.95
+
+
+def test_smoothing_operator_transports_constant_fields(rng):
+    X, _ = _manifold(300, 6, rng)
+    pc = PointCloud(X, n_neighbors=10, intrinsic_dim=3)
+    T = pc.frames[pc.unique_inverse]
+    v = rng.normal(size=6)
+    local = np.einsum("ndm,d->nm", T, v)
+    out = (pc._smoothing_operator() @ local.ravel()).reshape(local.shape)
+    assert out.shape == local.shape and np.all(np.isfinite(out))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "err", "match"),
+    [
+        ({"X": np.zeros((5, 2))}, ValueError, "fewer than 2 distinct"),
+        ({"X": [[0.0, np.nan], [1, 1]]}, ValueError, "NaN"),
+        ({"X": np.zeros(5)}, ValueError, "shape"),
+        ({"X": np.eye(3), "n_neighbors": 0}, ValueError, "n_neighbors must be >= 1"),
+        ({"X": np.eye(3), "n_neighbors": 2.5}, TypeError, "n_neighbors must be an integer"),
+        ({"X": np.eye(3), "intrinsic_dim": 4}, ValueError, "intrinsic_dim must be between"),
+        ({"X": np.eye(3), "method": "kd"}, ValueError, "method must be"),
+        ({"X": "abc"}, TypeError, "X must be"),
+    ],
+)
+def test_bad_input(kwargs, err, match):
+    X = kwargs.pop("X")
+    with pytest.raises(err, match=match):
+        PointCloud(X, **kwargs)
+
+
+def test_level_set_refused(cloud):
+    with pytest.raises(NotImplementedError, match="delaunay_complex"):
+        cloud._level_set_simplices()
+
+
+def test_delaunay_complex(rng):
+    X = rng.uniform(size=(200, 2))
+    sc = delaunay_complex(X)
+    assert sc.n_vertices == 200 and sc.simplex_dim == 2
+    assert np.isclose(sc.A.sum(), sc.A.sum())
+    r = relax(sc, (X[:, 0] > 0.5).astype(int), on="vertices")
+    assert np.all(np.isfinite(r.phi))
+
+
+@pytest.mark.parametrize(
+    ("X", "match"),
+    [
+        (np.random.default_rng(0).normal(size=(50, 7)), "kNN alternative"),
+        (np.r_[np.eye(3)[:, :2], np.eye(3)[:1, :2]], "duplicate"),
+        (np.c_[np.arange(10.0), np.arange(10.0)], "Qhull"),
+    ],
+)
+def test_delaunay_refusals(X, match):
+    with pytest.raises(ValueError, match=match):
+        delaunay_complex(X)
