@@ -245,10 +245,10 @@ def relax(
     on : {"elements", "vertices"}
         Whether ``labels`` gives one label per element (a segmentation) or one per
         vertex (labelled data). Required: it is never guessed from the length.
-    lam : float, default=0.5
+    lam : float, default=2.0
         Weight of the boundary term ``||S phi - 1/2||^2`` against the field term;
         dimensionless. Larger stays closer to the jagged boundary.
-    smoothing : int, default=10
+    smoothing : int, default=60
         Number of field smoothing passes. The paper uses 3-5, which leaves visible
         ripples; more passes relax further while ``lam`` keeps the boundary in place.
     t : float, optional
@@ -345,9 +345,9 @@ def relax(
     if smoothing:
         W = work._smoothing_operator()
         project = work._tangent_projection
-        flat = W.shape[0] != work.n_elements  # an operator on the flattened field
+        acts_on_flat_field = W.shape[0] != work.n_elements
         for _ in range(smoothing):
-            Y = (W @ Xs.reshape(-1)).reshape(Xs.shape) if flat else W @ Xs
+            Y = (W @ Xs.reshape(-1)).reshape(Xs.shape) if acts_on_flat_field else W @ Xs
             Xs = _normalize_rows(project(Y))
     tick = prog.step("smoothing", tick)
 
