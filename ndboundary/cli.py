@@ -15,18 +15,6 @@ class _CLIError(Exception):
     """An error reported as one line on stderr, with a non-zero exit status."""
 
 
-def _write_obj(path, level_set):
-    """Write a level-set curve (``l`` lines) or surface (``f`` faces) as Wavefront OBJ."""
-    pts = level_set.points
-    if pts.shape[1] < 3:
-        pts = np.concatenate([pts, np.zeros((pts.shape[0], 3 - pts.shape[1]))], axis=1)
-    tag = "l" if level_set.simplices.shape[1] == 2 else "f"
-    with open(path, "w") as fh:
-        fh.write(f"# ndboundary level set phi = {level_set.value}\n")
-        np.savetxt(fh, pts[:, :3], fmt="v %.9g %.9g %.9g")
-        np.savetxt(fh, level_set.simplices + 1, fmt=tag + " %d" * level_set.simplices.shape[1])
-
-
 def _demo_cases():
     from . import datasets as ds
 
@@ -34,12 +22,24 @@ def _demo_cases():
     yield "3-D ball, jittered tetrahedra 24^3", ds.kuhn_grid(24, 3, jitter=0.25, random_state=0), ds.ball, 2 / 24
 
 
-def _flower_distance():
+def _flower_truth():
+    """Distance to the flower curve and the curve's length."""
+    from .datasets import flower_curve
     from .metrics import curve_distance
 
-    th = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
-    r = 0.55 * (1 + 0.2 * np.cos(5 * th))
-    return curve_distance(np.stack([r * np.cos(th), r * np.sin(th)], axis=1))
+    c = flower_curve()
+    return curve_distance(c), float(np.linalg.norm(np.roll(c, 1, axis=0) - c, axis=1).sum())
+
+
+def _write_files(out, stem, result, labels, relaxed, jagged):
+    from . import io
+
+    io.write_level_set(out / f"{stem}_relaxed.obj", relaxed)
+    io.write_level_set(out / f"{stem}_jagged.obj", jagged)
+    try:
+        io.write_phi(out / f"{stem}_phi.vtu", result, labels=labels)
+    except ImportError:
+        print("meshio is not installed: no VTU file (pip install 'ndboundary[io]')", file=sys.stderr)
 
 
 def _save_picture(result, labels, path):
@@ -71,13 +71,10 @@ def cmd_demo(args):
         res = relax(dom, labels, on="elements", verbose=args.verbose)
         ls = res.level_set()
         jag = as_complex(dom.points, res.boundary.facets)
-        dist = _flower_distance() if truth is ds.flower else truth
         if truth is ds.flower:
-            th = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
-            r = 0.55 * (1 + 0.2 * np.cos(5 * th))
-            true_measure = float(np.sum(np.hypot(np.diff(np.r_[r * np.cos(th), r[0]]), np.diff(np.r_[r * np.sin(th), 0.0]))))
+            dist, true_measure = _flower_truth()
         else:
-            true_measure = 4 * np.pi * 0.6**2
+            dist, true_measure = truth, 4 * np.pi * 0.6**2
         for tag, cx in (("jagged", jag), ("relaxed", ls)):
             f = fidelity(cx, dist, s)
             excess = 100 * (cx.measure() / true_measure - 1)
@@ -85,8 +82,7 @@ def cmd_demo(args):
             print(f"{name if tag == 'jagged' else '':<38s} {tag:>9s} {f['mean']:7.3f} {f['max']:7.3f} {excess:+7.2f}% {t:>7s}")
         if out is not None:
             stem = "flower2d" if dom.dim == 2 else "ball3d"
-            _write_obj(out / f"{stem}_relaxed.obj", ls)
-            _write_obj(out / f"{stem}_jagged.obj", jag)
+            _write_files(out, stem, res, labels, ls, jag)
             if dom.dim == 2:
                 _save_picture(res, labels, out / f"{stem}.png")
     if out is not None:
@@ -180,7 +176,7 @@ def main(argv=None):
         return 2
     try:
         return args.func(args)
-    except (_CLIError, ValueError, TypeError, OSError) as exc:
+    except (_CLIError, ValueError, TypeError, OSError, ImportError) as exc:
         print(f"ndboundary: error: {exc}", file=sys.stderr)
         return 1
 

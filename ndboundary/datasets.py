@@ -11,7 +11,7 @@ import numpy as np
 
 from .simplicial import SimplicialComplex
 
-__all__ = ["kuhn_grid", "icosphere", "label_by", "circle", "flower", "ball", "torus"]
+__all__ = ["kuhn_grid", "icosphere", "label_by", "circle", "flower", "flower_curve", "ball", "torus"]
 
 
 def kuhn_grid(n, dim=2, *, jitter=0.0, lo=-1.0, hi=1.0, random_state=None):
@@ -121,6 +121,13 @@ def flower(x, r=0.55, amplitude=0.2, lobes=5):
     """Signed radial offset from the flower ``r (1 + amplitude cos(lobes theta))``."""
     th = np.arctan2(x[:, 1], x[:, 0])
     return np.linalg.norm(x[:, :2], axis=1) - r * (1 + amplitude * np.cos(lobes * th))
+
+
+def flower_curve(n=20000, r=0.55, amplitude=0.2, lobes=5):
+    """Points densely sampled on the :func:`flower` curve, shape (n, 2), in order."""
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    rad = r * (1 + amplitude * np.cos(lobes * th))
+    return np.stack([rad * np.cos(th), rad * np.sin(th)], axis=1)
 
 
 def ball(x, r=0.6):

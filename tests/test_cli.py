@@ -12,7 +12,8 @@ def test_demo_writes_boundaries_and_reports_fidelity(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "relaxed" in out and "jagged" in out
-    for name in ("flower2d_relaxed.obj", "flower2d_jagged.obj", "ball3d_relaxed.obj", "flower2d.png"):
+    for name in ("flower2d_relaxed.obj", "flower2d_jagged.obj", "ball3d_relaxed.obj", "flower2d.png",
+                 "flower2d_phi.vtu", "ball3d_phi.vtu"):
         assert (tmp_path / name).stat().st_size > 0
     lines = (tmp_path / "flower2d_relaxed.obj").read_text().splitlines()
     assert any(line.startswith("l ") for line in lines) and any(line.startswith("v ") for line in lines)

@@ -5,14 +5,12 @@ import pytest
 
 import ndboundary
 from ndboundary import SimplicialComplex, relax
-from ndboundary.datasets import ball, circle, flower, icosphere, kuhn_grid, label_by, torus
+from ndboundary.datasets import ball, circle, flower, flower_curve, icosphere, kuhn_grid, label_by, torus
 from ndboundary.metrics import as_complex, curve_distance, fidelity
 
 
 def flower_truth():
-    th = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
-    r = 0.55 * (1 + 0.2 * np.cos(5 * th))
-    pts = np.stack([r * np.cos(th), r * np.sin(th)], axis=1)
+    pts = flower_curve()
     length = np.linalg.norm(np.roll(pts, 1, axis=0) - pts, axis=1).sum()
     return curve_distance(pts), length
 
