@@ -24,9 +24,9 @@ semidefinite, ``Delta = -M^{-1} K``):
   Bunge et al. 2020). ``P`` reproduces linear functions, so ``K`` stays exact on them
   and, on triangles, ``I - P = 0``: ``K`` is the cotangent Laplacian. ``K`` is then no
   longer exactly ``G^T diag(A) G``, so the stabilisation must stay moderate: measured on
-  relaxed boundaries, weights below 1 leave wiggles (hourglass modes of ``phi``), weights
-  of 4 and more create spurious level-set components on irregular meshes (a polygonal
-  lion vase); the default 2 is the compromise.
+  relaxed boundaries, weights below 1 leave wiggles (hourglass modes of ``phi``); 4 (the
+  default) brings the length excess on Voronoi cells from 2.8 % (weight 2) to 1.1 % and
+  leaves quads, hexahedra and the shared polygon and hexahedral meshes as good or better.
 * ``K``, ``laplacian="combinatorial"``: the paper's uniform graph Laplacian over the
   mesh edges (weight 1 per edge), times ``h^(k-2)`` (``h`` the mean edge length,
   ``k = element_dim``) so that it scales like a stiffness matrix.
@@ -216,7 +216,7 @@ class PolygonMesh(Domain):
     laplacian : {"consistent", "combinatorial"}, default="consistent"
         Stiffness matrix: the Green-Gauss ``G^T diag(A) G`` with the stabilisation of
         its hourglass modes, or the paper's uniform graph Laplacian (module docstring).
-    stabilization : float, default=2.0
+    stabilization : float, default=4.0
         Weight of the stabilisation of the consistent stiffness, relative to the trace of
         each element's ``A G_e^T G_e`` per vertex. 0 gives plain ``G^T diag(A) G``.
 
@@ -246,7 +246,7 @@ class PolygonMesh(Domain):
     [[1.0, 0.0]]
     """
 
-    def __init__(self, points, polygons, *, laplacian="consistent", stabilization=2.0):
+    def __init__(self, points, polygons, *, laplacian="consistent", stabilization=4.0):
         points = check_points(points)
         if points.shape[1] not in (2, 3):
             raise ValueError(f"points has shape {points.shape}; a PolygonMesh needs 2-D or 3-D points")

@@ -91,7 +91,7 @@ class PolyhedralMesh(Domain):
         each face outward from each cell.
     laplacian : {"consistent", "combinatorial"}, default="consistent"
         See :class:`~ndboundary.PolygonMesh`.
-    stabilization : float, default=2.0
+    stabilization : float, default=4.0
         See :class:`~ndboundary.PolygonMesh`.
 
     Attributes
@@ -126,7 +126,7 @@ class PolyhedralMesh(Domain):
     [[0.0, 0.0, 1.0]]
     """
 
-    def __init__(self, points, faces, cells, *, laplacian="consistent", stabilization=2.0):
+    def __init__(self, points, faces, cells, *, laplacian="consistent", stabilization=4.0):
         points = check_points(points)
         if points.shape[1] != 3:
             raise ValueError(f"points has shape {points.shape}; a PolyhedralMesh needs 3-D points")
