@@ -100,6 +100,15 @@ class Domain:
         """Unique vertex pairs ``(i, j)`` with ``i < j`` joined by an element edge, shape (n_edges, 2)."""
         return self._build_edges()
 
+    @cached_property
+    def _vertex_components(self):
+        """Connected components of the vertices along the edges: ``(n_components, labels)``."""
+        from scipy.sparse.csgraph import connected_components
+
+        e = self.edges
+        graph = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(self.n_vertices,) * 2)
+        return connected_components(graph, directed=False)
+
     def div(self, X) -> np.ndarray:
         """Weak divergence ``G^T diag(A) X`` of a per-element field ``X`` of shape (n_elements, dim)."""
         X = np.asarray(X, dtype=np.float64).reshape(self.n_elements, self.dim)

@@ -187,17 +187,15 @@ def _graph_distance(domain, sources):
     return dist
 
 
-def _pin_components_without_boundary(domain, S, targets, elem_region1):
-    """Hold phi at 1/2 -/+ 1 on the connected parts of the domain that zeta does not reach.
+def _pin_components_without_boundary(domain, S, vert_region1):
+    """Constraint rows and targets: ``S`` at 1/2, and phi held at 1/2 -/+ 1 on the connected
+    parts of the domain that zeta does not reach.
 
     There the field term alone leaves phi free up to a constant; pinning it keeps the
     system definite and puts the part on its own side of 1/2.
     """
-    from scipy.sparse.csgraph import connected_components
-
-    e = domain.edges
-    graph = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(domain.n_vertices,) * 2)
-    n_comp, comp = connected_components(graph, directed=False)
+    targets = np.full(S.shape[0], 0.5)
+    n_comp, comp = domain._vertex_components
     if n_comp == 1:
         return S, targets
     touched = np.zeros(n_comp, dtype=bool)
@@ -205,7 +203,6 @@ def _pin_components_without_boundary(domain, S, targets, elem_region1):
     free = np.flatnonzero(~touched[comp])
     if free.size == 0:
         return S, targets
-    vert_region1 = (domain.incidence @ elem_region1.astype(np.float64)) > 0
     rows = sp.csr_matrix((np.ones(free.size), (np.arange(free.size), free)), shape=(free.size, domain.n_vertices))
     return sp.vstack([S, rows]).tocsr(), np.concatenate([targets, np.where(vert_region1[free], 1.5, -0.5)])
 
@@ -314,9 +311,9 @@ def relax(
     else:
         elem_region1 = (domain.incidence.T @ region1.astype(np.float64))[parent] > 0
         straddle = straddle[parent]
-    S = sp.hstack([boundary.S, sp.csr_matrix((boundary.S.shape[0], work.n_vertices - V))]).tocsr()
-    targets = np.full(S.shape[0], 0.5)
-    S, targets = _pin_components_without_boundary(work, S, targets, elem_region1)
+    vert_region1 = region1 if on == "vertices" else (domain.incidence @ region1.astype(np.float64)) > 0
+    S, targets = _pin_components_without_boundary(domain, boundary.S, vert_region1)
+    S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - V))]).tocsr()
     tick = prog.step("pad", tick)
 
     # 1. heat
@@ -331,7 +328,14 @@ def relax(
     X = _normalize_rows(work.gradient(u))
     far = _element_max(work, u) < _HEAT_FLOOR * u.max()
     if far.any():
-        dist = _graph_distance(work, boundary.sources)
+        # distances on the unpadded domain; a padding vertex takes its element's mean
+        dist = _graph_distance(domain, boundary.sources)
+        split = np.flatnonzero(flat) if work is not domain else np.zeros(0, dtype=np.int64)
+        if work.n_vertices - V == split.size:
+            inc = domain.incidence[:, split].T.tocsr()
+            dist = np.concatenate([dist, (inc @ dist) / np.diff(inc.indptr)])
+        else:
+            dist = _graph_distance(work, boundary.sources)
         X[far] = -_normalize_rows(work.gradient(dist)[far])
     X[elem_region1] *= -1.0
     if straddle.any():

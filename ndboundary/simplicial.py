@@ -71,6 +71,28 @@ def mixed_facets(facet_ids, owner, region1):
     return first[mixed]
 
 
+def _simplex_geometry(points, simplices):
+    """Barycentric gradients (E, k+1, dim) and volumes (E,) of simplices.
+
+    Degenerate simplices (volume below a relative tolerance) get volume NaN and zero
+    gradients, for the caller to report.
+    """
+    X = points[simplices]
+    Ed = X[:, 1:, :] - X[:, :1, :]  # (E, k, dim)
+    gram = Ed @ Ed.transpose(0, 2, 1)  # (E, k, k)
+    k = Ed.shape[1]
+    det = np.linalg.det(gram)
+    scale = np.einsum("eij,eij->e", Ed, Ed) / k  # mean squared edge length from x0
+    bad = ~(det > (_DEGENERATE_RTOL * scale) ** k)
+    gram[bad] = np.eye(k)
+    vol = np.sqrt(np.where(bad, 1.0, det)) / factorial(k)
+    vol[bad] = np.nan
+    rest = np.linalg.inv(gram) @ Ed  # (E, k, dim): row i is grad of barycentric coordinate i+1
+    rest[bad] = 0.0
+    grads = np.concatenate([-rest.sum(axis=1, keepdims=True), rest], axis=1)
+    return grads, vol
+
+
 class SimplicialComplex(Domain):
     """A pure simplicial complex of k-simplices with vertices in R^dim, 1 <= k <= dim.
 
@@ -144,24 +166,16 @@ class SimplicialComplex(Domain):
     # -- geometry ------------------------------------------------------------------
     def _geometry(self):
         """Barycentric gradients (E, k+1, dim) and volumes (E,), refusing degenerate simplices."""
-        X = self.points[self.simplices]
-        Ed = X[:, 1:, :] - X[:, :1, :]  # (E, k, dim)
-        gram = Ed @ Ed.transpose(0, 2, 1)  # (E, k, k)
-        k = Ed.shape[1]
-        det = np.linalg.det(gram)
-        scale = np.einsum("eij,eij->e", Ed, Ed) / k  # mean squared edge length from x0
-        bad = ~(det > (_DEGENERATE_RTOL * scale) ** k)
+        grads, vol = _simplex_geometry(self.points, self.simplices)
+        bad = ~np.isfinite(vol)
         if bad.any():
             e = int(np.flatnonzero(bad)[0])
+            k = self.simplex_dim
             raise ValueError(
                 f"simplex {e} (vertices {self.simplices[e].tolist()}) is degenerate: zero "
                 f"{'length' if k == 1 else 'area' if k == 2 else 'volume'}"
                 f"{'' if bad.sum() == 1 else f' ({int(bad.sum())} degenerate simplices in all)'}"
             )
-        vol = np.sqrt(det) / factorial(k)
-        inv = np.linalg.inv(gram)
-        rest = inv @ Ed  # (E, k, dim): row i is grad of barycentric coordinate i+1
-        grads = np.concatenate([-rest.sum(axis=1, keepdims=True), rest], axis=1)
         return grads, vol
 
     def element_centroids(self) -> np.ndarray:
@@ -248,9 +262,16 @@ class SimplicialComplex(Domain):
             s = self.simplices[idx].copy()
             s[:, i] = new_ids
             parts.append(s)
-        simplices = np.concatenate([self.simplices[~mask]] + parts)
+        new = np.concatenate(parts)
         parent = np.concatenate([np.flatnonzero(~mask)] + [idx] * k1)
-        out = SimplicialComplex(np.concatenate([self.points, centres]), simplices)
+        # children of valid simplices are valid: skip validation, and compute the geometry
+        # of the new simplices only
+        out = SimplicialComplex.__new__(SimplicialComplex)
+        out.points = np.concatenate([self.points, centres])
+        out.simplices = np.concatenate([self.simplices[~mask], new])
+        grads, vols = _simplex_geometry(out.points, new)
+        out._bary_grads = np.concatenate([self._bary_grads[~mask], grads])
+        out._volumes = np.concatenate([self._volumes[~mask], vols])
         return out, parent
 
     def _level_set_simplices(self):
