@@ -122,3 +122,17 @@ def test_operators_are_cached():
 def test_centroids():
     tri = SimplicialComplex([[0, 0], [3, 0], [0, 3]], [[0, 1, 2]])
     np.testing.assert_allclose(tri.element_centroids(), [[1, 1]])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_split_elements_matches_a_fresh_build(dim):
+    dom = kuhn_grid(4, dim, jitter=0.2, random_state=0)
+    mask = np.zeros(dom.n_elements, dtype=bool)
+    mask[[0, 5, 7]] = True
+    split, parent = dom._split_elements(mask)
+    fresh = SimplicialComplex(split.points, split.simplices)
+    assert split.n_elements == dom.n_elements + 3 * dim
+    np.testing.assert_allclose(split.K.toarray(), fresh.K.toarray(), atol=1e-12)
+    np.testing.assert_allclose(split.A, fresh.A)
+    assert split.A.sum() == pytest.approx(dom.A.sum())
+    np.testing.assert_array_equal(np.bincount(parent, minlength=dom.n_elements), np.where(mask, dim + 1, 1))
