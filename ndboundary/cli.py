@@ -65,6 +65,7 @@ def cmd_demo(args):
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+    pictures = []
     print(f"{'case':<38s} {'':>9s} {'mean/h':>7s} {'max/h':>7s} {'excess':>8s} {'time':>7s}")
     for name, dom, truth, s in _demo_cases():
         labels = ds.label_by(dom, truth)
@@ -84,10 +85,12 @@ def cmd_demo(args):
             stem = "flower2d" if dom.dim == 2 else "ball3d"
             _write_files(out, stem, res, labels, ls, jag)
             if dom.dim == 2:
-                _save_picture(res, labels, out / f"{stem}.png")
-    if out is not None:
-        print(f"wrote the jagged and relaxed boundaries to {out}/")
+                pictures.append((res, labels, out / f"{stem}.png"))
     print("h = grid cell size; excess = length (2-D) or area (3-D) over the true boundary's")
+    if out is not None:
+        print(f"wrote phi (VTU) and the jagged and relaxed boundaries (OBJ) to {out}/")
+        for job in pictures:
+            _save_picture(*job)
     return 0
 
 
