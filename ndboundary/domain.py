@@ -156,11 +156,22 @@ class Domain:
         """Simplices over this domain's vertices on which vertex values are interpolated linearly."""
         raise NotImplementedError
 
+    def _refinement(self):
+        """A split of the elements into simplices: ``(points, simplices, R)``, where ``R``
+        (sparse, (n_points, n_vertices), or None for the identity) interpolates vertex
+        values to the points. Domains whose elements are not simplices add centre vertices."""
+        return self.points, self._level_set_simplices(), None
+
+    @cached_property
+    def _simplicial_split(self):
+        return self._refinement()
+
     def _level_set_complex(self, f):
         """A simplicial complex carrying the vertex function ``f`` piecewise linearly:
-        ``(points, simplices, values)``. Domains whose elements are not simplices split
-        them, adding centre vertices whose values interpolate ``f``."""
-        return self.points, self._level_set_simplices(), np.asarray(f, dtype=np.float64)
+        ``(points, simplices, values)``."""
+        points, simplices, R = self._simplicial_split
+        f = np.asarray(f, dtype=np.float64)
+        return points, simplices, f if R is None else R @ f
 
     # -- to implement -----------------------------------------------------------
     def _build_gradient(self):

@@ -441,13 +441,8 @@ class PolygonMesh(Domain):
         R : scipy.sparse.csr_matrix of shape (complex.n_vertices, n_vertices)
             Interpolation of vertex values to the refinement (identity, then vertex means).
         """
-        pts, tris, R = self._refinement()
+        pts, tris, R = self._simplicial_split
         return SimplicialComplex(pts, tris), R
-
-    def _level_set_complex(self, phi):
-        """Points, triangles and values on which to extract a level set of the vertex function ``phi``."""
-        pts, tris, R = self._refinement()
-        return pts, tris, R @ np.asarray(phi, dtype=np.float64)
 
     def _level_set_simplices(self):
         """Fan triangles of every polygon from its lowest-index vertex, over this mesh's vertices only.

@@ -527,13 +527,8 @@ class PolyhedralMesh(Domain):
         R : scipy.sparse.csr_matrix of shape (complex.n_vertices, n_vertices)
             Interpolation of vertex values to the refinement (identity, then vertex means).
         """
-        pts, tets, R = self._refinement()
+        pts, tets, R = self._simplicial_split
         return SimplicialComplex(pts, tets), R
-
-    def _level_set_complex(self, phi):
-        """Points, tetrahedra and values on which to extract a level set of the vertex function ``phi``."""
-        pts, tets, R = self._refinement()
-        return pts, tets, R @ np.asarray(phi, dtype=np.float64)
 
     def _level_set_simplices(self):
         """Tetrahedra over this mesh's vertices only: each cell coned from its lowest vertex.
