@@ -230,3 +230,25 @@ def test_mu_zero_is_the_papers_energy():
     assert not np.allclose(a.phi, b.phi)
     # both still follow the boundary
     assert a.level_set().n_components() == b.level_set().n_components() == 1
+
+
+def test_one_dimensional_boundary_is_exact():
+    # on a segment chain the jagged boundary is a point: relaxing must keep it in place
+    seg = SimplicialComplex(np.linspace(0, 1, 21)[:, None], np.c_[np.arange(20), np.arange(1, 21)])
+    on_elements = relax(seg, (np.arange(20) >= 7).astype(int), on="elements").level_set()
+    np.testing.assert_allclose(on_elements.points.ravel(), [0.35], atol=1e-9)
+    on_vertices = relax(seg, (np.arange(21) >= 7).astype(int), on="vertices").level_set()
+    np.testing.assert_allclose(on_vertices.points.ravel(), [0.325], atol=1e-9)
+
+
+def test_tiny_and_degenerate_labellings_stay_finite():
+    dom = kuhn_grid(10, 2, jitter=0.2, random_state=0)
+    corner = np.zeros(dom.n_elements, dtype=int)
+    corner[0] = 1
+    single = np.zeros(dom.n_vertices, dtype=int)
+    single[0] = 1
+    c = dom.element_centroids()
+    checker = ((np.floor(c[:, 0] * 5) + np.floor(c[:, 1] * 5)) % 2).astype(int)
+    for labels, on in ((corner, "elements"), (single, "vertices"), (checker, "elements")):
+        res = relax(dom, labels, on=on)
+        assert np.all(np.isfinite(res.phi)) and res.level_set().n_simplices > 0
