@@ -113,6 +113,9 @@ def test_disconnected_training_data():
         ({"graph": "grid"}, ValueError, "graph must be"),
         ({"n_neighbors": 1}, ValueError, "n_neighbors must be >= 2"),
         ({"n_neighbors": 2.5}, TypeError, "n_neighbors must be an integer"),
+        ({"vote_threshold": 1.5}, ValueError, "vote_threshold must be in"),
+        ({"extension_neighbors": 0}, ValueError, "extension_neighbors must be >= 1"),
+        ({"vote_threshold": "half"}, TypeError, "vote_threshold must be a number"),
     ],
 )
 def test_bad_parameters(moons, params, err, match):
