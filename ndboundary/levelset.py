@@ -84,7 +84,8 @@ class LevelSet:
         return np.concatenate(out) if out else np.zeros((0, k - 1), dtype=np.int64)
 
     def is_closed(self) -> bool:
-        """True when every facet is shared by exactly two simplices with opposite orientations."""
+        """True when every facet is shared by exactly two simplices with opposite orientations
+        (for curves: every point starts one segment and ends one)."""
         if self.n_simplices == 0 or self.simplices.shape[1] < 2:
             return False
         f = self.facets()
@@ -135,9 +136,8 @@ class LevelSet:
 
 
 def _canonical_oriented(f):
-    """Rotate/permute each oriented facet to a canonical representative of its orientation class."""
+    """Each oriented facet as its sorted vertices plus the parity of the sorting permutation."""
     f = np.asarray(f)
-    m = f.shape[1]
     order = np.argsort(f, axis=1)
     srt = np.take_along_axis(f, order, axis=1)
     parity = _permutation_parity(order)

@@ -34,7 +34,7 @@ import scipy.sparse as sp
 from ._validation import check_labels, check_nonnegative_int, check_positive
 from .domain import Domain
 from .levelset import LevelSet, marching_simplices
-from .solvers import SolveInfo, solve_heat, solve_integration
+from .solvers import solve_heat, solve_integration
 
 __all__ = ["relax", "RelaxResult", "Boundary", "DEFAULT_LAM", "DEFAULT_SMOOTHING", "DEFAULT_MU", "PAPER"]
 

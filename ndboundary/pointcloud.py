@@ -38,7 +38,6 @@ duplicates with different labels still form a boundary.
 from __future__ import annotations
 
 import numbers
-from functools import cached_property
 from math import gamma, pi
 
 import numpy as np

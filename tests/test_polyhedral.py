@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from ndboundary import datasets as ds
-from ndboundary import marching_simplices, relax
+from ndboundary import relax
 from ndboundary._polydata import hex_grid
 from ndboundary.metrics import fidelity
 from ndboundary.polyhedral import HEX_FACES, PolyhedralMesh
