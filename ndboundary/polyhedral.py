@@ -165,10 +165,7 @@ class PolyhedralMesh(Domain):
         -------
         PolyhedralMesh
         """
-        points = check_points(points)
-        hexes = check_cells(hexes, points.shape[0], name="hexes", n_per_cell=8)
-        faces, cells = _faces_from_cells(hexes, HEX_FACES)
-        return cls(points, faces, cells, **kwargs)
+        return cls._from_cells(points, hexes, "hexes", HEX_FACES, **kwargs)
 
     @classmethod
     def from_tetrahedra(cls, points, tets, **kwargs):
@@ -185,10 +182,16 @@ class PolyhedralMesh(Domain):
         -------
         PolyhedralMesh
         """
+        return cls._from_cells(points, tets, "tets", TET_FACES, **kwargs)
+
+    @classmethod
+    def _from_cells(cls, points, cells, name, face_table, **kwargs):
+        """Build from cells of one type, each with the faces ``face_table`` (local vertex indices)."""
         points = check_points(points)
-        tets = check_cells(tets, points.shape[0], name="tets", n_per_cell=4)
-        faces, cells = _faces_from_cells(tets, TET_FACES)
-        return cls(points, faces, cells, **kwargs)
+        n_per_cell = int(np.max(np.concatenate([np.ravel(f) for f in face_table]))) + 1
+        cells = check_cells(cells, points.shape[0], name=name, n_per_cell=n_per_cell)
+        faces, cell_faces = _faces_from_cells(cells, face_table)
+        return cls(points, faces, cell_faces, **kwargs)
 
     # -- sizes -------------------------------------------------------------------------
     @property
