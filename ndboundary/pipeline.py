@@ -3,9 +3,13 @@
 1. **Heat**: ``(M + t K) u = b``, heat ``b`` placed on the jagged boundary zeta,
    ``t = t_factor * h^2`` with ``h`` the mean edge length.
 2. **Field**: per element ``X = grad u / |grad u|`` in region 0 and ``-grad u / |grad u|``
-   in region 1, so that ``X`` flows from region 0 across zeta into region 1.
+   in region 1, so that ``X`` flows from region 0 across zeta into region 1. Where ``u``
+   is below the iterative solver's accuracy (far from zeta), the direction comes from
+   the graph distance to zeta instead. For vertex labels, elements whose vertices
+   disagree take the gradient of the region-1 indicator.
 3. **Smoothing**: ``smoothing`` passes of uniform averaging of each element's vector
-   with its neighbours', renormalised after each pass (Jacobi order, as one sparse product).
+   with its neighbours', projected on the element's tangent space (surfaces) and
+   renormalised after each pass (Jacobi order, as one sparse product).
 4. **Integration**: ``phi = argmin ||Delta phi - div X'||_M^2 + mu ||grad phi - X'||_A^2
    + lam ||S phi - 1/2||^2``, i.e. ``(K M^{-1} K + mu K + lam S^T S) phi = K M^{-1} d + mu d
    + lam S^T 1/2`` with ``d = G^T A X'``. ``mu = 0`` is the paper's energy; the small
@@ -14,8 +18,9 @@
 
 Lengths are measured in units of ``h`` before step 4 (``K`` scales as ``h^{k-2}``, ``M``
 as ``h^k``), so ``lam`` is dimensionless: a scaled, rotated or translated copy of the
-input relaxes to the same level set, transformed. ``phi - 1/2`` then approximates the
-signed distance to the relaxed boundary in units of ``h``.
+input relaxes to the same level set, transformed. ``phi - 1/2`` then grows like the
+signed distance to the relaxed boundary in units of ``h`` (with a slope below one near
+zeta, where the boundary term flattens it).
 
 Before step 1, elements all of whose vertices receive heat are split at their
 barycentre (padding, section 4), so that no element has a flat ``u``; the added
@@ -46,7 +51,7 @@ DEFAULT_SMOOTHING = 60
 #: Laplacian fit: it anchors phi to the field far from zeta, where the squared
 #: Laplacian alone lets phi bend freely (thin parts of a surface far from the boundary).
 DEFAULT_MU = 0.03
-#: The paper's own setting (Fig. 8, Table 1): few passes and a strong boundary term.
+#: The paper's own setting (Fig. 8, Table 1): 3 passes, its unweighted form, no first-order term.
 PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain", "mu": 0.0}
 
 # Where the heat is below this fraction of its maximum, its gradient is at the level of
