@@ -1,0 +1,13 @@
+"""Assertions shared by the domain test modules."""
+
+import numpy as np
+
+
+def assert_stiffness_kernel_is_constants(K):
+    """K is symmetric, positive semidefinite, and its null space is the constants only."""
+    K = K.toarray()
+    np.testing.assert_allclose(K, K.T, atol=1e-12)
+    assert np.abs(K @ np.ones(K.shape[0])).max() < 1e-10
+    w = np.linalg.eigvalsh(K)
+    assert w[0] > -1e-10 * w[-1]
+    assert w[1] > 1e-8 * w[-1]
