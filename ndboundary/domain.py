@@ -105,9 +105,21 @@ class Domain:
         """Connected components of the vertices along the edges: ``(n_components, labels)``."""
         from scipy.sparse.csgraph import connected_components
 
+        return connected_components(self._edge_graph(np.ones(self.edges.shape[0])), directed=False)
+
+    def _edge_graph(self, weights) -> sp.csr_matrix:
+        """The edges as a sparse matrix, ``weights[i]`` at ``edges[i]`` (one triangle),
+        shape (n_vertices, n_vertices)."""
         e = self.edges
-        graph = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(self.n_vertices,) * 2)
-        return connected_components(graph, directed=False)
+        V = self.n_vertices
+        key = e[:, 0] * V + e[:, 1]
+        if not np.all(key[1:] > key[:-1]):
+            return sp.csr_matrix((weights, (e[:, 0], e[:, 1])), shape=(V, V))
+        # edges in lexicographic order are the rows of the matrix in order
+        idx = np.int32 if max(V, e.shape[0]) < np.iinfo(np.int32).max else np.int64
+        indptr = np.zeros(V + 1, dtype=idx)
+        np.cumsum(np.bincount(e[:, 0], minlength=V), out=indptr[1:])
+        return sp.csr_matrix((weights, e[:, 1].astype(idx), indptr), shape=(V, V))
 
     def div(self, X) -> np.ndarray:
         """Weak divergence ``G^T diag(A) X`` of a per-element field ``X`` of shape (n_elements, dim)."""
@@ -118,6 +130,11 @@ class Domain:
         """Per-element gradient of the vertex function ``f``, shape (n_elements, dim)."""
         f = np.asarray(f, dtype=np.float64).reshape(self.n_vertices)
         return (self.G @ f).reshape(self.n_elements, self.dim)
+
+    def _element_max(self, f) -> np.ndarray:
+        """Per element, the largest value of the vertex function ``f`` over its vertices."""
+        by_element = self.incidence.T.tocsr()  # every row is non-empty
+        return np.maximum.reduceat(np.asarray(f)[by_element.indices], by_element.indptr[:-1])
 
     def _smoothing_operator(self):
         """The averaging operator of the field smoothing: uniform weights over each element

@@ -171,12 +171,6 @@ def _vertex_boundary(domain, region1):
     return Boundary(sources, S, 0.5 * (domain.points[cut[:, 0]] + domain.points[cut[:, 1]]), cut)
 
 
-def _element_max(domain, f):
-    """Per element, the largest value of the vertex function ``f`` over its vertices."""
-    inc = domain.incidence.T.tocsr()  # (n_elements, n_vertices), 0/1; every row is non-empty
-    return np.maximum.reduceat(f[inc.indices], inc.indptr[:-1])
-
-
 def _graph_distance(domain, sources):
     """Shortest-path distance along the domain's edges from the vertices ``sources``.
 
@@ -186,8 +180,7 @@ def _graph_distance(domain, sources):
 
     e = domain.edges
     w = np.linalg.norm(domain.points[e[:, 0]] - domain.points[e[:, 1]], axis=1)
-    graph = sp.csr_matrix((w, (e[:, 0], e[:, 1])), shape=(domain.n_vertices,) * 2)
-    dist = dijkstra(graph, directed=False, indices=sources, min_only=True)
+    dist = dijkstra(domain._edge_graph(w), directed=False, indices=sources, min_only=True)
     dist[~np.isfinite(dist)] = 0.0
     return dist
 
@@ -214,9 +207,12 @@ def _pin_components_without_boundary(domain, S, vert_region1):
 
 def _normalize_rows(X):
     """Rows scaled to unit length; zero rows stay zero. Modifies and returns ``X``."""
-    n2 = np.einsum("ij,ij->i", X, X)
-    inv = np.divide(1.0, np.sqrt(n2), out=np.zeros_like(n2), where=n2 > 0)
-    X *= inv[:, None]
+    scale = np.sqrt(np.einsum("ij,ij->i", X, X))
+    zero = ~(scale > 0)
+    if zero.any():
+        scale[zero] = np.inf
+    np.divide(1.0, scale, out=scale)
+    X *= scale[:, None]
     return X
 
 
@@ -331,7 +327,7 @@ def relax(
     # 2. field: the heat gradient where the heat is resolved; further away, where u is
     # below the solver's accuracy, the gradient of the graph distance to zeta
     X = _normalize_rows(work.gradient(u))
-    far = _element_max(work, u) < _HEAT_FLOOR * u.max()
+    far = work._element_max(u) < _HEAT_FLOOR * u.max()
     if far.any():
         # distances on the unpadded domain; a padding vertex takes its element's mean
         dist = _graph_distance(domain, boundary.sources)

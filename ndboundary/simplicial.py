@@ -26,6 +26,92 @@ from .domain import Domain
 __all__ = ["SimplicialComplex"]
 
 _DEGENERATE_RTOL = 1e-10
+# Entries of the per-block temporaries of the geometry (simplices x vertices x dim).
+_BLOCK = 1 << 16
+
+
+def _index_dtype(n):
+    """int32 when it holds ``0..n``, else int64 (scipy's choice for sparse indices)."""
+    return np.int32 if n <= np.iinfo(np.int32).max else np.int64
+
+
+def counting_sort(keys, n_keys):
+    """Stable argsort of integers ``keys`` in ``0..n_keys-1``, in linear time.
+
+    A sparse matrix with one entry per row, row ``i`` holding column ``keys[i]``, lists
+    the rows of every column in increasing order once converted to compressed columns:
+    scipy's CSR to CSC conversion is a counting sort.
+
+    Returns
+    -------
+    order : ndarray of int
+        ``keys[order]`` is sorted; equal keys keep their order.
+    starts : ndarray of int of shape (n_keys + 1,)
+        ``order[starts[k]:starts[k + 1]]`` are the positions of the key ``k``.
+    """
+    n = keys.size
+    idx = _index_dtype(max(n, n_keys))
+    one_per_row = sp.csr_matrix(
+        (np.ones(n, dtype=np.int8), np.asarray(keys).astype(idx, copy=False), np.arange(n + 1, dtype=idx)),
+        shape=(n, n_keys),
+    )
+    by_key = one_per_row.tocsc()
+    return by_key.indices, by_key.indptr
+
+
+def _sort_rows(rows):
+    """Sort the rows of an integer array lexicographically.
+
+    Returns ``(order, new)``: ``rows[order]`` is sorted (equal rows in no particular
+    order) and ``new[i]`` tells whether ``rows[order[i]]`` differs from the row before
+    it. Rows with a small range of values (vertex or element indices) are sorted in
+    linear time: a counting sort per column, from the last to the first, or for two
+    columns a counting sort on the first and a sort of the second within each value of
+    the first.
+    """
+    n, width = rows.shape
+    lo, hi = int(rows.min()), int(rows.max())
+    span = hi - lo + 1
+    new = np.empty(n, dtype=bool)
+    new[:1] = True
+    if width == 2 and span <= 4 * n + 1024:
+        order, starts = counting_sort(rows[:, 0] - lo, span)
+        second = (rows[order, 1] - lo).astype(starts.dtype)
+        within = sp.csr_matrix((order, second, starts), shape=(span, span))
+        within.sort_indices()
+        order, second = within.data, within.indices
+        np.not_equal(second[1:], second[:-1], out=new[1:])
+        first_change = starts[1:-1]
+        new[first_change[first_change < n]] = True
+        return order, new
+    if span <= 4 * n + 1024:
+        order = None
+        for c in range(width - 1, -1, -1):
+            col = rows[:, c] if order is None else rows[order, c]
+            step, _ = counting_sort(col - lo, span)
+            order = step if order is None else order[step]
+    else:
+        order = np.lexsort(rows.T[::-1])
+    new[1:] = False
+    for c in range(width):
+        col = rows[order, c]
+        new[1:] |= col[1:] != col[:-1]
+    return order, new
+
+
+def _row_groups(rows):
+    """Equal rows of an integer array: ``(ids, first)``.
+
+    ``ids`` numbers the distinct rows in lexicographic order; ``first`` is the index of
+    one row of every group, in that order.
+    """
+    rows = np.asarray(rows)
+    if rows.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    order, new = _sort_rows(rows)
+    ids = np.empty(rows.shape[0], dtype=np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids, order[new]
 
 
 def group_rows(rows):
@@ -33,16 +119,8 @@ def group_rows(rows):
 
     Returns ``(ids, n_groups)``; ids follow the lexicographic order of the rows.
     """
-    rows = np.asarray(rows)
-    if rows.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64), 0
-    order = np.lexsort(rows.T[::-1])
-    srt = rows[order]
-    new = np.ones(rows.shape[0], dtype=bool)
-    new[1:] = (srt[1:] != srt[:-1]).any(axis=1)
-    ids = np.empty(rows.shape[0], dtype=np.int64)
-    ids[order] = np.cumsum(new) - 1
-    return ids, int(new.sum())
+    ids, first = _row_groups(rows)
+    return ids, int(first.size)
 
 
 def shared_facet_adjacency(facet_ids, owner, n_elements):
@@ -50,12 +128,26 @@ def shared_facet_adjacency(facet_ids, owner, n_elements):
 
     ``facet_ids[i]`` is the id of a facet of element ``owner[i]``.
     """
-    order = np.lexsort((owner, facet_ids))
-    f, o = facet_ids[order], owner[order]
-    same = (f[1:] == f[:-1]) & (o[1:] != o[:-1])
+    if facet_ids.size == 0:
+        return sp.csr_matrix((n_elements, n_elements))
+    idx = _index_dtype(max(n_elements, 2 * facet_ids.size))
+    n_groups = int(facet_ids.max()) + 1
+    if np.all(owner[1:] >= owner[:-1]):
+        # owners already in order: a stable sort by facet keeps them so within a facet
+        order, starts = counting_sort(facet_ids, n_groups)
+        same = np.ones(facet_ids.size, dtype=bool)
+        same[starts[:-1][starts[:-1] < facet_ids.size]] = False  # the first of each facet
+        same = same[1:]
+    else:
+        order, _ = _sort_rows(np.stack([facet_ids, owner], axis=1))
+        f = facet_ids[order]
+        same = f[1:] == f[:-1]
+    o = owner[order].astype(idx)
+    same &= o[1:] != o[:-1]
     i, j = o[:-1][same], o[1:][same]
-    adj = sp.coo_matrix((np.ones(i.size), (i, j)), shape=(n_elements, n_elements))
-    adj = (adj + adj.T).tocsr()
+    adj = sp.csr_matrix(
+        (np.ones(2 * i.size), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n_elements, n_elements)
+    )
     adj.data[:] = 1.0
     return adj
 
@@ -67,19 +159,99 @@ def mixed_facets(facet_ids, owner, region1):
     cnt = np.bincount(facet_ids, minlength=n_groups)
     ones = np.bincount(facet_ids, weights=lab, minlength=n_groups)
     mixed = (cnt >= 2) & (ones > 0) & (ones < cnt)
-    first = np.unique(facet_ids, return_index=True)[1]
-    return first[mixed]
+    where = np.flatnonzero(mixed[facet_ids])
+    return where[np.unique(facet_ids[where], return_index=True)[1]]
+
+
+def _symmetric_inverse(gram, k):
+    """Determinants and cofactors of symmetric k x k matrices, k <= 3.
+
+    ``gram[i][j]`` holds entry (i, j) of every matrix, as arrays of one shape; returns
+    ``(det, cof)`` with ``cof[i, j]`` (``i <= j``) likewise: the inverse is ``cof / det``.
+    """
+    g = gram
+    if k == 1:
+        det = g[0][0]
+        cof = {(0, 0): np.ones_like(det)}
+    elif k == 2:
+        det = g[0][0] * g[1][1] - g[0][1] * g[0][1]
+        cof = {(0, 0): g[1][1], (0, 1): -g[0][1], (1, 1): g[0][0]}
+    else:
+        cof = {
+            (0, 0): g[1][1] * g[2][2] - g[1][2] * g[1][2],
+            (0, 1): g[0][2] * g[1][2] - g[0][1] * g[2][2],
+            (0, 2): g[0][1] * g[1][2] - g[0][2] * g[1][1],
+            (1, 1): g[0][0] * g[2][2] - g[0][2] * g[0][2],
+            (1, 2): g[0][1] * g[0][2] - g[0][0] * g[1][2],
+            (2, 2): g[0][0] * g[1][1] - g[0][1] * g[0][1],
+        }
+        det = g[0][0] * cof[0, 0] + g[0][1] * cof[0, 1] + g[0][2] * cof[0, 2]
+    return det, cof
 
 
 def _simplex_geometry(points, simplices):
-    """Barycentric gradients (E, k+1, dim) and volumes (E,) of simplices.
+    """Barycentric gradients and volumes of simplices.
 
-    Degenerate simplices (volume below a relative tolerance) get volume NaN and zero
-    gradients, for the caller to report.
+    Returns ``(grads, vol)``: ``grads[e, :, a]`` (shape (E, dim, k+1), the layout of the
+    rows of the gradient operator) is the gradient of the barycentric coordinate of
+    vertex ``simplices[e, a]`` over simplex ``e``, ``vol`` the volumes (E,). Degenerate
+    simplices (volume below a relative tolerance) get volume NaN and zero gradients, for
+    the caller to report. Simplices are taken in blocks small enough for the
+    temporaries to stay in cache.
     """
+    E, k1 = simplices.shape
+    dim = points.shape[1]
+    grads = np.empty((E, dim, k1))
+    vol = np.empty(E)
+    block = max(64, _BLOCK // (k1 * dim))
+    if k1 <= 4:
+        coords = np.ascontiguousarray(points.T)
+        for start in range(0, E, block):
+            b = slice(start, start + block)
+            vol[b] = _small_simplex_geometry(coords, simplices[b], grads[b])
+    else:
+        for start in range(0, E, block):
+            b = slice(start, start + block)
+            vol[b] = _large_simplex_geometry(points, simplices[b], grads[b])
+    return grads, vol
+
+
+def _small_simplex_geometry(coords, simplices, grads):
+    """:func:`_simplex_geometry` of simplices of at most 3 dimensions, by cofactors.
+
+    ``coords`` is the (dim, n_vertices) array of coordinates; the gradients are written
+    to ``grads`` (n, dim, k+1) and the volumes returned.
+    """
+    k = simplices.shape[1] - 1
+    x0 = coords[:, simplices[:, 0]]
+    e = [coords[:, simplices[:, i + 1]] - x0 for i in range(k)]  # edge vectors from x0, (dim, n)
+    gram = [[None] * k for _ in range(k)]
+    for i in range(k):
+        for j in range(i, k):
+            gram[i][j] = gram[j][i] = np.einsum("dn,dn->n", e[i], e[j])
+    scale = sum(gram[i][i] for i in range(k)) / k  # mean squared edge length from x0
+    det, cof = _symmetric_inverse(gram, k)
+    bad = ~(det > (_DEGENERATE_RTOL * scale) ** k)
+    inv_det = 1.0 / np.where(bad, 1.0, det)
+    total = 0.0
+    for i in range(k):
+        # gradient of the barycentric coordinate i + 1: row i of gram^{-1} times the edges
+        row = sum(e[j] * (cof[min(i, j), max(i, j)] * inv_det) for j in range(k))
+        grads[:, :, i + 1] = row.T
+        total = total + row
+    grads[:, :, 0] = -total.T
+    grads[bad] = 0.0
+    vol = np.sqrt(np.where(bad, 1.0, det)) / factorial(k)
+    vol[bad] = np.nan
+    return vol
+
+
+def _large_simplex_geometry(points, simplices, grads):
+    """:func:`_simplex_geometry` by LU factorisations of the Gram matrices; the
+    gradients are written to ``grads`` (n, dim, k+1) and the volumes returned."""
     X = points[simplices]
-    Ed = X[:, 1:, :] - X[:, :1, :]  # (E, k, dim)
-    gram = Ed @ Ed.transpose(0, 2, 1)  # (E, k, k)
+    Ed = X[:, 1:, :] - X[:, :1, :]  # (n, k, dim)
+    gram = Ed @ Ed.transpose(0, 2, 1)  # (n, k, k)
     k = Ed.shape[1]
     det = np.linalg.det(gram)
     scale = np.einsum("eij,eij->e", Ed, Ed) / k  # mean squared edge length from x0
@@ -87,10 +259,54 @@ def _simplex_geometry(points, simplices):
     gram[bad] = np.eye(k)
     vol = np.sqrt(np.where(bad, 1.0, det)) / factorial(k)
     vol[bad] = np.nan
-    rest = np.linalg.inv(gram) @ Ed  # (E, k, dim): row i is grad of barycentric coordinate i+1
+    rest = np.linalg.inv(gram) @ Ed  # (n, k, dim): row i is grad of barycentric coordinate i+1
     rest[bad] = 0.0
-    grads = np.concatenate([-rest.sum(axis=1, keepdims=True), rest], axis=1)
-    return grads, vol
+    grads[:, :, 1:] = rest.transpose(0, 2, 1)
+    grads[:, :, 0] = -rest.sum(axis=1)
+    return vol
+
+
+def _symmetric_csr(edges, off, diag, has_diag):
+    """The symmetric sparse matrix with entries ``off`` at the ``edges`` and at their
+    transposes and ``diag`` on the diagonal where ``has_diag``, in canonical CSR form.
+
+    ``edges`` are distinct pairs ``i < j`` in lexicographic order (the row-major order of
+    the upper triangle); the lower triangle is their counting sort by ``j``.
+    """
+    n = diag.size
+    i, j = edges[:, 0], edges[:, 1]
+    n_edges = i.size
+    idx = _index_dtype(2 * n_edges + n)
+    lower, lower_start = counting_sort(j, n)  # (j, i) in row-major order
+    n_lower = np.diff(lower_start)
+    n_upper = np.bincount(i, minlength=n)
+    indptr = np.zeros(n + 1, dtype=idx)
+    np.cumsum(n_lower + has_diag + n_upper, out=indptr[1:])
+    indices = np.empty(int(indptr[-1]), dtype=idx)
+    data = np.empty(int(indptr[-1]))
+    rank = np.arange(n_edges)
+    # per row: the lower triangle, the diagonal, the upper triangle
+    pos = rank + (indptr[:-1] - lower_start[:-1])[j[lower]]
+    indices[pos] = i[lower]
+    data[pos] = off[lower]
+    rows = np.flatnonzero(has_diag)
+    pos = indptr[rows] + n_lower[rows]
+    indices[pos] = rows
+    data[pos] = diag[rows]
+    upper_start = np.cumsum(n_upper) - n_upper
+    pos = rank + (indptr[:-1] + n_lower + has_diag - upper_start)[i]
+    indices[pos] = j
+    data[pos] = off
+    return sp.csr_matrix((data, indices, indptr), shape=(n, n))
+
+
+def _kept_then(a, keep, tail):
+    """``concatenate([a[keep], tail])``, copying ``a`` once."""
+    n_keep = int(np.count_nonzero(keep))
+    out = np.empty((n_keep + tail.shape[0],) + a.shape[1:], dtype=a.dtype)
+    np.compress(keep, a, axis=0, out=out[:n_keep])
+    out[n_keep:] = tail
+    return out
 
 
 class SimplicialComplex(Domain):
@@ -136,6 +352,7 @@ class SimplicialComplex(Domain):
                 f"simplices has shape {self.simplices.shape} but points are {self.dim}-dimensional; "
                 f"expected at most {self.dim + 1} vertices per simplex"
             )
+        self._sorted_simplices = np.sort(self.simplices, axis=1)
         self._bary_grads, self._volumes = self._geometry()
 
     @classmethod
@@ -165,8 +382,10 @@ class SimplicialComplex(Domain):
 
     # -- geometry ------------------------------------------------------------------
     def _geometry(self):
-        """Barycentric gradients (E, k+1, dim) and volumes (E,), refusing degenerate simplices."""
-        grads, vol = _simplex_geometry(self.points, self.simplices)
+        """Barycentric gradients and volumes (see :func:`_simplex_geometry`) over the
+        vertices of every simplex in increasing order (``_sorted_simplices``, the column
+        order of the operators), refusing degenerate simplices."""
+        grads, vol = _simplex_geometry(self.points, self._sorted_simplices)
         bad = ~np.isfinite(vol)
         if bad.any():
             e = int(np.flatnonzero(bad)[0])
@@ -183,26 +402,40 @@ class SimplicialComplex(Domain):
 
     # -- operators ------------------------------------------------------------------
     def _build_gradient(self):
+        # one row per element and component, its k+1 entries in increasing column order;
+        # the data are the barycentric gradients themselves, not a copy
         E, k1 = self.simplices.shape
         D = self.dim
-        rows = (np.arange(E)[:, None, None] * D + np.arange(D)[None, None, :]).repeat(k1, axis=1)
-        cols = np.broadcast_to(self.simplices[:, :, None], (E, k1, D))
+        idx = _index_dtype(max(E * D * k1, self.n_vertices))
+        indices = np.broadcast_to(self._sorted_simplices.astype(idx)[:, None, :], (E, D, k1))
         return sp.csr_matrix(
-            (self._bary_grads.ravel(), (rows.ravel(), cols.ravel())), shape=(E * D, self.n_vertices)
+            (self._bary_grads.reshape(-1), indices.reshape(-1), np.arange(E * D + 1, dtype=idx) * k1),
+            shape=(E * D, self.n_vertices),
         )
 
     def _build_measures(self):
         return self._volumes.copy()
 
     def _build_stiffness(self):
-        local = np.einsum("eid,ejd->eij", self._bary_grads, self._bary_grads) * self._volumes[:, None, None]
-        k1 = self.simplices.shape[1]
-        rows = np.repeat(self.simplices, k1, axis=1)
-        cols = np.tile(self.simplices, (1, k1))
-        K = sp.csr_matrix(
-            (local.ravel(), (rows.ravel(), cols.ravel())), shape=(self.n_vertices, self.n_vertices)
-        )
-        return (K + K.T) * 0.5
+        # K = G^T diag(A) G, one sum per edge and per vertex over the simplices holding it
+        E, k1 = self.simplices.shape
+        grads = self._bary_grads
+        vol = self._volumes
+        edges, pair_edge = self._edge_index
+        iu, ju = np.triu_indices(k1, 1)
+        off = np.empty((E, iu.size))
+        for p, (i, j) in enumerate(zip(iu, ju)):
+            off[:, p] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, j]) * vol
+        diag = np.empty((E, k1))
+        for i in range(k1):
+            diag[:, i] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, i]) * vol
+        V = self.n_vertices
+        off = np.bincount(pair_edge, weights=off.ravel(), minlength=edges.shape[0])
+        diag = np.bincount(self._sorted_simplices.ravel(), weights=diag.ravel(), minlength=V)
+        used = np.bincount(self.simplices.ravel(), minlength=V) > 0
+        K = _symmetric_csr(edges, off, diag, used)
+        K.eliminate_zeros()  # an edge whose angles cancel exactly (right angles on both sides)
+        return K
 
     def _build_mass(self):
         k1 = self.simplices.shape[1]
@@ -216,37 +449,83 @@ class SimplicialComplex(Domain):
         return m
 
     def _build_incidence(self):
+        # the element-vertex matrix, one row per simplex, transposed
         E, k1 = self.simplices.shape
-        return sp.csr_matrix(
-            (np.ones(E * k1), (self.simplices.ravel(), np.repeat(np.arange(E), k1))),
-            shape=(self.n_vertices, E),
+        idx = _index_dtype(max(E * k1, self.n_vertices))
+        by_element = sp.csr_matrix(
+            (np.ones(E * k1), self._sorted_simplices.astype(idx).ravel(), np.arange(E + 1, dtype=idx) * k1),
+            shape=(E, self.n_vertices),
         )
+        return by_element.T.tocsr()
+
+    def _element_max(self, f):
+        f = np.asarray(f)
+        out = f[self.simplices[:, 0]]
+        for i in range(1, self.simplices.shape[1]):
+            np.maximum(out, f[self.simplices[:, i]], out=out)
+        return out
+
+    @cached_property
+    def _edge_index(self):
+        """The unique edges, sorted (as :attr:`edges`), and the edge of every vertex pair
+        ``(srt[e, i], srt[e, j])``, ``i < j`` in ``triu_indices`` order, element-major
+        (``srt = _sorted_simplices``)."""
+        srt = self._sorted_simplices
+        iu, ju = np.triu_indices(srt.shape[1], 1)
+        pairs = np.empty((srt.shape[0], iu.size, 2), dtype=srt.dtype)
+        pairs[:, :, 0] = srt[:, iu]
+        pairs[:, :, 1] = srt[:, ju]
+        pairs = pairs.reshape(-1, 2)
+        pair_edge, first = _row_groups(pairs)
+        return pairs[first], pair_edge
 
     @cached_property
     def _facets(self):
-        """Sorted facets of every simplex (element-major, (E*(k+1), k)) and their group ids."""
+        """Sorted facets of every simplex, element-major, (E*(k+1), k): facet i leaves
+        out vertex i."""
         E, k1 = self.simplices.shape
-        srt = np.sort(self.simplices, axis=1)
-        facets = np.stack([np.delete(srt, i, axis=1) for i in range(k1)], axis=1).reshape(E * k1, k1 - 1)
-        ids, _ = group_rows(facets)
-        return facets, ids
+        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
+        return self._sorted_simplices[:, leave_out].reshape(E * k1, k1 - 1)
+
+    @cached_property
+    def _facet_ids(self):
+        """Group id of every row of :attr:`_facets` (equal facets, equal ids)."""
+        if self.simplices.shape[1] == 3:
+            # the facets of triangles are their edges, in the reverse order of the pairs
+            # of _edge_index
+            return self._edge_index[1].reshape(-1, 3)[:, ::-1].ravel()
+        return group_rows(self._facets)[0]
 
     def _build_adjacency(self):
         E, k1 = self.simplices.shape
-        return shared_facet_adjacency(self._facets[1], np.repeat(np.arange(E), k1), E)
+        ids = self._facet_ids
+        order, starts = counting_sort(ids, int(ids.max()) + 1)
+        size = np.diff(starts)
+        if size.max() > 2:
+            return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)
+        # every facet in at most two simplices: each simplex's neighbours, one per
+        # facet (-1 on the boundary), sorted
+        first = starts[:-1][size == 2]
+        a, b = order[first], order[first + 1]
+        across = np.full(E * k1, -1, dtype=order.dtype)
+        across[a] = b // k1
+        across[b] = a // k1
+        across = np.sort(across.reshape(E, k1), axis=1)
+        if (across[:, 1:] == across[:, :-1])[across[:, 1:] >= 0].any():
+            return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)  # repeated simplices
+        inner = across >= 0
+        indptr = np.zeros(E + 1, dtype=order.dtype)
+        np.cumsum(inner.sum(axis=1), out=indptr[1:])
+        return sp.csr_matrix((np.ones(int(indptr[-1])), across[inner], indptr), shape=(E, E))
 
     def _build_edges(self):
-        k1 = self.simplices.shape[1]
-        i, j = np.triu_indices(k1, 1)
-        a, b = self.simplices[:, i].ravel(), self.simplices[:, j].ravel()
-        key = np.unique(np.minimum(a, b) * self.n_vertices + np.maximum(a, b))
-        return np.stack([key // self.n_vertices, key % self.n_vertices], axis=1)
+        return self._edge_index[0]
 
     def _interface_facets(self, region1):
         """Facets shared by a region-0 and a region-1 simplex: the jagged boundary, (n, k)."""
-        facets, ids = self._facets
         k1 = self.simplices.shape[1]
-        return facets[mixed_facets(ids, np.repeat(np.arange(self.n_elements), k1), region1)]
+        owner = np.repeat(np.arange(self.n_elements), k1)
+        return self._facets[mixed_facets(self._facet_ids, owner, region1)]
 
     def _split_elements(self, mask):
         mask = np.asarray(mask, dtype=bool)
@@ -266,12 +545,15 @@ class SimplicialComplex(Domain):
         parent = np.concatenate([np.flatnonzero(~mask)] + [idx] * k1)
         # children of valid simplices are valid: skip validation, and compute the geometry
         # of the new simplices only
+        keep = ~mask
         out = SimplicialComplex.__new__(SimplicialComplex)
         out.points = np.concatenate([self.points, centres])
-        out.simplices = np.concatenate([self.simplices[~mask], new])
-        grads, vols = _simplex_geometry(out.points, new)
-        out._bary_grads = np.concatenate([self._bary_grads[~mask], grads])
-        out._volumes = np.concatenate([self._volumes[~mask], vols])
+        new_sorted = np.sort(new, axis=1)
+        grads, vols = _simplex_geometry(out.points, new_sorted)
+        out.simplices = _kept_then(self.simplices, keep, new)
+        out._sorted_simplices = _kept_then(self._sorted_simplices, keep, new_sorted)
+        out._bary_grads = _kept_then(self._bary_grads, keep, grads)
+        out._volumes = _kept_then(self._volumes, keep, vols)
         return out, parent
 
     def _level_set_simplices(self):

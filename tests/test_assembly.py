@@ -1,0 +1,146 @@
+"""The linear-time sorting and assembly helpers against their direct definitions."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from ndboundary import SimplicialComplex
+from ndboundary.datasets import icosphere, kuhn_grid
+from ndboundary.domain import Domain
+from ndboundary.simplicial import (
+    _large_simplex_geometry,
+    _small_simplex_geometry,
+    counting_sort,
+    group_rows,
+    mixed_facets,
+    shared_facet_adjacency,
+)
+
+
+def reference_group_rows(rows):
+    uniq, ids = np.unique(rows, axis=0, return_inverse=True)
+    return ids.ravel(), uniq.shape[0]
+
+
+@pytest.mark.parametrize("width", [1, 2, 3, 5])
+@pytest.mark.parametrize("high", [3, 50, 10**9])
+def test_group_rows_numbers_rows_in_lexicographic_order(rng, width, high):
+    rows = rng.integers(-2, high, size=(400, width))
+    rows[200:] = rows[rng.integers(0, 200, 200)]  # repeated rows
+    ids, n = group_rows(rows)
+    ref_ids, ref_n = reference_group_rows(rows)
+    assert n == ref_n
+    np.testing.assert_array_equal(ids, ref_ids)
+
+
+def test_group_rows_of_nothing():
+    ids, n = group_rows(np.zeros((0, 2), dtype=np.int64))
+    assert ids.shape == (0,) and n == 0
+
+
+def test_counting_sort_is_a_stable_argsort(rng):
+    keys = rng.integers(0, 30, size=1000)
+    order, starts = counting_sort(keys, 32)
+    np.testing.assert_array_equal(order, np.argsort(keys, kind="stable"))
+    np.testing.assert_array_equal(np.diff(starts), np.bincount(keys, minlength=32))
+
+
+def reference_adjacency(facet_ids, owner, n):
+    order = np.lexsort((owner, facet_ids))
+    f, o = facet_ids[order], owner[order]
+    same = (f[1:] == f[:-1]) & (o[1:] != o[:-1])
+    adj = sp.coo_matrix((np.ones(same.sum()), (o[:-1][same], o[1:][same])), shape=(n, n))
+    adj = (adj + adj.T).tocsr()
+    adj.data[:] = 1.0
+    return adj
+
+
+@pytest.mark.parametrize("sorted_owner", [True, False])
+def test_shared_facet_adjacency_matches_its_definition(rng, sorted_owner):
+    owner = np.repeat(np.arange(60), 4)
+    if not sorted_owner:
+        owner = rng.permutation(owner)
+    facet_ids = rng.integers(0, 90, size=owner.size)
+    adj = shared_facet_adjacency(facet_ids, owner, 60)
+    ref = reference_adjacency(facet_ids, owner, 60)
+    assert adj.has_canonical_format
+    np.testing.assert_array_equal(adj.indptr, ref.indptr)
+    np.testing.assert_array_equal(adj.indices, ref.indices)
+    np.testing.assert_array_equal(adj.data, ref.data)
+
+
+def test_mixed_facets_gives_the_first_occurrence_of_each_mixed_facet(rng):
+    owner = np.repeat(np.arange(50), 3)
+    facet_ids = rng.integers(0, 60, size=owner.size)
+    region1 = rng.random(50) < 0.5
+    got = mixed_facets(facet_ids, owner, region1)
+    want = [
+        int(np.flatnonzero(facet_ids == f)[0])
+        for f in range(60)
+        if len(set(region1[owner[facet_ids == f]].tolist())) == 2
+    ]
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("k, dim", [(1, 1), (1, 3), (2, 2), (2, 3), (3, 3), (3, 4)])
+def test_cofactor_geometry_matches_lu(rng, k, dim):
+    points = rng.normal(size=(40, dim))
+    simplices = np.array([rng.choice(40, k + 1, replace=False) for _ in range(30)])
+    simplices[0, 1] = simplices[0, 0]  # a degenerate one
+    g_small = np.empty((30, dim, k + 1))
+    g_large = np.empty((30, dim, k + 1))
+    v_small = _small_simplex_geometry(np.ascontiguousarray(points.T), simplices, g_small)
+    v_large = _large_simplex_geometry(points, simplices, g_large)
+    np.testing.assert_allclose(v_small, v_large, rtol=1e-10)
+    np.testing.assert_allclose(g_small, g_large, rtol=1e-8, atol=1e-10)
+    assert np.isnan(v_small[0]) and not g_small[0].any()
+
+
+DOMAINS = {
+    "segments": SimplicialComplex([[0, 0], [1, 0.2], [2, 0.1], [3, 0.5]], [[0, 1], [1, 2], [2, 3]]),
+    "right_triangles": kuhn_grid(5, 2),
+    "surface": icosphere(2),
+    "tets": kuhn_grid(3, 3, jitter=0.2, random_state=0),
+    "split_tets": kuhn_grid(3, 3)._split_elements(np.arange(162) % 5 == 0)[0],
+}
+
+
+@pytest.fixture(params=list(DOMAINS))
+def domain(request):
+    return DOMAINS[request.param]
+
+
+def test_operators_match_their_definitions(domain):
+    A = sp.diags(np.repeat(domain.A, domain.dim))
+    ref = (domain.G.T @ A @ domain.G).tocsr()
+    K = domain.K
+    assert K.has_canonical_format and not (K.data == 0).any()
+    np.testing.assert_allclose(K.toarray(), ref.toarray(), atol=1e-13 * abs(ref).max())
+    assert domain.G.has_canonical_format
+    simplices = domain.simplices
+    k1 = simplices.shape[1]
+    inc = sp.coo_matrix(
+        (np.ones(simplices.size), (simplices.ravel(), np.repeat(np.arange(domain.n_elements), k1)))
+    ).tocsr()
+    assert (domain.incidence != inc).nnz == 0 and domain.incidence.has_canonical_format
+    i, j = np.triu_indices(k1, 1)
+    a, b = simplices[:, i].ravel(), simplices[:, j].ravel()
+    key = np.unique(np.minimum(a, b) * domain.n_vertices + np.maximum(a, b))
+    np.testing.assert_array_equal(domain.edges, np.stack([key // domain.n_vertices, key % domain.n_vertices], 1))
+
+
+def test_element_max_matches_the_incidence(domain, rng):
+    f = rng.normal(size=domain.n_vertices)
+    np.testing.assert_array_equal(domain._element_max(f), Domain._element_max(domain, f))
+
+
+def test_split_keeps_the_operators_of_a_fresh_build():
+    dom = kuhn_grid(4, 2, jitter=0.2, random_state=0)
+    mask = np.arange(dom.n_elements) % 3 == 0
+    split, _ = dom._split_elements(mask)
+    fresh = SimplicialComplex(split.points, split.simplices)
+    for name in ("G", "K", "adjacency", "incidence"):
+        a, b = getattr(split, name), getattr(fresh, name)
+        assert (a != b).nnz == 0, name
+    np.testing.assert_array_equal(split.edges, fresh.edges)
+    np.testing.assert_array_equal(split.A, fresh.A)
