@@ -37,6 +37,10 @@ class Domain:
     """Base class of the domains: the operators the relaxation needs, cached."""
 
     points: np.ndarray
+    #: Whether :func:`~ndboundary.relax` measures ``lam`` against the stiffness of the
+    #: field term at zeta relative to a regular simplicial grid (meshes; not kNN graphs,
+    #: whose operators have no such reference).
+    _calibrate_lam = True
 
     # -- sizes ----------------------------------------------------------------
     @property

@@ -18,7 +18,13 @@
 
 Lengths are measured in units of ``h`` before step 4 (``K`` scales as ``h^{k-2}``, ``M``
 as ``h^k``), so ``lam`` is dimensionless: a scaled, rotated or translated copy of the
-input relaxes to the same level set, transformed. ``phi - 1/2`` then grows like the
+input relaxes to the same level set, transformed. ``lam`` is also measured against the
+stiffness of the field term at zeta (the median over zeta's vertices of the diagonal of
+``K M^{-1} K``): where a discretisation makes it weaker than at a vertex of the regular
+Kuhn grid (polygon and polyhedral cells with many short edges: down to 1/30 on a Voronoi
+polyhedral mesh), ``lam`` is scaled down by the same ratio, so that the boundary term
+does not pin the level set to the jagged boundary's vertices. Simplicial meshes keep
+``lam`` as given (ratio at least 1); kNN graphs are not rescaled. ``phi - 1/2`` then grows like the
 signed distance to the relaxed boundary in units of ``h`` (with a slope below one near
 zeta, where the boundary term flattens it).
 
@@ -31,6 +37,7 @@ from __future__ import annotations
 
 import sys
 import time
+from math import comb
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,7 +117,8 @@ class RelaxResult:
     solver : dict of SolveInfo
         Per linear solve, its method, iterations and relative residual.
     params : dict
-        The parameters used.
+        The parameters used; ``lam_scale`` is the factor applied to ``lam`` (see
+        :func:`relax`).
     """
 
     phi: np.ndarray
@@ -205,6 +213,30 @@ def _pin_components_without_boundary(domain, S, vert_region1):
     return sp.vstack([S, rows]).tocsr(), np.concatenate([targets, np.where(vert_region1[free], 1.5, -0.5)])
 
 
+def _grid_stiffness(k):
+    """``diag(K M^{-1} K)`` at an interior vertex of the regular Kuhn grid of dimension ``k``,
+    lengths in units of its mean edge length.
+
+    On that grid, in units of the cell size, ``K`` is the ``2k + 1``-point Laplacian stencil
+    and ``M = 1`` at interior vertices, so the diagonal is ``(2k)^2 + 2k``; the grid's edges
+    join a vertex to its ``2^k - 1`` neighbours ``x + sum_{i in I} e_i``, of length
+    ``sqrt(|I|)``, and the diagonal scales as ``length^{k-4}``.
+    """
+    sizes = np.arange(1, k + 1)
+    mean_edge = float(np.sum([comb(k, j) * np.sqrt(j) for j in sizes])) / (2**k - 1)
+    return (4 * k * k + 2 * k) * mean_edge ** (4 - k)
+
+
+def _lam_scale(domain, Kh, mh, sources):
+    """The factor (at most 1) applied to ``lam``: the field term's stiffness at zeta
+    relative to the regular grid's (see the module docstring)."""
+    if not domain._calibrate_lam or sources.size == 0:
+        return 1.0
+    rows = Kh[sources]
+    stiffness = np.asarray(rows.multiply(rows) @ (1.0 / mh)).ravel()
+    return float(min(1.0, np.median(stiffness) / _grid_stiffness(domain.element_dim)))
+
+
 def _normalize_rows(X):
     """Rows scaled to unit length; zero rows stay zero. Modifies and returns ``X``."""
     scale = np.sqrt(np.einsum("ij,ij->i", X, X))
@@ -245,7 +277,9 @@ def relax(
         vertex (labelled data). Required: it is never guessed from the length.
     lam : float, default=2.0
         Weight of the boundary term ``||S phi - 1/2||^2`` against the field term;
-        dimensionless. Larger stays closer to the jagged boundary.
+        dimensionless, and scaled down on discretisations whose field term is weaker at
+        zeta than on a regular simplicial grid (``params["lam_scale"]`` of the result;
+        see the module docstring). Larger stays closer to the jagged boundary.
     smoothing : int, default=60
         Number of field smoothing passes. The paper uses 3-5, which leaves visible
         ripples; more passes relax further while ``lam`` keeps the boundary in place.
@@ -365,8 +399,10 @@ def relax(
         mh_used = np.ones_like(mh)
     else:
         mh_used = mh
-    rhs = Kh @ (d / mh_used) + mu * d + lam * (S.T @ targets)
-    psi, int_info = solve_integration(Kh, mh_used, S, lam, rhs, mu=mu, rtol=rtol, method=solver)
+    lam_scale = _lam_scale(work, Kh, mh, boundary.sources)
+    lam_used = lam * lam_scale
+    rhs = Kh @ (d / mh_used) + mu * d + lam_used * (S.T @ targets)
+    psi, int_info = solve_integration(Kh, mh_used, S, lam_used, rhs, mu=mu, rtol=rtol, method=solver)
     tick = prog.step("integration", tick)
 
     timings = dict(prog.times)
@@ -383,5 +419,5 @@ def relax(
         domain=domain,
         timings=timings,
         solver={"heat": heat_info, "integration": int_info},
-        params={"lam": lam, "smoothing": smoothing, "mu": mu, "t": t_factor, "form": form, "pad": bool(pad), "on": on, "h": h},
+        params={"lam": lam, "lam_scale": lam_scale, "smoothing": smoothing, "mu": mu, "t": t_factor, "form": form, "pad": bool(pad), "on": on, "h": h},
     )

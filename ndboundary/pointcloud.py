@@ -301,6 +301,8 @@ class PointCloud(Domain):
     True
     """
 
+    _calibrate_lam = False
+
     def __init__(self, X, *, n_neighbors=15, intrinsic_dim=None, method="auto", random_state=None):
         self.points = check_points(X, name="X")
         if isinstance(n_neighbors, bool) or not isinstance(n_neighbors, numbers.Integral):

@@ -230,23 +230,10 @@ def test_errors(tmp_path):
 # -- the shared meshes --------------------------------------------------------------------------
 
 SHARED = sorted(p.name for p in MESHES.iterdir()) if MESHES.is_dir() else []
-KNOWN = {
-    "eight_voronoi.hedra": "mean distance 0.40 h, h the mean edge length, which the cells' many "
-    "short edges make 0.41 of the spacing of adjacent cells (0.165 in that spacing)",
-}
 
 
 @pytest.mark.skipif(not MESHES.is_dir(), reason="shared data folder ../shared/data absent")
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=[pytest.mark.xfail(reason=KNOWN[n], strict=True)] if n in KNOWN else [],
-        )
-        for n in SHARED
-    ],
-)
+@pytest.mark.parametrize("name", SHARED)
 def test_shared_mesh_reads_and_relaxes(name):
     domain = read_mesh(MESHES / name)
     centre = domain.points.mean(axis=0)

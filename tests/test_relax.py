@@ -252,3 +252,50 @@ def test_tiny_and_degenerate_labellings_stay_finite():
     for labels, on in ((corner, "elements"), (single, "vertices"), (checker, "elements")):
         res = relax(dom, labels, on=on)
         assert np.all(np.isfinite(res.phi)) and res.level_set().n_simplices > 0
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4])
+def test_grid_stiffness_is_that_of_an_interior_kuhn_grid_vertex(k):
+    from ndboundary.pipeline import _grid_stiffness
+
+    n = {1: 40, 2: 40, 3: 14, 4: 6}[k]
+    grid = kuhn_grid(n, k)
+    # an infinite grid's mean edge length: that of the edges of one interior vertex
+    centre = int(np.argmin(np.linalg.norm(grid.points, axis=1)))
+    e = grid.edges
+    ends = np.flatnonzero((e == centre).any(axis=1))
+    lengths = np.linalg.norm(grid.points[e[ends, 0]] - grid.points[e[ends, 1]], axis=1)
+    h = lengths.mean()
+    Kh = (grid.K * h ** (2 - k)).tocsr()
+    row = Kh[centre]
+    stiffness = (row.multiply(row) @ (h**k / grid.mass))[0]
+    assert stiffness == pytest.approx(_grid_stiffness(k), rel=1e-9)
+
+
+def test_lam_is_kept_on_simplicial_grids_and_scaled_down_on_voronoi_cells():
+    from ndboundary._polydata import voronoi_polygons
+
+    grid = kuhn_grid(40, 2, jitter=0.25, random_state=0)
+    assert relax(grid, label_by(grid, circle), on="elements").params["lam_scale"] == 1.0
+
+    cells = voronoi_polygons(40, random_state=0)
+    labels = label_by(cells, circle)
+    res = relax(cells, labels, on="elements")
+    scale = res.params["lam_scale"]
+    assert 0.2 < scale < 0.7
+    # the same lam without the rescaling holds the level set closer to the jagged boundary
+    pinned = relax(cells, labels, on="elements", lam=ndboundary.DEFAULT_LAM / scale)
+    assert pinned.params["lam"] * pinned.params["lam_scale"] == pytest.approx(ndboundary.DEFAULT_LAM)
+    length = 2 * np.pi * 0.6
+    fid, fid_pinned = (fidelity(r.level_set(), circle, 2 / 40)["mean"] for r in (res, pinned))
+    excess, excess_pinned = (abs(r.level_set().measure() / length - 1) for r in (res, pinned))
+    assert fid < fid_pinned and excess < excess_pinned
+
+
+def test_knn_graphs_keep_lam():
+    from ndboundary import PointCloud
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(300, 2))
+    res = relax(PointCloud(X, n_neighbors=10), X[:, 0] > 0, on="vertices")
+    assert res.params["lam_scale"] == 1.0
