@@ -1,30 +1,45 @@
 """Benchmark the solvers of the integration system ``(K M^-1 K + mu K + lam S^T S) phi = r``.
 
-Builds the systems with the library itself (jittered Kuhn grids labelled by a circle /
-ball, an icosphere cut by a plane), then times each available candidate in a fresh
-subprocess (so that packages that clash, like cholespy and sksparse-minimal, and the
-memory of one run do not affect another), ``--repeats`` times.
+Captures the integration system that ``relax`` solves (jittered Kuhn grids labelled by
+a circle / ball, an icosphere or the geodesic sphere of ``table1.py`` cut by a plane),
+then times each available candidate in a fresh subprocess (so that packages that clash,
+like cholespy and sksparse-minimal, and the memory of one run do not affect another),
+``--repeats`` times.
 
-Prints one JSON line per run, then a table of medians: size, method, setup s, solve s,
-iterations, residual, and the relative difference to the first direct solve.
+Prints one JSON line per run, then a table of medians: size, method, setup s (assembly
+and factorisation), solve s, total s, its ratio to ``superlu-direct`` measured in the
+same run (``x superlu``: 6.0 means six times faster), the peak memory the solve added
+to the process, iterations, residual, and the relative difference to the first direct
+solve.
 
     python benchmarks/solvers.py                       # default sizes, < 10 minutes
     python benchmarks/solvers.py --sizes 2d:640,3d:48  # bigger
-    python benchmarks/solvers.py --methods auto,cholmod-direct
+    python benchmarks/solvers.py --sizes sphere:77,sphere:158,sphere:317 \
+        --methods pardiso-direct,cvxopt-direct,cholmod-direct,superlu-direct
+    python benchmarks/solvers.py --factor-threads 1    # MKL / OpenBLAS threads of a factor
 
-Candidates (each skipped when its package is missing; the first six are the default
+Sizes: ``2d:n`` / ``3d:n`` (Kuhn grid of n cells a side), ``ico:k`` (icosphere of
+subdivision k), ``sphere:f`` (geodesic sphere of frequency f, 10 f^2 + 2 vertices:
+77 -> 59K, 158 -> 250K, 317 -> 1.0M).
+
+Candidates (each skipped when its package is missing; the first eight are the default
 ``--methods``, the others on request):
 
 - ``auto``: ``solve_integration``'s default;
-- ``cholmod-direct`` / ``cholmod-pcg``: CHOLMOD from sksparse-minimal (direct on the
-  whole matrix / factor of the ``K + D`` preconditioner);
+- ``pardiso-direct`` / ``pardiso-pcg``: MKL PARDISO from pypardiso (direct on the whole
+  matrix / factor of the ``K + D`` preconditioner);
+- ``cvxopt-direct`` / ``cvxopt-pcg``: cvxopt's supernodal CHOLMOD;
+- ``cholmod-direct`` / ``cholmod-pcg``: CHOLMOD from sksparse-minimal;
 - ``superlu-direct`` / ``superlu-pcg``: scipy SuperLU, the pure-scipy paths;
 - ``superlu-rcm-direct``: SuperLU on the reverse Cuthill-McKee permuted matrix;
 - ``amg-pcg``: pyamg smoothed aggregation V-cycle for ``(K + D)^{-1}``;
 - ``cholespy-direct`` / ``cholespy-pcg``: cholespy's CHOLMOD;
 - ``sksparse-direct`` / ``sksparse-pcg``: scikit-sparse's CHOLMOD (built against the
   system SuiteSparse);
-- ``auto-blasthreads``: ``auto`` without limiting BLAS to one thread.
+- ``auto-blasthreads``: ``auto`` without limiting BLAS to one thread;
+- ``auto-repeat`` / ``pardiso-direct-repeat``: the second solve on one mesh (after an
+  untimed one with another ``lam``: same sparsity pattern, other values), where PARDISO
+  reuses its ordering.
 
 A method whose first run takes longer than ``--slow`` seconds is run once and not
 tried on bigger sizes of the same kind of mesh.
@@ -45,6 +60,10 @@ import scipy.sparse as sp
 
 ALL_METHODS = [
     "auto",
+    "pardiso-direct",
+    "pardiso-pcg",
+    "cvxopt-direct",
+    "cvxopt-pcg",
     "cholmod-direct",
     "cholmod-pcg",
     "amg-pcg",
@@ -56,10 +75,16 @@ ALL_METHODS = [
     "sksparse-direct",
     "sksparse-pcg",
     "auto-blasthreads",
+    "auto-repeat",
+    "pardiso-direct-repeat",
 ]
-DEFAULT_SIZES = "2d:160,2d:320,3d:16,3d:24,3d:32,ico:6"
-DEFAULT_METHODS = "auto,cholmod-direct,cholmod-pcg,amg-pcg,superlu-direct,superlu-pcg"
+DEFAULT_SIZES = "2d:160,2d:320,3d:16,3d:24,3d:32,ico:6,sphere:77,sphere:158"
+DEFAULT_METHODS = (
+    "auto,pardiso-direct,cvxopt-direct,cholmod-direct,amg-pcg,superlu-direct,superlu-pcg"
+)
 NEEDS = {
+    "pardiso": "pypardiso",
+    "cvxopt": "cvxopt",
     "cholmod": "sksparse_minimal",
     "amg": "pyamg",
     "cholespy": "cholespy",
@@ -67,31 +92,55 @@ NEEDS = {
 }
 
 
-def build(spec, outdir):
-    """Build the system ``spec`` ("2d:160", "3d:24", "ico:6") and save it; return its path."""
-    from ndboundary import relax
+class _Captured(Exception):
+    """Raised to stop ``relax`` once its integration system is captured."""
+
+
+def _domain(spec):
     from ndboundary.datasets import ball, circle, icosphere, kuhn_grid, label_by
 
-    try:
-        from ndboundary.pipeline import DEFAULT_MU as mu
-    except ImportError:
-        mu = 0.0
     kind, n = spec.split(":")
     n = int(n)
+    if kind == "sphere":
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        from table1 import geodesic_sphere
+
+        from ndboundary import SimplicialComplex
+
+        dom = SimplicialComplex(*geodesic_sphere(n))
+        return dom, (dom.element_centroids()[:, 2] > 0.3).astype(int)
     if kind == "ico":
         dom = icosphere(n)
-        lab = label_by(dom, lambda x: x[:, 2] - 0.3)
-        k = 2
-    else:
-        dim = int(kind[0])
-        dom = kuhn_grid(n, dim, jitter=0.25, random_state=0)
-        lab = label_by(dom, ball if dim == 3 else circle)
-        k = dim
-    r = relax(dom, lab, on="elements", rtol=1e-6)
-    h = dom.mean_edge_length()
-    K = (dom.K * h ** (2 - k)).tocsr()
-    mass = dom.mass / h**k
-    S = r.boundary.S.tocsr()
+        return dom, label_by(dom, lambda x: x[:, 2] - 0.3)
+    dim = int(kind[0])
+    dom = kuhn_grid(n, dim, jitter=0.25, random_state=0)
+    return dom, label_by(dom, ball if dim == 3 else circle)
+
+
+def build(spec, outdir):
+    """Capture the integration system of ``relax`` on ``spec``, save it, return its path.
+
+    ``spec`` is "2d:160", "3d:24", "ico:6" or "sphere:158"; ``relax`` runs with its
+    defaults up to the integration solve, whose arguments are saved.
+    """
+    from ndboundary import pipeline, relax
+
+    dom, lab = _domain(spec)
+    captured = {}
+
+    def capture(K, mass, S, lam, rhs, *, mu=0.0, **_kw):
+        captured.update(K=sp.csr_matrix(K), S=sp.csr_matrix(S), mass=mass, lam=lam, rhs=rhs, mu=mu)
+        raise _Captured
+
+    real = pipeline.solve_integration
+    pipeline.solve_integration = capture
+    try:
+        relax(dom, lab, on="elements")
+    except _Captured:
+        pass
+    finally:
+        pipeline.solve_integration = real
+    K, S = captured["K"], captured["S"]
     path = os.path.join(outdir, spec.replace(":", "_") + ".npz")
     np.savez(
         path,
@@ -103,10 +152,10 @@ def build(spec, outdir):
         S_indices=S.indices,
         S_indptr=S.indptr,
         S_shape=S.shape,
-        mass=mass,
-        phi=r.phi,
-        mu=mu,
-        lam=2.0,
+        mass=captured["mass"],
+        rhs=captured["rhs"],
+        mu=captured["mu"],
+        lam=captured["lam"],
     )
     return path
 
@@ -115,7 +164,7 @@ def _load_system(path):
     z = np.load(path)
     K = sp.csr_matrix((z["K_data"], z["K_indices"], z["K_indptr"]), shape=tuple(z["K_shape"]))
     S = sp.csr_matrix((z["S_data"], z["S_indices"], z["S_indptr"]), shape=tuple(z["S_shape"]))
-    return K, z["mass"], S, z["phi"], float(z["mu"]), float(z["lam"])
+    return K, z["mass"], S, z["rhs"], float(z["mu"]), float(z["lam"])
 
 
 def _patch_cholmod(solvers, which):
@@ -146,17 +195,50 @@ def _patch_cholmod(solvers, which):
             return cholesky(sp.csc_matrix(A))
 
     real_load = solvers._load
-    solvers._cholmod = factor
+    solvers._FACTORISE["cholmod"] = factor
     solvers._load = lambda name: object() if name == "sksparse_minimal" else real_load(name)
 
 
-def worker(path, method, repeats):
+def _status_mb(field):
+    """A memory field of /proc/self/status ("VmRSS", "VmHWM") in MB; NaN off Linux."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return float("nan")
+
+
+def _reset_peak():
+    """Reset the peak resident memory of this process to its current value (Linux)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
+def _peak_mb():
+    """Peak resident memory of this process since the last :func:`_reset_peak`, in MB."""
+    peak = _status_mb("VmHWM")
+    if not np.isnan(peak):
+        return peak
+    import resource
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 1024
+
+
+def worker(path, method, repeats, factor_threads=None):
     """Run ``method`` on the system in ``path`` ``repeats`` times; print one JSON line each."""
     from ndboundary import solvers
 
-    K, mass, S, phi_ref, mu, lam = _load_system(path)
-    Q = (K @ sp.diags(1.0 / mass) @ K + mu * K + lam * (S.T @ S)).tocsr()
-    rhs = Q @ phi_ref
+    if factor_threads is not None:
+        solvers.FACTOR_THREADS = factor_threads
+    factor_threads = solvers.FACTOR_THREADS
+    K, mass, S, rhs, mu, lam = _load_system(path)
     base = method.split("-")[0]
     kw = {}
     if base in ("cholespy", "sksparse"):
@@ -166,14 +248,10 @@ def worker(path, method, repeats):
         pass
     elif base == "amg":
         kw = {"method": "pcg", "preconditioner": "amg"}
-    elif method.endswith("-direct"):
-        kw = {"method": "direct", "backend": "superlu" if base == "superlu" else "cholmod"}
+    elif method.endswith(("-direct", "-direct-repeat")):
+        kw = {"method": "direct", "backend": base}
     else:
-        kw = {
-            "method": "pcg",
-            "preconditioner": "cholesky",
-            "backend": "superlu" if base == "superlu" else "cholmod",
-        }
+        kw = {"method": "pcg", "preconditioner": "cholesky", "backend": base}
     if method == "auto-blasthreads":
         import contextlib
 
@@ -182,8 +260,8 @@ def worker(path, method, repeats):
     if method == "superlu-rcm-direct":
         from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+        Q = (K @ sp.diags(1.0 / mass) @ K + mu * K + lam * (S.T @ S)).tocsr()
         perm = reverse_cuthill_mckee(Q, symmetric_mode=True)
-        real = solvers._superlu
 
         def rcm_superlu(A):
             A = sp.csc_matrix(A)
@@ -201,10 +279,13 @@ def worker(path, method, repeats):
 
             return solve
 
-        solvers._superlu = rcm_superlu
-        assert real is not None
+        solvers._FACTORISE["superlu"] = rcm_superlu
     for rep in range(repeats):
         solvers.clear_cache()
+        if method.endswith("-repeat"):
+            solvers.solve_integration(K, mass, S, 2 * lam, rhs, mu=mu, cache=False, **kw)
+        rss0 = _status_mb("VmRSS")
+        _reset_peak()
         t = time.perf_counter()
         c = time.process_time()
         phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, cache=False, **kw)
@@ -222,6 +303,8 @@ def worker(path, method, repeats):
             "cpu": cpu,
             "iterations": int(info.iterations),
             "residual": info.residual,
+            "memory": _peak_mb() - rss0,
+            "factor_threads": factor_threads,
         }
         np.save(path[:-4] + f"__{method}.npy", phi)
         print(json.dumps(row), flush=True)
@@ -252,6 +335,12 @@ def main(argv=None):
     )
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument(
+        "--factor-threads",
+        type=int,
+        default=None,
+        help="threads of a sparse factorisation (default: ndboundary.solvers.FACTOR_THREADS)",
+    )
+    p.add_argument(
         "--slow",
         type=float,
         default=20.0,
@@ -262,7 +351,7 @@ def main(argv=None):
     )
     args = p.parse_args(argv)
     if args.worker:
-        worker(args.worker[0], args.worker[1], int(args.worker[2]))
+        worker(args.worker[0], args.worker[1], int(args.worker[2]), args.factor_threads)
         return
     methods = [m for m in args.methods.split(",") if m]
     for m in methods:
@@ -282,7 +371,16 @@ def main(argv=None):
             for m in methods:
                 if (kind, m) in too_slow:
                     continue
-                cmd = [sys.executable, os.path.abspath(__file__), "--worker", path, m, "1"]
+                cmd = [
+                    sys.executable,
+                    os.path.abspath(__file__),
+                    "--worker",
+                    path,
+                    m,
+                    "1",
+                ]
+                if args.factor_threads is not None:
+                    cmd += ["--factor-threads", str(args.factor_threads)]
                 runs = []
                 for rep in range(args.repeats):
                     out = subprocess.run(cmd, check=False, capture_output=True, text=True)
@@ -320,23 +418,39 @@ def main(argv=None):
                 if runs:
                     rows.append(runs)
     print()
-    head = f"{'size':8s} {'n':>7s} {'method':18s} {'solver':13s} {'setup s':>8s} {'solve s':>8s} {'total s':>8s} {'cpu s':>7s} {'iters':>5s} {'residual':>9s} {'vs direct':>9s} runs"
-    print(head)
-    print("-" * len(head))
+    print(table(rows))
+
+
+def table(rows):
+    """The table of medians of ``rows`` (one list of runs per size and method)."""
+    med = []
     for runs in rows:
-        med = {
+        m = {
             k: float(np.median([r[k] for r in runs]))
-            for k in ("setup", "solve", "wall", "cpu", "iterations", "residual")
+            for k in ("setup", "solve", "wall", "cpu", "iterations", "residual", "memory")
         }
-        r0 = runs[0]
-        dv = max(
+        m["runs"] = len(runs)
+        m["diff"] = max(
             (r["diff_vs_direct"] for r in runs if r["diff_vs_direct"] is not None), default=None
         )
-        print(
-            f"{r0['size']:8s} {r0['n']:7d} {r0['method']:18s} {r0['solver']:13s} {med['setup']:8.2f} {med['solve']:8.2f} "
-            f"{med['wall']:8.2f} {med['cpu']:7.2f} {int(med['iterations']):5d} {med['residual']:9.1e} "
-            f"{(f'{dv:9.1e}' if dv is not None else '        -')} {len(runs)}"
+        med.append((runs[0], m))
+    superlu = {r0["size"]: m["wall"] for r0, m in med if r0["method"] == "superlu-direct"}
+    head = (
+        f"{'size':11s} {'n':>8s} {'method':18s} {'solver':13s} {'setup s':>8s} {'solve s':>8s} "
+        f"{'total s':>8s} {'x superlu':>9s} {'mem MB':>7s} {'cpu s':>7s} {'iters':>5s} "
+        f"{'residual':>9s} {'vs direct':>9s} runs"
+    )
+    lines = [head, "-" * len(head)]
+    for r0, m in med:
+        ref = superlu.get(r0["size"])
+        ratio = f"{ref / m['wall']:9.2f}" if ref else f"{'-':>9s}"
+        diff = f"{m['diff']:9.1e}" if m["diff"] is not None else f"{'-':>9s}"
+        lines.append(
+            f"{r0['size']:11s} {r0['n']:8d} {r0['method']:18s} {r0['solver']:13s} "
+            f"{m['setup']:8.2f} {m['solve']:8.3f} {m['wall']:8.2f} {ratio} {m['memory']:7.0f} "
+            f"{m['cpu']:7.2f} {int(m['iterations']):5d} {m['residual']:9.1e} {diff} {m['runs']}"
         )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

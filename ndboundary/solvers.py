@@ -7,9 +7,13 @@
   Laplacian). Two ways, chosen by the shape of ``K`` (``method="auto"``):
 
   - sparse rows (triangle meshes, surfaces: about 7 entries per row of ``K``) or small
-    systems: a sparse Cholesky factorisation of ``Q`` itself, CHOLMOD (package
-    ``sksparse-minimal``, an optional accelerator: as fast as SuperLU on flat meshes,
-    about 2x faster on closed surfaces) when installed, else scipy's SuperLU;
+    systems: a sparse Cholesky factorisation of ``Q`` itself (see :func:`factorize_spd`)
+    by the fastest installed backend: CHOLMOD supernodal (package ``cvxopt``) below
+    :data:`LARGE_SYSTEM` unknowns, MKL PARDISO (package ``pypardiso``: METIS ordering,
+    30% less memory, reused by the next factorisation on the same mesh) from there,
+    CHOLMOD of ``sksparse-minimal`` where neither has a
+    wheel, else scipy's SuperLU (5-7x slower at 250K-1M vertices), with one
+    :class:`SolverFallbackWarning` per process naming the cost;
   - denser rows (tetrahedra, higher dimensions, neighbour graphs): conjugate gradients
     preconditioned by ``(K + D) M^{-1} (K + D)``, ``D`` diagonal, ``(K + D)^{-1}``
     applied by one smoothed-aggregation AMG V-cycle (package ``pyamg``: linear cost,
@@ -23,16 +27,24 @@ direct factorisation (``method="auto"``).
 
 Solves run with one BLAS thread (threadpoolctl): OpenBLAS's threads spin on the short
 vector operations of conjugate gradients and cost 1.5-4x the wall time on a 2-core
-machine with any other load; the sparse kernels used here are single-threaded anyway.
+machine with any other load. A factorisation runs with :data:`FACTOR_THREADS` threads,
+one by default (MKL's for PARDISO, set for that call only; OpenBLAS's for cvxopt, whose
+factor time they do not change): on 2 cores a second PARDISO thread was 25-30% faster
+at 60K-250K vertices while the other core was idle, and 10-40% slower while another
+process used it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import functools
 import hashlib
 import importlib
+import threading
 import time
 import warnings
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,12 +66,29 @@ __all__ = [
 DENSE_ROW_THRESHOLD = 10.0
 #: Below this many unknowns the integration system is always factorised.
 SMALL_SYSTEM = 3000
+#: Threads given to a sparse factorisation (MKL for PARDISO, OpenBLAS for cvxopt's CHOLMOD).
+FACTOR_THREADS = 1
+#: From this many unknowns ``backend="auto"`` tries PARDISO before cvxopt.
+LARGE_SYSTEM = 500_000
+
+#: Sparse Cholesky backends in the order ``backend="auto"`` tries them below
+#: :data:`LARGE_SYSTEM` unknowns (the fastest first, as measured by
+#: ``benchmarks/solvers.py``), with the module each one needs.
+BACKENDS = {
+    "cvxopt": "cvxopt.cholmod",
+    "pardiso": "pypardiso",
+    "cholmod": "sksparse_minimal",
+    "superlu": None,
+}
 
 #: Speed cost of the fallback when an optional package that "auto" relies on is missing,
-#: as measured by ``benchmarks/solvers.py``. (sksparse-minimal is a silent accelerator:
-#: without it SuperLU is as fast on flat triangle meshes, up to 2x slower on closed
-#: surfaces and in the factorised preconditioner.)
+#: as measured by ``benchmarks/solvers.py``.
 _FALLBACK_COST = {
+    "cholesky": (
+        "neither cvxopt nor pypardiso is installed: the integration solve on triangle meshes "
+        "falls back to scipy's SuperLU, about 5x slower at 250K vertices and 7x at 1M "
+        "(pip install cvxopt pypardiso)"
+    ),
     "pyamg": (
         "pyamg is not installed: the integration solve on tetrahedral (3-D) meshes falls back "
         "to a sparse factorisation, about 5x slower at 36K vertices and 10-20x at 120K "
@@ -108,21 +137,27 @@ def _fallback_warning(name):
 
 
 def available_backends():
-    """Names of the factorisation / preconditioner backends importable here."""
-    out = ["superlu"]
-    if _load("sksparse_minimal") is not None:
-        out.insert(0, "cholmod")
+    """Names of the factorisation / preconditioner backends importable here.
+
+    The sparse Cholesky backends come first, in the order ``backend="auto"`` tries
+    them, then ``"amg"`` when pyamg is installed.
+    """
+    out = [name for name, mod in BACKENDS.items() if mod is None or _load(mod) is not None]
     if _load("pyamg") is not None:
         out.append("amg")
     return out
 
 
 def _one_blas_thread():
+    return _blas_threads(1)
+
+
+def _blas_threads(n):
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn
         return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
+    return threadpool_limits(limits=n, user_api="blas")
 
 
 def _superlu(A):
@@ -147,31 +182,239 @@ def _cholmod(A):
     return factor.solve_A
 
 
+def _cvxopt(A):
+    """Supernodal CHOLMOD of cvxopt (AMD ordering, the wheel's own OpenBLAS)."""
+    cvxopt = importlib.import_module("cvxopt")
+    cholmod = importlib.import_module("cvxopt.cholmod")
+    n = A.shape[0]
+    L = sp.tril(A, format="coo")
+    Ac = cvxopt.spmatrix(
+        np.ascontiguousarray(L.data, dtype=np.float64),
+        L.row.astype(np.int64),
+        L.col.astype(np.int64),
+        (n, n),
+    )
+    del L
+    saved = dict(cholmod.options)
+    cholmod.options.update(supernodal=2, postorder=True)
+    try:
+        with _blas_threads(FACTOR_THREADS):
+            F = cholmod.symbolic(Ac, uplo="L")
+            cholmod.numeric(Ac, F)
+    finally:
+        cholmod.options.clear()
+        cholmod.options.update(saved)
+    del Ac
+    lock = threading.Lock()
+
+    def solve(b):
+        b = np.asarray(b, dtype=np.float64)
+        x = cvxopt.matrix(np.asfortranarray(b.reshape(n, -1)))
+        with lock:
+            cholmod.solve(F, x)
+        return np.asarray(x).reshape(b.shape)
+
+    return solve
+
+
+class _Pardiso:
+    """Cholesky factor of a sparse SPD matrix by MKL PARDISO (matrix type 2).
+
+    The upper triangle is passed in CSR form with zero-based indices; METIS nested
+    dissection orders it, and the ordering is kept for the next matrix with the same
+    sparsity pattern (the integration matrix of a mesh has one pattern whatever the
+    labels and parameters), which skips most of the analysis phase. The factorisation
+    runs with :data:`FACTOR_THREADS` MKL threads, the triangular solves with one (they
+    are memory bound, and may be called from inside an iteration). The MKL memory of the
+    factor is released when the object is garbage collected.
+    """
+
+    _ARGTYPES = (
+        [ctypes.c_void_p]  # pt
+        + [ctypes.POINTER(ctypes.c_int32)] * 5  # maxfct, mnum, mtype, phase, n
+        + [ctypes.c_void_p] * 3  # a, ia, ja
+        + [ctypes.c_void_p]  # perm
+        + [ctypes.POINTER(ctypes.c_int32)] * 3  # nrhs, iparm, msglvl
+        + [ctypes.c_void_p] * 2  # b, x
+        + [ctypes.POINTER(ctypes.c_int32)]  # error
+    )
+
+    def __init__(self, A):
+        self._pardiso, self._set_threads = _mkl_functions()
+        U = sp.triu(sp.csr_matrix(A), format="csr")
+        U.sum_duplicates()
+        U.sort_indices()
+        self.n = U.shape[0]
+        self._a = np.ascontiguousarray(U.data, dtype=np.float64)
+        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
+        del U
+        self._pt = np.zeros(64, dtype=np.int64)  # PARDISO's handle
+        self._iparm = np.zeros(64, dtype=np.int32)
+        self._iparm[0] = 1  # these parameters, not the defaults
+        self._iparm[1] = 2  # METIS nested dissection ordering
+        self._iparm[17] = -1  # report the number of non-zeros of the factor
+        self._iparm[34] = 1  # zero-based indices
+        pattern = _pattern_key(self._ia, self._ja)
+        known = _orderings.get("entry")
+        if known is not None and known[0] == pattern:
+            self._perm = known[1]
+            self._iparm[4] = 1  # use this ordering
+        else:
+            self._perm = np.zeros(self.n, dtype=np.int32)
+            self._iparm[4] = 2  # return the ordering computed
+        self.reused_ordering = bool(self._iparm[4] == 1)
+        self._lock = threading.Lock()
+        self._call(12, threads=FACTOR_THREADS)  # analysis and numerical factorisation
+        self._finalizer = weakref.finalize(
+            self, _Pardiso._release, self._pardiso, self._pt, self._iparm
+        )
+        if not self.reused_ordering:
+            _orderings["entry"] = (pattern, self._perm)
+
+    @staticmethod
+    def _release(func, pt, iparm):
+        one = ctypes.c_int32(1)
+        dummy = np.zeros(1)
+        idx = np.zeros(1, dtype=np.int32)
+        err = ctypes.c_int32(0)
+        func(
+            pt.ctypes.data, ctypes.byref(one), ctypes.byref(one), ctypes.byref(ctypes.c_int32(2)),
+            ctypes.byref(ctypes.c_int32(-1)), ctypes.byref(ctypes.c_int32(0)), dummy.ctypes.data,
+            idx.ctypes.data, idx.ctypes.data, None, ctypes.byref(one),
+            iparm.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)), ctypes.byref(ctypes.c_int32(0)),
+            dummy.ctypes.data, dummy.ctypes.data, ctypes.byref(err),
+        )  # fmt: skip
+
+    def _call(self, phase, b=None, x=None, nrhs=1, threads=1):
+        b = np.zeros(1) if b is None else b
+        x = np.zeros(1) if x is None else x
+        err = ctypes.c_int32(0)
+        one = ctypes.c_int32(1)
+        with self._lock:
+            previous = self._set_threads(threads)
+            try:
+                self._pardiso(
+                    self._pt.ctypes.data, ctypes.byref(one), ctypes.byref(one),
+                    ctypes.byref(ctypes.c_int32(2)), ctypes.byref(ctypes.c_int32(phase)),
+                    ctypes.byref(ctypes.c_int32(self.n)), self._a.ctypes.data,
+                    self._ia.ctypes.data, self._ja.ctypes.data, self._perm.ctypes.data,
+                    ctypes.byref(ctypes.c_int32(nrhs)),
+                    self._iparm.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)),
+                    ctypes.byref(ctypes.c_int32(0)), b.ctypes.data, x.ctypes.data,
+                    ctypes.byref(err),
+                )  # fmt: skip
+            finally:
+                self._set_threads(previous)
+        if err.value != 0:
+            if phase == 12:
+                _Pardiso._release(self._pardiso, self._pt, self._iparm)
+            raise RuntimeError(f"PARDISO failed in phase {phase} with error {err.value}")
+
+    @property
+    def factor_nnz(self):
+        """Number of non-zeros of the Cholesky factor."""
+        return int(self._iparm[17])
+
+    def solve(self, b):
+        """Solve ``A x = b`` for a vector or a matrix of right-hand sides."""
+        b = np.asarray(b, dtype=np.float64)
+        B = np.asfortranarray(b.reshape(self.n, -1))
+        X = np.empty_like(B, order="F")
+        self._call(33, B, X, nrhs=B.shape[1])
+        return X.reshape(b.shape)
+
+
+# The last ordering PARDISO computed, keyed by the sparsity pattern it orders.
+_orderings: dict = {}
+
+
+def _pattern_key(indptr, indices):
+    h = hashlib.blake2b(digest_size=16)
+    h.update(repr((indptr.size, indices.size)).encode())
+    for arr in (indptr, indices):
+        h.update(np.ascontiguousarray(arr).view(np.uint8))
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def _mkl_functions():
+    """MKL's ``pardiso`` and ``MKL_Set_Num_Threads_Local``, from the library pypardiso finds."""
+    pypardiso = importlib.import_module("pypardiso")
+    lib = pypardiso.PyPardisoSolver(mtype=2).libmkl
+    pardiso = ctypes.CFUNCTYPE(None, *_Pardiso._ARGTYPES)(("pardiso", lib))
+    set_threads = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int)(("MKL_Set_Num_Threads_Local", lib))
+    return pardiso, set_threads
+
+
+def _pardiso(A):
+    return _Pardiso(A).solve
+
+
+_FACTORISE = {"pardiso": _pardiso, "cvxopt": _cvxopt, "cholmod": _cholmod, "superlu": _superlu}
+_PACKAGE = {"pardiso": "pypardiso", "cvxopt": "cvxopt", "cholmod": "sksparse-minimal"}
+
+
 def factorize_spd(A, backend="auto"):
     """Return a function solving ``A x = b`` for a sparse symmetric positive definite ``A``.
 
     Parameters
     ----------
-    backend : {"auto", "cholmod", "superlu"}, default="auto"
-        ``"cholmod"``: CHOLMOD supernodal Cholesky with METIS/AMD ordering (package
-        ``sksparse-minimal``); ``"superlu"``: scipy's SuperLU in symmetric mode
-        (minimum degree on ``A + A^T``, diagonal pivots); ``"auto"``: cholmod when
-        installed (falling back to SuperLU if CHOLMOD rejects the matrix), else SuperLU.
+    A : sparse matrix of shape (n, n)
+        Symmetric positive definite; both triangles are given (each backend reads the
+        one it needs).
+    backend : {"auto", "pardiso", "cvxopt", "cholmod", "superlu"}, default="auto"
+        ``"pardiso"``: MKL PARDISO's Cholesky with METIS ordering (package
+        ``pypardiso``); ``"cvxopt"``: CHOLMOD supernodal Cholesky with AMD ordering
+        (package ``cvxopt``); ``"cholmod"``: CHOLMOD from package ``sksparse-minimal``;
+        ``"superlu"``: scipy's SuperLU in symmetric mode (minimum degree on ``A + A^T``,
+        diagonal pivots). ``"auto"``: the first backend that is installed and accepts
+        the matrix, in the order of :data:`BACKENDS` (cvxopt, pardiso, cholmod, superlu),
+        PARDISO first from :data:`LARGE_SYSTEM` unknowns; an error of one backend (a
+        missing runtime library, a pivot that is not positive) moves on to the next.
+
+    Returns
+    -------
+    solve : callable
+        ``solve(b)`` returns ``x`` with the shape of ``b`` (a vector, or a matrix whose
+        columns are right-hand sides).
+
+    Raises
+    ------
+    ImportError
+        If the named backend's package is not installed.
     """
-    if backend not in ("auto", "cholmod", "superlu"):
-        raise ValueError(f"backend must be 'auto', 'cholmod' or 'superlu', got {backend!r}")
-    if backend == "superlu":
-        return _superlu(A)
-    if _load("sksparse_minimal") is None:
-        if backend == "cholmod":
-            raise ImportError("backend='cholmod' needs the package sksparse-minimal")
-        return _superlu(A)
-    try:
-        return _cholmod(A)
-    except Exception:
-        if backend == "cholmod":
-            raise
-        return _superlu(A)
+    if backend != "auto" and backend not in BACKENDS:
+        names = "', '".join(["auto", *BACKENDS])
+        raise ValueError(f"backend must be one of '{names}', got {backend!r}")
+    if backend != "auto":
+        mod = BACKENDS[backend]
+        if mod is not None and _load(mod) is None:
+            raise ImportError(f"backend={backend!r} needs the package {_PACKAGE[backend]}")
+        return _FACTORISE[backend](A)
+    for name in _auto_order(A.shape[0]):
+        mod = BACKENDS[name]
+        if mod is None or _load(mod) is None:
+            continue
+        try:
+            return _FACTORISE[name](A)
+        except Exception:  # noqa: BLE001, S112 - a failing optional backend: try the next
+            continue
+    return _superlu(A)
+
+
+def _auto_order(n):
+    """Backend names in the order ``backend="auto"`` tries them for ``n`` unknowns."""
+    order = list(BACKENDS)
+    if n >= LARGE_SYSTEM and "pardiso" in order and "cvxopt" in order:
+        i, j = order.index("cvxopt"), order.index("pardiso")
+        if j > i:
+            order.insert(i, order.pop(j))
+    return order
+
+
+def _fast_cholesky_available():
+    return any(mod is not None and _load(mod) is not None for mod in BACKENDS.values())
 
 
 def _amg(A):
@@ -195,8 +438,10 @@ _cache: dict = {}
 
 
 def clear_cache():
-    """Drop the cached factorisation (it holds memory of the order of the factor)."""
+    """Drop the cached factorisation (it holds memory of the order of the factor) and the
+    kept PARDISO ordering."""
     _cache.clear()
+    _orderings.clear()
 
 
 def _key(kind, A):
@@ -311,9 +556,11 @@ def solve_integration(
         (about 7 entries per row of ``K``: triangles, surfaces) or small systems, pcg
         elsewhere (tetrahedra, higher dimensions, graphs), falling back to direct when
         pcg does not converge.
-    backend : {"auto", "cholmod", "superlu"}, default="auto"
+    backend : {"auto", "pardiso", "cvxopt", "cholmod", "superlu"}, default="auto"
         Sparse Cholesky used by the direct solve and the factorised preconditioner
-        (see :func:`factorize_spd`).
+        (see :func:`factorize_spd`). With ``"auto"`` and none of the optional backends
+        installed, a direct solve of more than :data:`SMALL_SYSTEM` unknowns warns
+        once per process (:class:`SolverFallbackWarning`).
     preconditioner : {"auto", "amg", "cholesky"}, default="auto"
         How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) or a
         sparse Cholesky factor. ``"auto"``: amg on meshes with denser rows when pyamg
@@ -345,6 +592,8 @@ def solve_integration(
 
     sparse_rows = _is_sparse_rows(K)
     if method == "direct" or (method == "auto" and sparse_rows):
+        if backend == "auto" and K.shape[0] > SMALL_SYSTEM and not _fast_cholesky_available():
+            _fallback_warning("cholesky")
         t0 = time.perf_counter()
         Q = assemble()
         phi, info = _direct(Q, rhs, backend, cache)

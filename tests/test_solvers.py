@@ -52,23 +52,26 @@ def _rel(a, b):
     return np.linalg.norm(a - b) / np.linalg.norm(b)
 
 
+FACTOR_BACKENDS = ["pardiso", "cvxopt", "cholmod", "superlu"]
 COMBOS = [
     {"method": "auto"},
-    {"method": "direct", "backend": "superlu"},
-    {"method": "direct", "backend": "cholmod"},
-    {"method": "pcg", "preconditioner": "cholesky", "backend": "superlu"},
-    {"method": "pcg", "preconditioner": "cholesky", "backend": "cholmod"},
+    *({"method": "direct", "backend": b} for b in FACTOR_BACKENDS),
+    *({"method": "pcg", "preconditioner": "cholesky", "backend": b} for b in FACTOR_BACKENDS),
     {"method": "pcg", "preconditioner": "amg"},
 ]
+
+
+def _skip_unless_available(name):
+    if name not in solvers.available_backends():
+        pytest.skip(f"backend {name!r} not installed")
 
 
 @pytest.mark.parametrize("kw", COMBOS, ids=lambda kw: "-".join(kw.values()))
 def test_integration_matches_dense(system, kw):
     K, mass, S, lam, mu, rhs, exact = system
-    if kw.get("backend") == "cholmod" and "cholmod" not in solvers.available_backends():
-        pytest.skip("sksparse-minimal not installed")
-    if kw.get("preconditioner") == "amg" and "amg" not in solvers.available_backends():
-        pytest.skip("pyamg not installed")
+    _skip_unless_available(kw.get("backend", "superlu"))
+    if kw.get("preconditioner") == "amg":
+        _skip_unless_available("amg")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, **kw)
@@ -91,8 +94,8 @@ def test_auto_picks_by_row_density(monkeypatch):
 def test_fallback_without_optional_packages(system, monkeypatch):
     K, mass, S, lam, mu, rhs, exact = system
     # the packages "missing": importing them raises ImportError
-    monkeypatch.setitem(sys.modules, "sksparse_minimal", None)
-    monkeypatch.setitem(sys.modules, "pyamg", None)
+    for mod in ("pypardiso", "cvxopt", "cvxopt.cholmod", "sksparse_minimal", "pyamg"):
+        monkeypatch.setitem(sys.modules, mod, None)
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
     solvers._warned.clear()
     with warnings.catch_warnings(record=True) as rec:
@@ -100,17 +103,30 @@ def test_fallback_without_optional_packages(system, monkeypatch):
         phi, _info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu)
         phi2, _ = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu)
     rec = [w for w in rec if issubclass(w.category, solvers.SolverFallbackWarning)]
+    assert len(rec) == 1  # one line, once per process
+    message = str(rec[0].message)
+    assert "\n" not in message and "slower" in message
     if K.nnz / K.shape[0] > solvers.DENSE_ROW_THRESHOLD:  # 3-D: pyamg's absence costs time
-        assert len(rec) == 1  # one line, once per process
-        assert "slower" in str(rec[0].message) and "pyamg" in str(rec[0].message)
-    else:  # triangles: SuperLU is the same direct solve, no warning
-        assert not rec
+        assert "pyamg" in message
+    else:  # triangles: SuperLU factorises instead of PARDISO / cvxopt
+        assert "pypardiso" in message and "cvxopt" in message
     assert _rel(phi, exact) < 1e-8 and _rel(phi2, exact) < 1e-8
     assert solvers.available_backends() == ["superlu"]
     with pytest.raises(ImportError):
         solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, method="pcg", preconditioner="amg")
-    with pytest.raises(ImportError):
-        solvers.factorize_spd(sp.identity(3, format="csc"), backend="cholmod")
+    for backend in ("pardiso", "cvxopt", "cholmod"):
+        with pytest.raises(ImportError, match="needs the package"):
+            solvers.factorize_spd(sp.identity(3, format="csc"), backend=backend)
+
+
+def test_small_systems_do_not_warn_without_fast_packages(monkeypatch):
+    K, mass, S = _system(12, 2)  # 169 unknowns, below SMALL_SYSTEM
+    for mod in ("pypardiso", "cvxopt", "cvxopt.cholmod", "sksparse_minimal"):
+        monkeypatch.setitem(sys.modules, mod, None)
+    solvers._warned.clear()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", solvers.SolverFallbackWarning)
+        solvers.solve_integration(K, mass, S, 2.0, np.ones(K.shape[0]), mu=0.03)
 
 
 def test_nonconvergence_warns_with_residual(system):
@@ -156,12 +172,142 @@ def test_heat_matches_dense(system):
     assert info.method == "cg-jacobi"
 
 
-def test_factorize_spd_backends():
-    A = sp.random(40, 40, density=0.1, random_state=0)
-    A = (A @ A.T + 40 * sp.identity(40)).tocsc()
-    b = np.arange(40.0)
-    for backend in ["superlu"] + (["cholmod"] if "cholmod" in solvers.available_backends() else []):
-        x = solvers.factorize_spd(A, backend=backend)(b)
-        assert _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-10
-    with pytest.raises(ValueError):
-        solvers.factorize_spd(A, backend="nope")
+def _spd(n=60, seed=0):
+    A = sp.random(n, n, density=0.1, random_state=seed)
+    return (A @ A.T + n * sp.identity(n)).tocsr()
+
+
+@pytest.mark.parametrize("backend", FACTOR_BACKENDS)
+def test_factorize_spd_backends_match_superlu(backend):
+    _skip_unless_available(backend)
+    A = _spd()
+    rng = np.random.default_rng(0)
+    b = rng.standard_normal(A.shape[0])
+    B = rng.standard_normal((A.shape[0], 3))
+    ref = solvers.factorize_spd(A, backend="superlu")
+    solve = solvers.factorize_spd(A, backend=backend)
+    x = solve(b)
+    assert x.shape == b.shape and _rel(x, ref(b)) < 1e-12
+    assert _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-12
+    X = solve(B)  # several right-hand sides at once
+    assert X.shape == B.shape and _rel(X, np.linalg.solve(A.toarray(), B)) < 1e-12
+    assert _rel(solve(b), x) == 0.0  # the factor is reused, not consumed
+    # CSC input, as from scipy's sparse products
+    assert _rel(solvers.factorize_spd(A.tocsc(), backend=backend)(b), x) < 1e-12
+
+
+def test_factorize_spd_rejects_unknown_backend():
+    with pytest.raises(ValueError, match="backend must be one of"):
+        solvers.factorize_spd(_spd(), backend="nope")
+
+
+def test_auto_order_is_the_measured_one():
+    assert list(solvers.BACKENDS) == ["cvxopt", "pardiso", "cholmod", "superlu"]
+    assert solvers._auto_order(1000) == ["cvxopt", "pardiso", "cholmod", "superlu"]
+    large = solvers._auto_order(solvers.LARGE_SYSTEM)
+    assert large == ["pardiso", "cvxopt", "cholmod", "superlu"]
+    names = [b for b in solvers.available_backends() if b != "amg"]
+    assert names == [b for b in solvers.BACKENDS if b in names]
+    assert names[-1] == "superlu"
+
+
+@pytest.mark.parametrize("large", [False, True], ids=["small", "large"])
+def test_auto_uses_the_first_available_backend(monkeypatch, large):
+    A = _spd()
+    if large:
+        monkeypatch.setattr(solvers, "LARGE_SYSTEM", A.shape[0])
+    calls = []
+
+    def recorder(name):
+        def factor(M):
+            calls.append(name)
+            return solvers._superlu(M)
+
+        return factor
+
+    for name in solvers.BACKENDS:
+        monkeypatch.setitem(solvers._FACTORISE, name, recorder(name))
+    solvers.factorize_spd(A)
+    available = solvers.available_backends()
+    expected = [b for b in solvers._auto_order(A.shape[0]) if b in available]
+    assert calls == expected[:1]
+
+
+def test_auto_falls_back_when_a_backend_raises(monkeypatch):
+    A = _spd()
+    b = np.arange(A.shape[0], dtype=np.float64)
+    calls = []
+
+    def broken(name):
+        def factor(M):
+            calls.append(name)
+            raise RuntimeError(f"{name} failed")
+
+        return factor
+
+    # every optional backend "installed" and failing: auto ends on SuperLU
+    monkeypatch.setattr(solvers, "_load", lambda name: object())
+    for name in ("pardiso", "cvxopt", "cholmod"):
+        monkeypatch.setitem(solvers._FACTORISE, name, broken(name))
+    x = solvers.factorize_spd(A)(b)
+    assert calls == ["cvxopt", "pardiso", "cholmod"]
+    assert _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-10
+    # a backend named explicitly raises its own error
+    with pytest.raises(RuntimeError, match="pardiso failed"):
+        solvers.factorize_spd(A, backend="pardiso")
+
+
+@pytest.mark.parametrize("backend", ["pardiso", "cvxopt"])
+def test_backend_rejects_indefinite_matrix_and_auto_recovers(backend):
+    _skip_unless_available(backend)
+    A = _spd()
+    N = (A - 2 * A.shape[0] * sp.identity(A.shape[0])).tocsr()  # negative definite
+    with pytest.raises(Exception):  # noqa: B017 - each package raises its own type
+        solvers.factorize_spd(N, backend=backend)
+    # auto still returns a solver (SuperLU's LU does not need positive pivots)
+    b = np.ones(A.shape[0])
+    x = solvers.factorize_spd(N)(b)
+    assert _rel(N @ x, b) < 1e-10
+
+
+def test_importing_ndboundary_does_not_load_optional_backends():
+    import subprocess
+
+    code = (
+        "import sys, ndboundary, ndboundary.solvers; "
+        "print(sorted(m for m in ('pypardiso', 'cvxopt', 'sksparse_minimal', 'pyamg') "
+        "if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_pardiso_releases_its_memory():
+    _skip_unless_available("pardiso")
+    import gc
+
+    solve = solvers.factorize_spd(_spd(), backend="pardiso")
+    factor = solve.__self__
+    assert factor.factor_nnz > 0
+    finalizer = factor._finalizer
+    del solve, factor
+    gc.collect()
+    assert not finalizer.alive
+
+
+def test_pardiso_reuses_the_ordering_of_the_same_pattern():
+    _skip_unless_available("pardiso")
+    A = _spd()
+    b = np.arange(A.shape[0], dtype=np.float64)
+    solvers.clear_cache()
+    first = solvers.factorize_spd(A, backend="pardiso")
+    assert not first.__self__.reused_ordering
+    B = (A + sp.diags(np.linspace(1.0, 2.0, A.shape[0]))).tocsr()  # same pattern
+    second = solvers.factorize_spd(B, backend="pardiso")
+    assert second.__self__.reused_ordering
+    assert _rel(second(b), np.linalg.solve(B.toarray(), b)) < 1e-12
+    assert _rel(first(b), np.linalg.solve(A.toarray(), b)) < 1e-12  # independent factors
+    C = _spd(seed=1)  # another pattern: a new ordering
+    assert not solvers.factorize_spd(C, backend="pardiso").__self__.reused_ordering
+    solvers.clear_cache()
+    assert not solvers.factorize_spd(A, backend="pardiso").__self__.reused_ordering
