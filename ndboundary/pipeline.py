@@ -291,7 +291,9 @@ def relax(
     pad : bool, default=True
         Split the elements all of whose vertices receive heat (paper section 4).
     rtol : float, default=1e-10
-        Relative residual the linear solves must reach.
+        Relative residual the linear solves must reach. The heat is trusted down to
+        ``max(1e-5, 100 rtol)`` of its maximum; below, the field follows the graph
+        distance to zeta.
     solver : {"auto", "pcg", "direct"}, default="auto"
         How to solve the integration system (see :func:`ndboundary.solvers.solve_integration`).
     verbose : bool, default=False
@@ -361,7 +363,7 @@ def relax(
     # 2. field: the heat gradient where the heat is resolved; further away, where u is
     # below the solver's accuracy, the gradient of the graph distance to zeta
     X = _normalize_rows(work.gradient(u))
-    far = work._element_max(u) < _HEAT_FLOOR * u.max()
+    far = work._element_max(u) < max(_HEAT_FLOOR, 100.0 * rtol) * u.max()
     if far.any():
         # distances on the unpadded domain; a padding vertex takes its element's mean
         dist = _graph_distance(domain, boundary.sources)

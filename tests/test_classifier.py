@@ -116,6 +116,8 @@ def test_disconnected_training_data():
         ({"vote_threshold": 1.5}, ValueError, "vote_threshold must be in"),
         ({"extension_neighbors": 0}, ValueError, "extension_neighbors must be >= 1"),
         ({"vote_threshold": "half"}, TypeError, "vote_threshold must be a number"),
+        ({"tol": 0.0}, ValueError, "tol must be in"),
+        ({"tol": "1e-6"}, TypeError, "tol must be a number"),
     ],
 )
 def test_bad_parameters(moons, params, err, match):
@@ -128,3 +130,11 @@ def test_no_labels_error(moons):
     X, _, _, _ = moons
     with pytest.raises(ValueError, match="no labelled sample"):
         LevelSetClassifier(unlabeled=-1).fit(X, -np.ones(200, int))
+
+
+def test_solver_tolerance_does_not_move_decisions(moons):
+    X, y, Xt, _ = moons
+    loose = LevelSetClassifier().fit(X, y)
+    tight = LevelSetClassifier(tol=1e-10).fit(X, y)
+    np.testing.assert_allclose(loose.decision_function(Xt), tight.decision_function(Xt), atol=1e-3)
+    np.testing.assert_array_equal(loose.predict(Xt), tight.predict(Xt))
