@@ -68,8 +68,16 @@ def check_cells(cells, n_points, *, name="simplices", n_per_cell=None):
         raise ValueError(
             f"{name} row {bad} ({arr[bad].tolist()}) indexes a vertex outside 0..{n_points - 1}"
         )
-    srt = np.sort(arr, axis=1)
-    rep = (srt[:, 1:] == srt[:, :-1]).any(axis=1)
+    m = arr.shape[1]
+    if m <= 6:
+        # few vertices per cell: compare every pair of columns rather than sort the rows
+        rep = np.zeros(arr.shape[0], dtype=bool)
+        for i in range(m):
+            for j in range(i + 1, m):
+                rep |= arr[:, i] == arr[:, j]
+    else:
+        srt = np.sort(arr, axis=1)
+        rep = (srt[:, 1:] == srt[:, :-1]).any(axis=1)
     if rep.any():
         bad = int(np.flatnonzero(rep)[0])
         raise ValueError(f"{name} row {bad} ({arr[bad].tolist()}) repeats a vertex")
@@ -102,6 +110,12 @@ def check_labels(labels, n_expected, *, what):
         raise ValueError(f"labels contain NaN (first at index {int(np.flatnonzero(np.isnan(arr))[0])})")
     if arr.dtype == object and any(v is None for v in arr):
         raise ValueError("labels contain None")
+    if arr.dtype.kind in "biu" and arr.size:
+        # integers and booleans: two classes are the minimum and the maximum, in linear time
+        lo, hi = arr.min(), arr.max()
+        region1 = arr == hi
+        if lo != hi and np.count_nonzero(region1) + np.count_nonzero(arr == lo) == arr.size:
+            return np.array([lo, hi], dtype=arr.dtype), region1
     classes, inverse = np.unique(arr, return_inverse=True)
     if classes.shape[0] == 1:
         raise ValueError(f"labels hold one class only ({classes[0]!r}); two are needed to have a boundary")

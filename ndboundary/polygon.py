@@ -44,7 +44,14 @@ import scipy.sparse as sp
 
 from ._validation import check_points, check_positive
 from .domain import Domain
-from .simplicial import SimplicialComplex, group_rows, mixed_facets, shared_facet_adjacency
+from .simplicial import (
+    SimplicialComplex,
+    _sort_rows,
+    first_of_groups,
+    group_rows,
+    mixed_facets,
+    shared_facet_adjacency,
+)
 
 __all__ = ["PolygonMesh"]
 
@@ -110,7 +117,7 @@ def check_ragged(cells, n_points, *, name, min_size, what="vertex"):
             f"outside 0..{n_points - 1}"
         )
     owner = np.repeat(np.arange(sizes.size), sizes)
-    order = np.lexsort((indices, owner))
+    order, _ = _sort_rows(np.stack([owner, indices], axis=1))
     srt_i, srt_o = indices[order], owner[order]
     rep = (srt_i[1:] == srt_i[:-1]) & (srt_o[1:] == srt_o[:-1])
     if rep.any():
@@ -157,7 +164,7 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
     starts = np.zeros(n_el + 1, dtype=np.int64)
     np.cumsum(sizes, out=starts[1:])
     rows, cols, vals = [], [], []
-    for m in np.unique(sizes):
+    for m in np.flatnonzero(np.bincount(sizes)):
         els = np.flatnonzero(sizes == m)
         idx = starts[els][:, None] + np.arange(m)[None, :]  # (n, m)
         verts = pair_vertex[idx]
@@ -381,8 +388,7 @@ class PolygonMesh(Domain):
 
     def _build_edges(self):
         pairs, ids = self._edge_ids
-        first = np.unique(ids, return_index=True)[1]
-        return pairs[first]
+        return pairs[first_of_groups(ids, int(ids.max()) + 1)]
 
     def _interface_facets(self, region1):
         """Edges shared by a region-0 and a region-1 polygon: the jagged boundary, (n, 2)."""
@@ -450,8 +456,7 @@ class PolygonMesh(Domain):
         A conforming triangulation for convex polygons; :meth:`_level_set_complex` is preferred.
         """
         owner, nxt, _ = self._corners
-        order = np.lexsort((self.indices, owner))
-        pos_min = order[self.offsets[:-1]]  # flat corner of each polygon's lowest vertex
+        pos_min = np.flatnonzero(self.indices == np.minimum.reduceat(self.indices, self.offsets[:-1])[owner])
         apex = self.indices[pos_min]
         sel = (self.indices != apex[owner]) & (self.indices[nxt] != apex[owner])
         return np.stack([apex[owner[sel]], self.indices[sel], self.indices[nxt[sel]]], axis=1)

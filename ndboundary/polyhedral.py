@@ -45,7 +45,14 @@ from .polygon import (
     ragged_next,
     ragged_rows,
 )
-from .simplicial import SimplicialComplex, group_rows, mixed_facets, shared_facet_adjacency
+from .simplicial import (
+    SimplicialComplex,
+    _row_groups,
+    first_of_groups,
+    group_rows,
+    mixed_facets,
+    shared_facet_adjacency,
+)
 
 __all__ = ["PolyhedralMesh"]
 
@@ -73,7 +80,7 @@ def _faces_from_cells(cells, local_faces):
     nf, m = local_faces.shape
     allf = cells[:, local_faces].reshape(E * nf, m)
     ids, n = group_rows(np.sort(allf, axis=1))
-    first = np.unique(ids, return_index=True)[1]
+    first = first_of_groups(ids, n)
     return allf[first], ids.reshape(E, nf)
 
 
@@ -254,9 +261,9 @@ class PolyhedralMesh(Domain):
         """Sorted unique (cell, vertex) pairs: arrays ``cell``, ``vertex``."""
         cell_of_entry, entry_of_corner, corner = self._entries
         cell = cell_of_entry[entry_of_corner]
-        key = cell * self.n_vertices + self.face_indices[corner]
-        key = np.unique(key)
-        return key // self.n_vertices, key % self.n_vertices
+        pairs = np.stack([cell, self.face_indices[corner]], axis=1)
+        _, first = _row_groups(pairs)
+        return pairs[first, 0], pairs[first, 1]
 
     def element_centroids(self) -> np.ndarray:
         """Vertex means of the cells, shape (n_elements, 3)."""
@@ -277,7 +284,7 @@ class PolyhedralMesh(Domain):
         cnt = np.bincount(ids, minlength=n)
         fwd = np.bincount(ids, weights=(a < b).astype(np.float64), minlength=n)
         bad_group = (cnt != 2) | (fwd != 1)
-        return np.unique(cell[bad_group[ids]])
+        return np.flatnonzero(np.bincount(cell[bad_group[ids]], minlength=self.n_elements))
 
     def _orient(self):
         """Sign of every cell-face entry making the face outward from its cell."""
@@ -362,9 +369,8 @@ class PolyhedralMesh(Domain):
         Nf = self._face_areas[fo] * s[:, None]
         coef = (Nt + self._fan_areas[prev_corner[corner]] * s[:, None]) / 3.0 + Nf / (3.0 * m[:, None])
         coef /= vol[cell, None]
-        key = cell * self.n_vertices + self.face_indices[corner]
-        ukey, inv = np.unique(key, return_inverse=True)
-        g = np.stack([np.bincount(inv, weights=coef[:, d], minlength=ukey.size) for d in range(3)], 1)
+        inv, n_pairs = group_rows(np.stack([cell, self.face_indices[corner]], axis=1))
+        g = np.stack([np.bincount(inv, weights=coef[:, d], minlength=n_pairs) for d in range(3)], 1)
         self._volumes = vol
         self._pair_grads = g  # aligned with self._cell_vertices
 
@@ -420,8 +426,8 @@ class PolyhedralMesh(Domain):
     def _build_edges(self):
         a = self.face_indices
         b = self.face_indices[self._face_next]
-        key = np.unique(np.minimum(a, b) * self.n_vertices + np.maximum(a, b))
-        return np.stack([key // self.n_vertices, key % self.n_vertices], axis=1)
+        pairs = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+        return pairs[_row_groups(pairs)[1]]
 
     def _fan_from_first(self, faces):
         """Triangles ``(v0, v_j, v_j+1)`` of the given faces over their own vertices, (n, 3)."""
@@ -453,7 +459,7 @@ class PolyhedralMesh(Domain):
         a = self.face_indices[corner[sel_corner]]
         b = self.face_indices[self._face_next[corner[sel_corner]]]
         side_ids, n_side = group_rows(np.stack([cell, np.minimum(a, b), np.maximum(a, b)], axis=1))
-        first = np.unique(side_ids, return_index=True)[1]
+        first = first_of_groups(side_ids, n_side)
         side_faces = np.stack([apex[cell[first]], a[first], b[first]], axis=1)
         fi = np.concatenate([self.face_indices, side_faces.ravel()])
         fo = np.concatenate([self.face_offsets, self.face_offsets[-1] + 3 * np.arange(1, n_side + 1)])

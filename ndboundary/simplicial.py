@@ -123,6 +123,15 @@ def group_rows(rows):
     return ids, int(first.size)
 
 
+def first_of_groups(ids, n_groups):
+    """Index of the first occurrence of every id ``0..n_groups-1`` in ``ids``, in linear time.
+
+    Every id must occur; the result is ``np.unique(ids, return_index=True)[1]``.
+    """
+    order, starts = counting_sort(ids, n_groups)
+    return order[starts[:-1]].astype(np.intp)
+
+
 def shared_facet_adjacency(facet_ids, owner, n_elements):
     """Element adjacency: elements sharing a facet id (more than two sharing one are chained).
 
@@ -160,7 +169,8 @@ def mixed_facets(facet_ids, owner, region1):
     ones = np.bincount(facet_ids, weights=lab, minlength=n_groups)
     mixed = (cnt >= 2) & (ones > 0) & (ones < cnt)
     where = np.flatnonzero(mixed[facet_ids])
-    return where[np.unique(facet_ids[where], return_index=True)[1]]
+    order, starts = counting_sort(facet_ids[where], n_groups)
+    return where[order[starts[:-1][mixed]]]
 
 
 def _symmetric_inverse(gram, k):
@@ -266,6 +276,32 @@ def _large_simplex_geometry(points, simplices, grads):
     return vol
 
 
+def _stiffness_terms(grads, vol):
+    """Per simplex, the entries ``vol g_i . g_j`` of ``G^T diag(A) G`` over its vertices.
+
+    Parameters
+    ----------
+    grads : ndarray of shape (n, dim, k + 1)
+        Barycentric gradients, as :func:`_simplex_geometry` returns them.
+    vol : ndarray of shape (n,)
+
+    Returns
+    -------
+    off : ndarray of shape (n, k (k + 1) / 2)
+        The vertex pairs ``i < j`` in ``triu_indices`` order.
+    diag : ndarray of shape (n, k + 1)
+    """
+    n, _, k1 = grads.shape
+    iu, ju = np.triu_indices(k1, 1)
+    off = np.empty((n, iu.size))
+    for p, (i, j) in enumerate(zip(iu, ju)):
+        off[:, p] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, j]) * vol
+    diag = np.empty((n, k1))
+    for i in range(k1):
+        diag[:, i] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, i]) * vol
+    return off, diag
+
+
 def _symmetric_csr(edges, off, diag, has_diag):
     """The symmetric sparse matrix with entries ``off`` at the ``edges`` and at their
     transposes and ``diag`` on the diagonal where ``has_diag``, in canonical CSR form.
@@ -309,6 +345,194 @@ def _kept_then(a, keep, tail):
     return out
 
 
+class _ElementSplit:
+    """The operators of a complex made by :meth:`SimplicialComplex._split_elements`,
+    derived from those of its parent.
+
+    Only the split simplices change: the sums over the edges and vertices they hold
+    are recomputed from every simplex holding them, in the order a fresh build adds
+    them; the parent's sums are kept everywhere else. The results are those of a
+    fresh build of the split complex.
+
+    Parameters
+    ----------
+    parent : SimplicialComplex
+    split : ndarray of int of shape (m,)
+        The split simplices, increasing.
+    keep : ndarray of bool of shape (n_elements,)
+        The simplices of the parent that are not split.
+
+    Notes
+    -----
+    The split complex holds the kept simplices in order, then its children in ``k + 1``
+    blocks of ``m``: child ``i * m + j`` replaces vertex ``i`` (in the order of
+    ``parent.simplices``) of simplex ``split[j]`` by its centre, vertex ``V + j``.
+    """
+
+    def __init__(self, parent, split, keep):
+        self.parent = parent
+        self.split = split
+        self.keep = keep
+        self.n_keep = int(np.count_nonzero(keep))
+        # sorted position of every vertex of the split simplices
+        self.rank = np.argsort(np.argsort(parent.simplices[split], axis=1), axis=1)
+
+    @cached_property
+    def _split_vertices(self):
+        """The vertices of the split simplices, as a mask over the parent's vertices."""
+        mask = np.zeros(self.parent.n_vertices, dtype=bool)
+        mask[self.parent.simplices[self.split].ravel()] = True
+        return mask
+
+    @cached_property
+    def _star(self):
+        """The kept simplices sharing a vertex with a split simplex, increasing."""
+        P = self.parent
+        near = self._split_vertices
+        if "incidence" in P.__dict__:
+            inc = P.incidence
+            rows = np.flatnonzero(near)
+            held = np.zeros(P.n_elements, dtype=bool)
+            held[inc.indices[_expand(inc.indptr[rows], inc.indptr[rows + 1])]] = True
+        else:
+            held = near[P._sorted_simplices].any(axis=1)
+        return np.flatnonzero(held & self.keep)
+
+    @cached_property
+    def edge_map(self):
+        """``(edges, old, new)``: the edges of the split complex (as ``edges``), the new id
+        of every edge of the parent (-1 for an edge no simplex keeps) and, shape (m, k+1),
+        the id of the edge from vertex ``srt[j, r]`` to the centre of ``split[j]``
+        (``srt`` the sorted simplices)."""
+        P = self.parent
+        V = P.n_vertices
+        edges_p, pair_edge_p = P._edge_index
+        srt = P._sorted_simplices[self.split]
+        if srt.shape[1] == 2:
+            # a split segment drops its edge unless a kept segment holds it too
+            survive = np.bincount(pair_edge_p[self.keep], minlength=edges_p.shape[0]) > 0
+            kept_edges = edges_p[survive]
+        else:
+            survive = None  # every edge of a split simplex is an edge of its children
+            kept_edges = edges_p
+        # the centre joins the vertices of its simplex, after every parent edge of each row
+        by_row, new_before = counting_sort(srt.ravel(), V)
+        row = srt.ravel()[by_row]
+        new_pos = np.arange(row.size) + np.searchsorted(kept_edges[:, 0], row, side="right")
+        old_pos = np.arange(kept_edges.shape[0]) + new_before[kept_edges[:, 0]]
+        edges = np.empty((kept_edges.shape[0] + row.size, 2), dtype=edges_p.dtype)
+        edges[old_pos] = kept_edges
+        edges[new_pos, 0] = row
+        edges[new_pos, 1] = V + by_row // srt.shape[1]
+        if survive is None:
+            old = old_pos
+        else:
+            old = np.full(edges_p.shape[0], -1, dtype=old_pos.dtype)
+            old[survive] = old_pos
+        new = np.empty(row.size, dtype=new_pos.dtype)
+        new[by_row] = new_pos
+        return edges, old, new.reshape(srt.shape)
+
+    @cached_property
+    def children_pair_edge(self):
+        """The edge of every vertex pair of the children, (n_children, k (k + 1) / 2), in
+        the order of ``_edge_index``."""
+        P = self.parent
+        _, old, new = self.edge_map
+        m, k1 = new.shape
+        k = k1 - 1
+        iu, ju = np.triu_indices(k1, 1)
+        pair_of = np.zeros((k1, k1), dtype=np.intp)
+        pair_of[iu, ju] = np.arange(iu.size)
+        # position in the parent of child position r, for a child without parent position a
+        pos = np.arange(k)[None, :] + (np.arange(k)[None, :] >= np.arange(k1)[:, None])
+        to_centre = ju == k
+        a = self.rank.T.ravel()
+        j = np.tile(np.arange(m), k1)[:, None]
+        first = pos[a][:, iu]
+        second = pos[a][:, np.minimum(ju, k - 1)]
+        pair_edge_p = P._edge_index[1].reshape(P.n_elements, -1)[self.split]
+        inner = old[pair_edge_p[j, pair_of[first, second]]]
+        return np.where(to_centre[None, :], new[j, first], inner)
+
+    def edge_index(self):
+        """``_edge_index`` of the split complex."""
+        P = self.parent
+        edges, old, _ = self.edge_map
+        pair_edge_p = P._edge_index[1].reshape(P.n_elements, -1)
+        kept = old[pair_edge_p[self.keep]]
+        return edges, np.concatenate([kept.ravel(), self.children_pair_edge.ravel()])
+
+    def _recomputed(self, sums, targets, star_ids, star_terms, child_ids, child_terms):
+        """Set ``sums[targets]`` to the sums of the terms of the star simplices whose ids
+        are in ``targets`` (increasing), then of every term of the children."""
+        star_ids = star_ids.ravel()
+        sel = np.zeros(sums.size, dtype=bool)
+        sel[targets] = True
+        sel = sel[star_ids]
+        ids = np.concatenate([star_ids[sel], child_ids.ravel()])
+        terms = np.concatenate([star_terms.ravel()[sel], child_terms.ravel()])
+        sums[targets] = np.bincount(np.searchsorted(targets, ids), weights=terms, minlength=targets.size)
+
+    def stiffness_sums(self, child):
+        """``_stiffness_sums`` of the split complex ``child``."""
+        P = self.parent
+        off_p, diag_p, used_p = P._stiffness_sums
+        edges, old, new = self.edge_map
+        m = self.split.size
+        n = self.n_keep
+        star = self._star
+        star_off, star_diag = _stiffness_terms(P._bary_grads[star], P._volumes[star])
+        child_off, child_diag = _stiffness_terms(child._bary_grads[n:], child._volumes[n:])
+        off = np.empty(edges.shape[0])
+        if old.size == off_p.size and (old >= 0).all():
+            off[old] = off_p
+        else:
+            off[old[old >= 0]] = off_p[old >= 0]
+        pair_edge_p = P._edge_index[1].reshape(P.n_elements, -1)
+        held = old[pair_edge_p[self.split]]
+        targets = np.union1d(held[held >= 0], new.ravel())
+        self._recomputed(off, targets, old[pair_edge_p[star]], star_off, self.children_pair_edge, child_off)
+        diag = np.concatenate([diag_p, np.zeros(m)])
+        targets = np.concatenate([np.flatnonzero(self._split_vertices), P.n_vertices + np.arange(m)])
+        self._recomputed(diag, targets, P._sorted_simplices[star], star_diag, child._sorted_simplices[n:], child_diag)
+        return off, diag, np.concatenate([used_p, np.ones(m, dtype=bool)])
+
+    def mass(self, child):
+        """The lumped mass of the split complex ``child`` from its parent's, or None when
+        the parent's is not built."""
+        P = self.parent
+        if "mass" not in P.__dict__:
+            return None
+        k1 = P.simplices.shape[1]
+        m = self.split.size
+        n = self.n_keep
+        star = self._star
+        mass = np.concatenate([P.mass, np.zeros(m)])
+        unused = ~P._vertex_used
+        targets = np.concatenate([np.flatnonzero(self._split_vertices), P.n_vertices + np.arange(m)])
+        self._recomputed(
+            mass,
+            targets,
+            P.simplices[star],
+            np.repeat(P._volumes[star] / k1, k1),
+            child.simplices[n:],
+            np.repeat(child._volumes[n:] / k1, k1),
+        )
+        if unused.any():
+            mass[: P.n_vertices][unused] = child._volumes.mean() / k1 * 1e-12
+        return mass
+
+
+def _expand(starts, stops):
+    """Concatenation of ``arange(s, t)`` for every pair."""
+    lengths = stops - starts
+    total = int(lengths.sum())
+    first = np.zeros(lengths.size, dtype=np.int64)
+    np.cumsum(lengths[:-1], out=first[1:])
+    return np.repeat(starts - first, lengths) + np.arange(total)
+
+
 class SimplicialComplex(Domain):
     """A pure simplicial complex of k-simplices with vertices in R^dim, 1 <= k <= dim.
 
@@ -338,6 +562,9 @@ class SimplicialComplex(Domain):
     >>> tri.gradient([0.0, 1.0, 0.0]).tolist()
     [[1.0, 0.0]]
     """
+
+    # set on the complexes made by _split_elements: their operators derive from the parent's
+    _split_of = None
 
     def __init__(self, points, simplices):
         self.points = check_points(points)
@@ -416,28 +643,35 @@ class SimplicialComplex(Domain):
     def _build_measures(self):
         return self._volumes.copy()
 
-    def _build_stiffness(self):
-        # K = G^T diag(A) G, one sum per edge and per vertex over the simplices holding it
-        E, k1 = self.simplices.shape
-        grads = self._bary_grads
-        vol = self._volumes
+    @cached_property
+    def _vertex_used(self):
+        """Whether each vertex lies in some simplex."""
+        return np.bincount(self.simplices.ravel(), minlength=self.n_vertices) > 0
+
+    @cached_property
+    def _stiffness_sums(self):
+        """``(off, diag, used)``: the entries of ``K = G^T diag(A) G`` at the edges (in the
+        order of :attr:`edges`), its diagonal, and :attr:`_vertex_used` (the rows with a
+        diagonal entry). Each entry is one sum over the simplices holding the edge or vertex."""
+        if self._split_of is not None:
+            return self._split_of.stiffness_sums(self)
+        off, diag = _stiffness_terms(self._bary_grads, self._volumes)
         edges, pair_edge = self._edge_index
-        iu, ju = np.triu_indices(k1, 1)
-        off = np.empty((E, iu.size))
-        for p, (i, j) in enumerate(zip(iu, ju)):
-            off[:, p] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, j]) * vol
-        diag = np.empty((E, k1))
-        for i in range(k1):
-            diag[:, i] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, i]) * vol
-        V = self.n_vertices
         off = np.bincount(pair_edge, weights=off.ravel(), minlength=edges.shape[0])
-        diag = np.bincount(self._sorted_simplices.ravel(), weights=diag.ravel(), minlength=V)
-        used = np.bincount(self.simplices.ravel(), minlength=V) > 0
-        K = _symmetric_csr(edges, off, diag, used)
+        diag = np.bincount(self._sorted_simplices.ravel(), weights=diag.ravel(), minlength=self.n_vertices)
+        return off, diag, self._vertex_used
+
+    def _build_stiffness(self):
+        off, diag, used = self._stiffness_sums
+        K = _symmetric_csr(self.edges, off, diag, used)
         K.eliminate_zeros()  # an edge whose angles cancel exactly (right angles on both sides)
         return K
 
     def _build_mass(self):
+        if self._split_of is not None:
+            m = self._split_of.mass(self)
+            if m is not None:
+                return m
         k1 = self.simplices.shape[1]
         m = np.bincount(
             self.simplices.ravel(), weights=np.repeat(self._volumes / k1, k1), minlength=self.n_vertices
@@ -470,6 +704,8 @@ class SimplicialComplex(Domain):
         """The unique edges, sorted (as :attr:`edges`), and the edge of every vertex pair
         ``(srt[e, i], srt[e, j])``, ``i < j`` in ``triu_indices`` order, element-major
         (``srt = _sorted_simplices``)."""
+        if self._split_of is not None:
+            return self._split_of.edge_index()
         srt = self._sorted_simplices
         iu, ju = np.triu_indices(srt.shape[1], 1)
         pairs = np.empty((srt.shape[0], iu.size, 2), dtype=srt.dtype)
@@ -519,13 +755,19 @@ class SimplicialComplex(Domain):
         return sp.csr_matrix((np.ones(int(indptr[-1])), across[inner], indptr), shape=(E, E))
 
     def _build_edges(self):
+        if self._split_of is not None:
+            return self._split_of.edge_map[0]
         return self._edge_index[0]
 
     def _interface_facets(self, region1):
         """Facets shared by a region-0 and a region-1 simplex: the jagged boundary, (n, k)."""
         k1 = self.simplices.shape[1]
         owner = np.repeat(np.arange(self.n_elements), k1)
-        return self._facets[mixed_facets(self._facet_ids, owner, region1)]
+        which = mixed_facets(self._facet_ids, owner, region1)
+        if "_facets" in self.__dict__:
+            return self._facets[which]
+        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
+        return self._sorted_simplices[which // k1][np.arange(which.size)[:, None], leave_out[which % k1]]
 
     def _split_elements(self, mask):
         mask = np.asarray(mask, dtype=bool)
@@ -554,6 +796,7 @@ class SimplicialComplex(Domain):
         out._sorted_simplices = _kept_then(self._sorted_simplices, keep, new_sorted)
         out._bary_grads = _kept_then(self._bary_grads, keep, grads)
         out._volumes = _kept_then(self._volumes, keep, vols)
+        out._split_of = _ElementSplit(self, idx, keep)
         return out, parent
 
     def _level_set_simplices(self):

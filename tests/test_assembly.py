@@ -5,12 +5,14 @@ import pytest
 import scipy.sparse as sp
 
 from ndboundary import SimplicialComplex
+from ndboundary._validation import check_cells, check_labels
 from ndboundary.datasets import icosphere, kuhn_grid
 from ndboundary.domain import Domain
 from ndboundary.simplicial import (
     _large_simplex_geometry,
     _small_simplex_geometry,
     counting_sort,
+    first_of_groups,
     group_rows,
     mixed_facets,
     shared_facet_adjacency,
@@ -134,13 +136,88 @@ def test_element_max_matches_the_incidence(domain, rng):
     np.testing.assert_array_equal(domain._element_max(f), Domain._element_max(domain, f))
 
 
-def test_split_keeps_the_operators_of_a_fresh_build():
-    dom = kuhn_grid(4, 2, jitter=0.2, random_state=0)
-    mask = np.arange(dom.n_elements) % 3 == 0
-    split, _ = dom._split_elements(mask)
-    fresh = SimplicialComplex(split.points, split.simplices)
+SPLIT_DOMAINS = {
+    "segments": lambda: SimplicialComplex(
+        [[0, 0], [1, 0.2], [2, 0.1], [3, 0.5], [4, 0]], [[0, 1], [1, 2], [2, 3], [1, 2]]
+    ),
+    "right_triangles": lambda: kuhn_grid(6, 2),
+    "triangles": lambda: kuhn_grid(6, 2, jitter=0.2, random_state=0),
+    "surface": lambda: icosphere(2),
+    "tets": lambda: kuhn_grid(4, 3, jitter=0.2, random_state=1),
+    "unused_vertex": lambda: SimplicialComplex([[0, 0], [1, 0], [0, 1], [5, 5], [1, 1]], [[0, 1, 2], [1, 4, 2]]),
+}
+
+
+def assert_same_operators(split, fresh):
     for name in ("G", "K", "adjacency", "incidence"):
         a, b = getattr(split, name), getattr(fresh, name)
-        assert (a != b).nnz == 0, name
+        assert a.has_canonical_format, name
+        np.testing.assert_array_equal(a.indptr, b.indptr, err_msg=name)
+        np.testing.assert_array_equal(a.indices, b.indices, err_msg=name)
+        np.testing.assert_array_equal(a.data, b.data, err_msg=name)
     np.testing.assert_array_equal(split.edges, fresh.edges)
+    np.testing.assert_array_equal(split._edge_index[1], fresh._edge_index[1])
     np.testing.assert_array_equal(split.A, fresh.A)
+    np.testing.assert_array_equal(split.mass, fresh.mass)
+
+
+@pytest.mark.parametrize("name", list(SPLIT_DOMAINS))
+@pytest.mark.parametrize("built", [(), ("K", "mass"), ("K", "mass", "incidence", "adjacency")])
+@pytest.mark.parametrize("fraction", [0.1, 1.0])
+def test_split_keeps_the_operators_of_a_fresh_build(rng, name, built, fraction):
+    # the split complex derives its operators from the parent's, whichever are built
+    dom = SPLIT_DOMAINS[name]()
+    for op in built:
+        getattr(dom, op)
+    mask = rng.random(dom.n_elements) < fraction
+    mask[0] = True
+    split, _ = dom._split_elements(mask)
+    assert_same_operators(split, SimplicialComplex(split.points, split.simplices))
+    # a split of a split
+    for op in built:
+        getattr(split, op)
+    mask = rng.random(split.n_elements) < 0.2
+    mask[-1] = True
+    again, _ = split._split_elements(mask)
+    assert_same_operators(again, SimplicialComplex(again.points, again.simplices))
+
+
+def test_interface_facets_without_the_facet_table(rng):
+    dom = kuhn_grid(4, 3, jitter=0.2, random_state=0)
+    region1 = rng.random(dom.n_elements) < 0.5
+    got = dom._interface_facets(region1)
+    assert dom._facets.shape == (4 * dom.n_elements, 3)
+    np.testing.assert_array_equal(got, dom._interface_facets(region1))
+
+
+def test_first_of_groups_is_the_first_index_of_each_id(rng):
+    ids = rng.integers(0, 40, size=500)
+    ids[:40] = rng.permutation(40)
+    np.testing.assert_array_equal(first_of_groups(ids, 40), np.unique(ids, return_index=True)[1])
+
+
+@pytest.mark.parametrize(
+    "labels",
+    [[3, 5, 3, 5], [True, False, True], np.array([7, 2, 2], dtype=np.uint8), ["b", "a", "a"], [1.0, 0.0, 1.0]],
+)
+def test_check_labels_sorts_classes_as_unique(labels):
+    classes, region1 = check_labels(labels, len(labels), what="element")
+    ref, inverse = np.unique(np.asarray(labels), return_inverse=True)
+    assert classes.dtype == ref.dtype
+    np.testing.assert_array_equal(classes, ref)
+    np.testing.assert_array_equal(region1, inverse == 1)
+
+
+@pytest.mark.parametrize("labels, n", [([1, 1, 1], "one class"), ([1, 2, 3, 1], "3 classes")])
+def test_check_labels_refuses_other_than_two_classes(labels, n):
+    with pytest.raises(ValueError, match=n):
+        check_labels(labels, len(labels), what="element")
+
+
+@pytest.mark.parametrize("width", [2, 4, 8])
+def test_check_cells_finds_the_first_row_with_a_repeated_vertex(rng, width):
+    cells = np.array([rng.permutation(20)[:width] for _ in range(30)])
+    cells[7, width - 1] = cells[7, 0]
+    cells[12, 1] = cells[12, 0]
+    with pytest.raises(ValueError, match="row 7 "):
+        check_cells(cells, 20)
