@@ -21,12 +21,12 @@ as ``h^k``), so ``lam`` is dimensionless: a scaled, rotated or translated copy o
 input relaxes to the same level set, transformed. ``lam`` is also measured against the
 stiffness of the field term at zeta (the median over zeta's vertices of the diagonal of
 ``K M^{-1} K``): where a discretisation makes it weaker than at a vertex of the regular
-Kuhn grid (polygon and polyhedral cells with many short edges: down to 1/30 on a Voronoi
-polyhedral mesh), ``lam`` is scaled down by the same ratio, so that the boundary term
-does not pin the level set to the jagged boundary's vertices. Simplicial meshes keep
-``lam`` as given (ratio at least 1); kNN graphs are not rescaled. ``phi - 1/2`` then grows like the
-signed distance to the relaxed boundary in units of ``h`` (with a slope below one near
-zeta, where the boundary term flattens it).
+Kuhn grid (irregular meshes, and polygon and polyhedral cells with many short edges: down
+to 1/30 on a Voronoi polyhedral mesh), ``lam`` is scaled down by the same ratio, so that
+the boundary term does not pin the level set to the jagged boundary's vertices. Jittered
+simplicial grids keep ``lam`` as given (their ratio is above 1); kNN graphs are not
+rescaled. ``phi - 1/2`` then grows like the signed distance to the relaxed boundary in
+units of ``h`` (with a slope below one near zeta, where the boundary term flattens it).
 
 Before step 1, elements all of whose vertices receive heat are split at their
 barycentre (padding, section 4), so that no element has a flat ``u``; the added
@@ -37,8 +37,8 @@ from __future__ import annotations
 
 import sys
 import time
-from math import comb
 from dataclasses import dataclass, field
+from math import comb
 
 import numpy as np
 import scipy.sparse as sp
