@@ -59,6 +59,32 @@ def counting_sort(keys, n_keys):
     return by_key.indices, by_key.indptr
 
 
+def _pair_groups(first, second, n):
+    """Sort integer pairs ``(first[i], second[i])``, both in ``0..n-1``, in linear time.
+
+    A counting sort on ``first``, then a sort of ``second`` within each value of
+    ``first`` (short runs, sorted in place by scipy).
+
+    Returns
+    -------
+    order : ndarray of int
+        The pairs ``order`` in lexicographic order (equal pairs in no particular order).
+    new : ndarray of bool
+        ``new[i]`` tells whether pair ``order[i]`` differs from the one before it.
+    """
+    m = first.size
+    order, starts = counting_sort(first, n)
+    within = sp.csr_matrix((order, second[order].astype(starts.dtype, copy=False), starts), shape=(n, n))
+    within.sort_indices()
+    order, second = within.data, within.indices
+    new = np.empty(m, dtype=bool)
+    new[:1] = True
+    np.not_equal(second[1:], second[:-1], out=new[1:])
+    first_change = starts[1:-1]
+    new[first_change[first_change < m]] = True
+    return order, new
+
+
 def _sort_rows(rows):
     """Sort the rows of an integer array lexicographically.
 
@@ -74,21 +100,15 @@ def _sort_rows(rows):
     span = hi - lo + 1
     new = np.empty(n, dtype=bool)
     new[:1] = True
-    if width == 2 and span <= 4 * n + 1024:
-        order, starts = counting_sort(rows[:, 0] - lo, span)
-        second = (rows[order, 1] - lo).astype(starts.dtype)
-        within = sp.csr_matrix((order, second, starts), shape=(span, span))
-        within.sort_indices()
-        order, second = within.data, within.indices
-        np.not_equal(second[1:], second[:-1], out=new[1:])
-        first_change = starts[1:-1]
-        new[first_change[first_change < n]] = True
-        return order, new
     if span <= 4 * n + 1024:
+        idx = _index_dtype(max(n, span))
+        cols = [(rows[:, c] - lo).astype(idx, copy=False) for c in range(width)]
+        if width == 2:
+            return _pair_groups(cols[0], cols[1], span)
         order = None
         for c in range(width - 1, -1, -1):
-            col = rows[:, c] if order is None else rows[order, c]
-            step, _ = counting_sort(col - lo, span)
+            col = cols[c] if order is None else cols[c][order]
+            step, _ = counting_sort(col, span)
             order = step if order is None else order[step]
     else:
         order = np.lexsort(rows.T[::-1])
@@ -707,13 +727,20 @@ class SimplicialComplex(Domain):
         if self._split_of is not None:
             return self._split_of.edge_index()
         srt = self._sorted_simplices
-        iu, ju = np.triu_indices(srt.shape[1], 1)
-        pairs = np.empty((srt.shape[0], iu.size, 2), dtype=srt.dtype)
-        pairs[:, :, 0] = srt[:, iu]
-        pairs[:, :, 1] = srt[:, ju]
-        pairs = pairs.reshape(-1, 2)
-        pair_edge, first = _row_groups(pairs)
-        return pairs[first], pair_edge
+        E, k1 = srt.shape
+        iu, ju = np.triu_indices(k1, 1)
+        V = self.n_vertices
+        idx = _index_dtype(max(V, E * iu.size))
+        s = srt.astype(idx, copy=False)
+        first, second = np.take(s, iu, axis=1).ravel(), np.take(s, ju, axis=1).ravel()
+        order, new = _pair_groups(first, second, V)
+        pair_edge = np.empty(first.size, dtype=np.intp)
+        pair_edge[order] = np.cumsum(new, dtype=np.intp) - 1
+        head = order[new]
+        edges = np.empty((head.size, 2), dtype=srt.dtype)
+        edges[:, 0] = first[head]
+        edges[:, 1] = second[head]
+        return edges, pair_edge
 
     @cached_property
     def _facets(self):
@@ -725,17 +752,53 @@ class SimplicialComplex(Domain):
 
     @cached_property
     def _facet_ids(self):
-        """Group id of every row of :attr:`_facets` (equal facets, equal ids)."""
+        """Group id of every row of :attr:`_facets` (equal facets, equal ids), the ids in
+        the lexicographic order of the facets."""
         if self.simplices.shape[1] == 3:
             # the facets of triangles are their edges, in the reverse order of the pairs
             # of _edge_index
             return self._edge_index[1].reshape(-1, 3)[:, ::-1].ravel()
-        return group_rows(self._facets)[0]
+        return self._facet_groups[0]
+
+    @cached_property
+    def _facet_groups(self):
+        """``(ids, order, starts)``: :attr:`_facet_ids`, and the rows of :attr:`_facets`
+        grouped by facet, ``order[starts[f]:starts[f + 1]]`` holding those of facet ``f``.
+
+        A facet of more than two vertices is known by the edge of its first two vertices
+        and its other vertices: for tetrahedra, a pair sorted in linear time. The edges
+        are numbered in lexicographic order, so the ids are those of the facets.
+        """
+        E, k1 = self.simplices.shape
+        if k1 == 3:
+            ids = self._facet_ids
+            order, starts = counting_sort(ids, int(ids.max()) + 1)
+            return ids, order, starts
+        if k1 == 2:
+            ids = group_rows(self._facets)[0]
+            order, starts = counting_sort(ids, int(ids.max()) + 1)
+            return ids, order, starts
+        edges, pair_edge = self._edge_index
+        iu, ju = np.triu_indices(k1, 1)
+        pair_of = np.zeros((k1, k1), dtype=np.intp)
+        pair_of[iu, ju] = np.arange(iu.size)
+        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
+        lead = np.take(pair_edge.reshape(E, iu.size), pair_of[leave_out[:, 0], leave_out[:, 1]], axis=1).ravel()
+        rest = np.take(self._sorted_simplices, leave_out[:, 2:], axis=1).reshape(E * k1, k1 - 3)
+        if k1 == 4:
+            n = max(edges.shape[0], self.n_vertices)
+            idx = _index_dtype(max(n, lead.size))
+            order, new = _pair_groups(lead.astype(idx), rest[:, 0].astype(idx), n)
+        else:
+            order, new = _sort_rows(np.column_stack([lead, rest]))
+        ids = np.empty(lead.size, dtype=order.dtype)
+        ids[order] = np.cumsum(new, dtype=order.dtype) - 1
+        starts = np.append(np.flatnonzero(new), lead.size).astype(order.dtype)
+        return ids, order, starts
 
     def _build_adjacency(self):
         E, k1 = self.simplices.shape
-        ids = self._facet_ids
-        order, starts = counting_sort(ids, int(ids.max()) + 1)
+        ids, order, starts = self._facet_groups
         size = np.diff(starts)
         if size.max() > 2:
             return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)

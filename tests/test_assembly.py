@@ -10,6 +10,7 @@ from ndboundary.datasets import icosphere, kuhn_grid
 from ndboundary.domain import Domain
 from ndboundary.simplicial import (
     _large_simplex_geometry,
+    _pair_groups,
     _small_simplex_geometry,
     counting_sort,
     first_of_groups,
@@ -33,6 +34,18 @@ def test_group_rows_numbers_rows_in_lexicographic_order(rng, width, high):
     ref_ids, ref_n = reference_group_rows(rows)
     assert n == ref_n
     np.testing.assert_array_equal(ids, ref_ids)
+
+
+@pytest.mark.parametrize("n", [1, 7, 300])
+def test_pair_groups_sorts_pairs_and_marks_the_distinct_ones(rng, n):
+    first = rng.integers(0, n, size=1000).astype(np.int32)
+    second = rng.integers(0, n, size=1000).astype(np.int32)
+    order, new = _pair_groups(first, second, n)
+    pairs = np.stack([first, second], axis=1)
+    np.testing.assert_array_equal(np.sort(order), np.arange(1000))
+    np.testing.assert_array_equal(pairs[order], pairs[np.lexsort((second, first))])
+    uniq = np.unique(pairs, axis=0)
+    np.testing.assert_array_equal(pairs[order[new]], uniq)
 
 
 def test_group_rows_of_nothing():
@@ -129,6 +142,78 @@ def test_operators_match_their_definitions(domain):
     a, b = simplices[:, i].ravel(), simplices[:, j].ravel()
     key = np.unique(np.minimum(a, b) * domain.n_vertices + np.maximum(a, b))
     np.testing.assert_array_equal(domain.edges, np.stack([key // domain.n_vertices, key % domain.n_vertices], 1))
+
+
+def reference_facets(simplices):
+    """The facets of every simplex, sorted, element-major, facet i leaving out vertex i."""
+    srt = np.sort(simplices, axis=1)
+    k1 = srt.shape[1]
+    return np.concatenate([np.delete(srt, i, axis=1)[:, None] for i in range(k1)], axis=1).reshape(-1, k1 - 1)
+
+
+def test_edge_of_every_vertex_pair(domain):
+    srt = np.sort(domain.simplices, axis=1)
+    i, j = np.triu_indices(srt.shape[1], 1)
+    edges, pair_edge = domain._edge_index
+    pairs = np.stack([srt[:, i].ravel(), srt[:, j].ravel()], axis=1)
+    np.testing.assert_array_equal(edges[pair_edge], pairs)
+
+
+def four_simplices():
+    # the Kuhn triangulation of the 4-cube cut into 2^4 cubes: 16 * 24 simplices
+    from itertools import permutations
+
+    grid = np.stack(np.meshgrid(*[np.arange(3)] * 4, indexing="ij"), axis=-1).reshape(-1, 4)
+    number = {tuple(p): n for n, p in enumerate(grid)}
+    simplices = []
+    for corner in grid[(grid < 2).all(axis=1)]:
+        for perm in permutations(range(4)):
+            path = [corner.copy()]
+            for axis in perm:
+                path.append(path[-1].copy())
+                path[-1][axis] += 1
+            simplices.append([number[tuple(p)] for p in path])
+    rng = np.random.default_rng(3)
+    return SimplicialComplex(grid + 0.1 * rng.standard_normal(grid.shape), simplices)
+
+
+FACET_DOMAINS = {
+    "tets": lambda: kuhn_grid(4, 3, jitter=0.2, random_state=0),
+    "shuffled_tets": lambda: SimplicialComplex(
+        kuhn_grid(3, 3).points, np.random.default_rng(0).permuted(kuhn_grid(3, 3).simplices, axis=1)[::-1]
+    ),
+    # three tetrahedra around one triangle, and a tetrahedron listed twice
+    "nonmanifold_tets": lambda: SimplicialComplex(
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1], [1, 1, 1], [2, 0, 0]],
+        [[0, 1, 2, 3], [0, 1, 2, 4], [2, 1, 0, 5], [1, 2, 3, 6]],
+    ),
+    "repeated_tets": lambda: SimplicialComplex(
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], [[0, 1, 2, 3], [1, 2, 3, 4], [3, 2, 1, 0]]
+    ),
+    "4-simplices": four_simplices,
+    "segments": lambda: DOMAINS["segments"],
+    "triangles": lambda: kuhn_grid(5, 2, jitter=0.2, random_state=0),
+}
+
+
+@pytest.mark.parametrize("name", list(FACET_DOMAINS))
+def test_facets_and_adjacency_match_their_definitions(name):
+    dom = FACET_DOMAINS[name]()
+    E, k1 = dom.simplices.shape
+    facets = reference_facets(dom.simplices)
+    ref_ids, n = reference_group_rows(facets)
+    np.testing.assert_array_equal(dom._facet_ids, ref_ids)
+    if k1 > 3:
+        ids, order, starts = dom._facet_groups
+        np.testing.assert_array_equal(ids[order], np.sort(ref_ids))
+        np.testing.assert_array_equal(np.diff(starts), np.bincount(ref_ids, minlength=n))
+    adj = dom.adjacency
+    assert adj.has_canonical_format
+    ref = reference_adjacency(ref_ids, np.repeat(np.arange(E), k1), E)
+    assert (adj != ref).nnz == 0
+    region1 = np.arange(E) % 3 == 0
+    which = mixed_facets(ref_ids, np.repeat(np.arange(E), k1), region1)
+    np.testing.assert_array_equal(dom._interface_facets(region1), facets[which])
 
 
 def test_element_max_matches_the_incidence(domain, rng):
