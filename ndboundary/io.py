@@ -32,6 +32,7 @@ read with 2-D points.
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -179,7 +180,10 @@ def _read_hedra(path):
 def _read_meshio(path):
     meshio = _meshio()
     try:
-        m = meshio.read(os.fspath(path))
+        with warnings.catch_warnings():
+            # meshio tells ASCII from binary STL by a size test that overflows on ASCII files
+            warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
+            m = meshio.read(os.fspath(path))
     except (Exception, SystemExit) as exc:  # meshio exits on some unreadable files
         raise ValueError(f"{path}: could not read the file: {type(exc).__name__}: {exc}") from None
     blocks = []
