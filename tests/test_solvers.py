@@ -91,6 +91,63 @@ def test_auto_picks_by_row_density(monkeypatch):
     assert info3.method == expected
 
 
+def _knn_graph_operator(n, k, seed=0):
+    """``L + I / n`` for the symmetrised ``k``-nearest-neighbour graph of ``n`` random points."""
+    from scipy.spatial import cKDTree
+
+    X = np.random.default_rng(seed).standard_normal((n, 5))
+    _, idx = cKDTree(X).query(X, k + 1)
+    rows = np.repeat(np.arange(n), k)
+    W = sp.csr_matrix((np.ones(n * k), (rows, idx[:, 1:].ravel())), shape=(n, n))
+    W = ((W + W.T) > 0).astype(np.float64)
+    W = W @ W  # two-ring: neighbour graphs of the classifier have ~90 entries per row
+    W.setdiag(0)
+    W.eliminate_zeros()
+    L = sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W
+    return (L + sp.identity(n) / n).tocsr()
+
+
+@pytest.mark.parametrize("case", ["mesh", "graph"])
+def test_amg_hierarchy_is_csr_and_smoothing_follows_row_density(case, monkeypatch):
+    _skip_unless_available("amg")
+    import pyamg
+
+    if case == "mesh":
+        K, mass, _S = _system(14, 3)
+        A = (K + sp.diags(0.1 * mass)).tocsr()
+    else:
+        A = _knn_graph_operator(4000, 10)
+    built = {}
+    original = pyamg.smoothed_aggregation_solver
+
+    def spy(*args, **kwargs):
+        built["kwargs"] = kwargs
+        built["ml"] = original(*args, **kwargs)
+        return built["ml"]
+
+    monkeypatch.setattr(pyamg, "smoothed_aggregation_solver", spy)
+    apply = solvers._amg(A)
+    dense = A.nnz / A.shape[0] > solvers.AMG_DENSE_ROWS
+    assert dense == (case == "graph")
+    assert built["kwargs"]["smooth"] == ("jacobi" if dense else "energy")
+    ml = built["ml"]
+    assert len(ml.levels) >= 2
+    for level in ml.levels:
+        for name in ("A", "P", "R"):
+            if hasattr(level, name):
+                assert getattr(level, name).format == "csr"
+    # a symmetric positive definite operator, close enough to A^{-1} to precondition CG
+    rng = np.random.default_rng(1)
+    u, v = rng.standard_normal((2, A.shape[0]))
+    assert np.isclose(u @ apply(v), v @ apply(u), rtol=1e-10)
+    assert u @ apply(u) > 0
+    b = A @ rng.standard_normal(A.shape[0])
+    x = apply(b)
+    for _ in range(9):
+        x = x + apply(b - A @ x)
+    assert np.linalg.norm(b - A @ x) < 1e-3 * np.linalg.norm(b)
+
+
 def test_fallback_without_optional_packages(system, monkeypatch):
     K, mass, S, lam, mu, rhs, exact = system
     # the packages "missing": importing them raises ImportError
