@@ -74,6 +74,11 @@ SMALL_SYSTEM = 3000
 FACTOR_THREADS = 1
 #: From this many unknowns ``backend="auto"`` tries PARDISO before cvxopt.
 LARGE_SYSTEM = 500_000
+#: Above this many unknowns, a system with denser rows whose iteration stalls is not
+#: factorised (its factor fills in as n^2: 275 s at 118K tetrahedral-grid vertices, more
+#: memory than the machine has at 1M); conjugate gradients go on for ``4 maxiter`` more
+#: iterations instead, then warn with the residual reached.
+DIRECT_FALLBACK_MAX = 120_000
 #: Rows of the AMG operator ``K + D`` with more entries than this on average (neighbour
 #: graphs) get a Jacobi-smoothed prolongator, sparser ones (meshes) an energy-minimising
 #: one (see :func:`_amg`).
@@ -622,7 +627,8 @@ def solve_integration(
         converge in ``maxiter`` iterations. ``"auto"``: direct on meshes with sparse rows
         (about 7 entries per row of ``K``: triangles, surfaces) or small systems, pcg
         elsewhere (tetrahedra, higher dimensions, graphs), falling back to direct when
-        pcg does not converge.
+        pcg does not converge (up to :data:`DIRECT_FALLBACK_MAX` unknowns; beyond, pcg
+        goes on for ``4 maxiter`` more iterations and warns if that is not enough).
     backend : {"auto", "pardiso", "cvxopt", "cholmod", "superlu"}, default="auto"
         Sparse Cholesky used by the direct solve and the factorised preconditioner
         (see :func:`factorize_spd`). With ``"auto"`` and none of the optional backends
@@ -721,7 +727,21 @@ def solve_integration(
                 stacklevel=2,
             )
             return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
-        phi, info2 = _direct(assemble(), rhs, backend, cache, iters)
-        info2.setup_time += t2 - t0
-        return phi, info2
+        if sparse_rows or n <= DIRECT_FALLBACK_MAX:
+            phi, info2 = _direct(assemble(), rhs, backend, cache, iters)
+            info2.setup_time += t2 - t0
+            return phi, info2
+        # too large to factorise: iterate on from where conjugate gradients stopped
+        phi, more, _ = _cg(Q, rhs, P, rtol, 4 * maxiter, x0=phi)
+        iters += more
+        res = _relres(Q, phi, rhs)
+        t2 = time.perf_counter()
+        if res > 10 * rtol:
+            warnings.warn(
+                f"integration solve did not converge in {iters} iterations (relative residual "
+                f"{res:.2e}, target {rtol:.0e}); {n} unknowns with {K.nnz / n:.0f} entries per "
+                "row are too many to factorise instead",
+                RuntimeWarning,
+                stacklevel=2,
+            )
     return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)

@@ -368,3 +368,23 @@ def test_pardiso_reuses_the_ordering_of_the_same_pattern():
     assert not solvers.factorize_spd(C, backend="pardiso").__self__.reused_ordering
     solvers.clear_cache()
     assert not solvers.factorize_spd(A, backend="pardiso").__self__.reused_ordering
+
+
+def test_auto_iterates_on_instead_of_factorising_a_large_3d_system(system, monkeypatch):
+    K, mass, S, lam, mu, rhs, exact = system
+    monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
+    monkeypatch.setattr(solvers, "DENSE_ROW_THRESHOLD", 0.0)  # force the pcg path
+    monkeypatch.setattr(solvers, "DIRECT_FALLBACK_MAX", 0)  # "too large to factorise"
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a direct factorisation was attempted")
+
+    monkeypatch.setattr(solvers, "_direct", refuse)
+    # a few iterations more than the first round allows are enough here
+    phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, maxiter=10)
+    assert info.method.startswith("pcg") and info.iterations > 10
+    assert info.residual <= 1e-9 and _rel(phi, exact) < 1e-5
+    # not enough even then: a warning with the residual reached, no factorisation
+    with pytest.warns(RuntimeWarning, match=r"did not converge in 5 iterations .* too many to factorise"):
+        _phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, maxiter=1)
+    assert info.iterations == 5 and info.residual > 1e-9
