@@ -145,11 +145,6 @@ class Domain:
         and its neighbours, ``I + adjacency`` (acting on the (n_elements, dim) field)."""
         return (self.adjacency + sp.identity(self.n_elements, format="csr")).tocsr()
 
-    def _tangent_projection(self, X):
-        """Project per-element vectors onto the elements' tangent spaces (identity when
-        elements are full-dimensional)."""
-        return X
-
     # -- geometry -------------------------------------------------------------
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method."""

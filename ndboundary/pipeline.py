@@ -8,8 +8,12 @@
    the graph distance to zeta instead. For vertex labels, elements whose vertices
    disagree take the gradient of the region-1 indicator.
 3. **Smoothing**: ``smoothing`` passes of uniform averaging of each element's vector
-   with its neighbours', projected on the element's tangent space (surfaces) and
-   renormalised after each pass (Jacobi order, as one sparse product).
+   with its neighbours', renormalised after each pass (Jacobi order, as one sparse
+   product). On surfaces the averages are not projected back onto each element's plane:
+   the integration only sees the field through the divergence, and the projection
+   measured worse on the shared triangle surfaces (3holes 0.078 h mean distance against
+   0.049 h, torus 0.064 h against 0.047 h). kNN graphs transport their neighbours'
+   vectors into each point's tangent space instead (see ``PointCloud``).
 4. **Integration**: ``phi = argmin ||Delta phi - div X'||_M^2 + mu ||grad phi - X'||_A^2
    + lam ||S phi - 1/2||^2``, i.e. ``(K M^{-1} K + mu K + lam S^T S) phi = K M^{-1} d + mu d
    + lam S^T 1/2`` with ``d = G^T A X'``. ``mu = 0`` is the paper's energy; the small
@@ -381,15 +385,14 @@ def relax(
         X[straddle] = _normalize_rows(work.gradient(ind)[straddle])
     tick = prog.step("field", tick)
 
-    # 3. smoothing, Jacobi order: average, keep in the tangent space, renormalise
+    # 3. smoothing, Jacobi order: average, renormalise
     Xs = X
     if smoothing:
         W = work._smoothing_operator()
-        project = work._tangent_projection
         acts_on_flat_field = W.shape[0] != work.n_elements
         for _ in range(smoothing):
             Y = (W @ Xs.reshape(-1)).reshape(Xs.shape) if acts_on_flat_field else W @ Xs
-            Xs = _normalize_rows(project(Y))
+            Xs = _normalize_rows(Y)
     tick = prog.step("smoothing", tick)
 
     # 4. integration, lengths in units of h
@@ -406,7 +409,7 @@ def relax(
     rhs = Kh @ (d / mh_used) + mu * d + lam_used * (S.T @ targets)
     # a padded copy's operators are not needed by the solve: free them before it
     # (at 1M triangle-mesh vertices, 0.5 GB of the peak memory)
-    work = W = project = None
+    work = W = None
     psi, int_info = solve_integration(Kh, mh_used, S, lam_used, rhs, mu=mu, rtol=rtol, method=solver)
     tick = prog.step("integration", tick)
 
