@@ -38,35 +38,36 @@ from ndboundary.metrics import fidelity
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "data" / "meshes"
 
 
-def fig6_cases(n2=80, n3=24):
-    s2, s3 = 2.0 / n2, 2.0 / n3
-    circle_len, ball_area = 2 * np.pi * 0.6, 4 * np.pi * 0.36
-    for lap in ("consistent", "combinatorial"):
-        yield f"triangles {n2}^2", lap, lambda: kuhn_grid(n2, 2, jitter=0.25, random_state=0), circle, s2, circle_len
-        yield (f"quads {n2}^2", lap, lambda lap=lap: quad_grid(n2, jitter=0.25, random_state=0, laplacian=lap),
-               circle, s2, circle_len)
-        yield (f"voronoi {n2}^2", lap, lambda lap=lap: voronoi_polygons(n2, random_state=0, laplacian=lap),
-               circle, s2, circle_len)
-        yield (f"hexahedra {n3}^3", lap, lambda lap=lap: hex_grid(n3, jitter=0.25, random_state=0, laplacian=lap),
-               ball, s3, ball_area)
-        if lap == "combinatorial":
-            yield (f"tetrahedra {n3}^3", lap, lambda: PolyhedralMesh.from_tetrahedra(
-                *_tets(n3), laplacian="combinatorial"), ball, s3, ball_area)
-        else:
-            yield f"tetrahedra {n3}^3", lap, lambda: kuhn_grid(n3, 3, jitter=0.25, random_state=0), ball, s3, ball_area
+def fig6_domain(cells, laplacian, n2=80, n3=24):
+    """The jittered mesh of one Fig. 6 case: ``(domain, truth, cell size, true measure)``."""
+    if cells == "triangles":
+        dom = kuhn_grid(n2, 2, jitter=0.25, random_state=0)
+    elif cells == "quads":
+        dom = quad_grid(n2, jitter=0.25, random_state=0, laplacian=laplacian)
+    elif cells == "voronoi":
+        dom = voronoi_polygons(n2, random_state=0, laplacian=laplacian)
+    elif cells == "hexahedra":
+        dom = hex_grid(n3, jitter=0.25, random_state=0, laplacian=laplacian)
+    else:  # tetrahedra: the simplicial complex's cotangent Laplacian, or the paper's
+        dom = kuhn_grid(n3, 3, jitter=0.25, random_state=0)
+        if laplacian == "combinatorial":
+            dom = PolyhedralMesh.from_tetrahedra(dom.points, dom.simplices, laplacian=laplacian)
+    if dom.dim == 2:
+        return dom, circle, 2 / n2, 2 * np.pi * 0.6
+    return dom, ball, 2 / n3, 4 * np.pi * 0.36
 
 
-def _tets(n):
-    grid = kuhn_grid(n, 3, jitter=0.25, random_state=0)
-    return grid.points, grid.simplices
+FIG6 = [
+    ("triangles", "consistent"),
+    *((cells, lap) for lap in ("consistent", "combinatorial") for cells in ("quads", "voronoi", "hexahedra", "tetrahedra")),
+]
 
 
 def run_fig6():
     rows = []
-    for name, lap, make, truth, s, measure in fig6_cases():
-        if lap == "combinatorial" and name.startswith("triangles"):
-            continue  # simplices have one Laplacian here: the cotangent one
-        dom = make()
+    for cells, lap in FIG6:
+        dom, truth, s, measure = fig6_domain(cells, lap)
+        name = f"{cells} {'80^2' if dom.dim == 2 else '24^3'}"
         t0 = time.perf_counter()
         res = relax(dom, label_by(dom, truth), on="elements")
         seconds = time.perf_counter() - t0

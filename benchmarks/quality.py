@@ -83,54 +83,50 @@ def case_2d(n, truth_name, params, seed):
     }
 
 
-def case_ball(params, seed):
+def case_solid(name, truth, area, params, seed, checks):
+    """A 3-D truth in ``kuhn_grid(24, 3, jitter=0.25)``: distances in cell sizes, area
+    excess, topology of the level set and of the jagged boundary; ``checks(row)`` lists
+    the targets."""
     from ndboundary import relax
-    from ndboundary.datasets import ball, kuhn_grid, label_by
+    from ndboundary.datasets import kuhn_grid, label_by
     from ndboundary.metrics import as_complex, fidelity
 
     n = 24
     dom = kuhn_grid(n, 3, jitter=0.25, random_state=seed)
     s = 2.0 / n
-    r = relax(dom, label_by(dom, ball), on="elements", **params)
+    r = relax(dom, label_by(dom, truth), on="elements", **params)
     ls = r.level_set()
     jag = as_complex(dom.points, r.boundary.facets)
-    dist = lambda x: np.abs(ball(x))  # noqa: E731
+    dist = lambda x: np.abs(truth(x))  # noqa: E731
     f, fj = fidelity(ls, dist, s), fidelity(jag, dist, s)
-    area = 4 * np.pi * 0.6**2
-    exc = 100 * (ls.measure() / area - 1)
-    chi, nc, closed = ls.euler_characteristic(), ls.n_components(), ls.is_closed()
-    return {
-        "case": "3d-ball-24", "mean_s": f["mean"], "max_s": f["max"], "excess_pct": exc,
+    row = {
+        "case": name, "mean_s": f["mean"], "max_s": f["max"], "excess_pct": 100 * (ls.measure() / area - 1),
         "jagged_mean_s": fj["mean"], "jagged_max_s": fj["max"], "jagged_excess_pct": 100 * (jag.measure() / area - 1),
-        "euler": chi, "components": nc, "closed": closed, "seconds": r.timings["total"],
-        "checks": [check("mean/s", f["mean"], "<=", 0.12), check("max/s", f["max"], "<=", 0.5),
-                   check("|area exc|%", abs(exc), "<=", 2.0), check("chi", chi, "==", 2),
-                   check("components", nc, "==", 1), check("closed", int(closed), "==", 1)],
+        "euler": ls.euler_characteristic(), "components": ls.n_components(), "closed": ls.is_closed(),
+        "jagged_euler": jag.euler_characteristic(), "jagged_components": jag.n_components(),
+        "seconds": r.timings["total"],
     }
+    row["checks"] = checks(row)
+    return row
+
+
+def case_ball(params, seed):
+    from ndboundary.datasets import ball
+
+    return case_solid("3d-ball-24", ball, 4 * np.pi * 0.6**2, params, seed, lambda r: [
+        check("mean/s", r["mean_s"], "<=", 0.12), check("max/s", r["max_s"], "<=", 0.5),
+        check("|area exc|%", abs(r["excess_pct"]), "<=", 2.0), check("chi", r["euler"], "==", 2),
+        check("components", r["components"], "==", 1), check("closed", int(r["closed"]), "==", 1),
+    ])
 
 
 def case_torus(params, seed):
-    from ndboundary import relax
-    from ndboundary.datasets import kuhn_grid, label_by, torus
-    from ndboundary.metrics import as_complex, fidelity
+    from ndboundary.datasets import torus
 
-    n = 24
-    dom = kuhn_grid(n, 3, jitter=0.25, random_state=seed)
-    s = 2.0 / n
-    r = relax(dom, label_by(dom, torus), on="elements", **params)
-    ls = r.level_set()
-    jag = as_complex(dom.points, r.boundary.facets)
-    dist = lambda x: np.abs(torus(x))  # noqa: E731
-    f, fj = fidelity(ls, dist, s), fidelity(jag, dist, s)
-    area = 4 * np.pi**2 * 0.55 * 0.25
-    chi, nc, closed = ls.euler_characteristic(), ls.n_components(), ls.is_closed()
-    return {
-        "case": "3d-torus-24", "mean_s": f["mean"], "max_s": f["max"], "excess_pct": 100 * (ls.measure() / area - 1),
-        "jagged_mean_s": fj["mean"], "jagged_max_s": fj["max"], "jagged_excess_pct": 100 * (jag.measure() / area - 1),
-        "euler": chi, "components": nc, "closed": closed, "jagged_euler": jag.euler_characteristic(),
-        "jagged_components": jag.n_components(), "seconds": r.timings["total"],
-        "checks": [check("components", nc, "==", 1), check("closed", int(closed), "==", 1), check("chi", chi, "==", 0)],
-    }
+    return case_solid("3d-torus-24", torus, 4 * np.pi**2 * 0.55 * 0.25, params, seed, lambda r: [
+        check("components", r["components"], "==", 1), check("closed", int(r["closed"]), "==", 1),
+        check("chi", r["euler"], "==", 0),
+    ])
 
 
 def case_icosphere(params):

@@ -268,7 +268,7 @@ class _Pardiso:
         self._iparm[1] = 2  # METIS nested dissection ordering
         self._iparm[17] = -1  # report the number of non-zeros of the factor
         self._iparm[34] = 1  # zero-based indices
-        pattern = _pattern_key(self._ia, self._ja)
+        pattern = _digest("pattern", self._ia, self._ja)
         known = _orderings.get("entry")
         if known is not None and known[0] == pattern:
             self._perm = known[1]
@@ -340,14 +340,6 @@ class _Pardiso:
 
 # The last ordering PARDISO computed, keyed by the sparsity pattern it orders.
 _orderings: dict = {}
-
-
-def _pattern_key(indptr, indices):
-    h = hashlib.blake2b(digest_size=16)
-    h.update(repr((indptr.size, indices.size)).encode())
-    for arr in (indptr, indices):
-        h.update(np.ascontiguousarray(arr).view(np.uint8))
-    return h.hexdigest()
 
 
 @functools.lru_cache(maxsize=1)
@@ -516,13 +508,18 @@ def clear_cache():
     _orderings.clear()
 
 
-def _key(kind, A):
-    A = sp.csr_matrix(A)
+def _digest(tag, *arrays):
+    """A content key of ``arrays`` (their sizes and bytes) and the hashable ``tag``."""
     h = hashlib.blake2b(digest_size=16)
-    h.update(repr((kind, A.shape, A.nnz)).encode())
-    for arr in (A.indptr, A.indices, A.data):
+    h.update(repr((tag, [a.size for a in arrays])).encode())
+    for arr in arrays:
         h.update(np.ascontiguousarray(arr).view(np.uint8))
     return h.hexdigest()
+
+
+def _key(kind, A):
+    A = sp.csr_matrix(A)
+    return _digest((kind, A.shape), A.indptr, A.indices, A.data)
 
 
 def _cached(kind, A, build, cache):
