@@ -58,6 +58,10 @@ __all__ = ["relax", "RelaxResult", "Boundary", "DEFAULT_LAM", "DEFAULT_SMOOTHING
 DEFAULT_LAM = 2.0
 #: Default number of field smoothing passes.
 DEFAULT_SMOOTHING = 60
+#: From this many field rows, smoothing runs as a compiled loop (numba) that sums and
+#: renormalises each row in one go: 3x faster on large fields, one compilation (about
+#: 1 s, then cached on disk) per installation.
+FUSED_SMOOTHING_MIN_ROWS = 200_000
 #: Default weight of the first-order fit ``||grad phi - X'||^2`` added to the paper's
 #: Laplacian fit: it anchors phi to the field far from zeta, where the squared
 #: Laplacian alone lets phi bend freely (thin parts of a surface far from the boundary).
@@ -241,6 +245,29 @@ def _lam_scale(domain, Kh, mh, sources):
     return float(min(1.0, np.median(stiffness) / _grid_stiffness(domain.element_dim)))
 
 
+def _smooth_field(W, X, passes):
+    """``passes`` sweeps of averaging by ``W`` and renormalising, in Jacobi order.
+
+    ``W`` acts on the rows of the (n_elements, dim) field, or on the flattened field
+    (kNN graphs transport vectors between tangent frames). Large fields of meshes go
+    through one compiled loop per sweep (:data:`FUSED_SMOOTHING_MIN_ROWS`).
+    """
+    W = sp.csr_matrix(W)
+    if W.shape[0] != X.shape[0]:
+        Xs = X
+        for _ in range(passes):
+            Xs = _normalize_rows((W @ Xs.reshape(-1)).reshape(Xs.shape))
+        return Xs
+    if X.shape[0] >= FUSED_SMOOTHING_MIN_ROWS:
+        from ._kernels import smooth_rows
+
+        return smooth_rows(W, X, passes)
+    Xs = X
+    for _ in range(passes):
+        Xs = _normalize_rows(W @ Xs)
+    return Xs
+
+
 def _normalize_rows(X):
     """Rows scaled to unit length; zero rows stay zero. Modifies and returns ``X``."""
     scale = np.sqrt(np.einsum("ij,ij->i", X, X))
@@ -386,13 +413,7 @@ def relax(
     tick = prog.step("field", tick)
 
     # 3. smoothing, Jacobi order: average, renormalise
-    Xs = X
-    if smoothing:
-        W = work._smoothing_operator()
-        acts_on_flat_field = W.shape[0] != work.n_elements
-        for _ in range(smoothing):
-            Y = (W @ Xs.reshape(-1)).reshape(Xs.shape) if acts_on_flat_field else W @ Xs
-            Xs = _normalize_rows(Y)
+    Xs = _smooth_field(work._smoothing_operator(), X, smoothing) if smoothing else X
     tick = prog.step("smoothing", tick)
 
     # 4. integration, lengths in units of h
@@ -409,7 +430,7 @@ def relax(
     rhs = Kh @ (d / mh_used) + mu * d + lam_used * (S.T @ targets)
     # a padded copy's operators are not needed by the solve: free them before it
     # (at 1M triangle-mesh vertices, 0.5 GB of the peak memory)
-    work = W = None
+    work = None
     psi, int_info = solve_integration(Kh, mh_used, S, lam_used, rhs, mu=mu, rtol=rtol, method=solver)
     tick = prog.step("integration", tick)
 

@@ -299,3 +299,27 @@ def test_knn_graphs_keep_lam():
     X = rng.normal(size=(300, 2))
     res = relax(PointCloud(X, n_neighbors=10), X[:, 0] > 0, on="vertices")
     assert res.params["lam_scale"] == 1.0
+
+
+@pytest.mark.parametrize(
+    "domain",
+    [
+        lambda: kuhn_grid(12, 2, jitter=0.2, random_state=0),
+        lambda: kuhn_grid(6, 3, jitter=0.2, random_state=0),
+        lambda: icosphere(2),
+        lambda: kuhn_grid(3, 4),
+    ],
+    ids=["triangles", "tetrahedra", "surface", "4d"],
+)
+def test_compiled_smoothing_matches_the_sparse_products(domain, monkeypatch):
+    from ndboundary import pipeline
+
+    d = domain()
+    lab = label_by(d, lambda x: np.sin(3 * x[:, 0]) + x[:, 1] - np.median(np.sin(3 * x[:, 0]) + x[:, 1]))
+    ref = relax(d, lab, on="elements")
+    monkeypatch.setattr(pipeline, "FUSED_SMOOTHING_MIN_ROWS", 0)
+    fused = relax(d, lab, on="elements")
+    assert fused.smoothed_field.shape[1] == d.points.shape[1]
+    np.testing.assert_allclose(fused.smoothed_field, ref.smoothed_field, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fused.phi, ref.phi, rtol=0, atol=1e-9)
+    assert not np.shares_memory(fused.field, fused.smoothed_field)

