@@ -13,7 +13,8 @@ Meshes
     (642 ... 655 362 vertices). Labelling: the plane cut z > 0.3 (``--cut wavy``:
     z > 0.3 + 0.1 sin(3 atan2(y, x))).
     ``--tets``: a 3-D series instead, ``kuhn_grid(n, 3, jitter=0.25)`` labelled by the
-    ball r = 0.6, n = 10, 16, 25, 39, 62 ((n+1)^3 = 1.3K ... 250K vertices).
+    ball r = 0.6, n = 10, 16, 25, 39, 62 ((n+1)^3 = 1.3K ... 250K vertices), and 99
+    (1M) with ``--max-vertices 1000000``; ``--jitter 0`` for the plain Kuhn grid.
 
 What is measured, per size, each in its own subprocess (so that peak memory,
 ``ru_maxrss``, belongs to that size alone):
@@ -125,7 +126,7 @@ def geodesic_sphere(freq):
     return pts, T
 
 
-def make_mesh(family, param):
+def make_mesh(family, param, jitter=0.25):
     """``(points, simplices, labels_fn)`` for one size of a series."""
     from ndboundary import SimplicialComplex  # noqa: F401
     from ndboundary.datasets import ball, icosphere, kuhn_grid
@@ -136,7 +137,7 @@ def make_mesh(family, param):
         d = icosphere(param)
         pts, T = d.points, d.simplices
     elif family == "tets":
-        d = kuhn_grid(param, 3, jitter=0.25, random_state=0)
+        d = kuhn_grid(param, 3, jitter=jitter, random_state=0)
         return d.points, d.simplices, ball
     else:
         raise ValueError(family)
@@ -176,7 +177,7 @@ def worker_ours(args):
 
     _emit({"type": "start", "rss_after_import_mb": rss_mb()})
     t = time.perf_counter()
-    pts, T, truth = make_mesh(args.family, args.param)
+    pts, T, truth = make_mesh(args.family, args.param, args.jitter)
     t_mesh = time.perf_counter() - t
     truth = truth or cut_truth(args.cut)
     params = ndboundary.PAPER if args.params == "paper" else {}
@@ -221,7 +222,7 @@ def worker_peer(args):
     from ndboundary.datasets import label_by
 
     _emit({"type": "start", "rss_after_import_mb": rss_mb()})
-    pts, T, truth = make_mesh(args.family, args.param)
+    pts, T, truth = make_mesh(args.family, args.param, args.jitter)
     truth = truth or cut_truth(args.cut)
     params = ndboundary.PAPER if args.params == "paper" else {}
     dom = SimplicialComplex(pts, T)
@@ -257,7 +258,8 @@ def worker_peer(args):
 
 def run_worker(kind, family, param, args, timeout):
     cmd = [sys.executable, os.path.abspath(__file__), "--_worker", kind, "--_family", family,
-           "--_param", str(param), "--repeats", str(args.repeats), "--params", args.params, "--cut", args.cut]
+           "--_param", str(param), "--repeats", str(args.repeats), "--params", args.params, "--cut", args.cut,
+           "--jitter", str(args.jitter)]
     t = time.perf_counter()
     timed_out = False
     try:
@@ -303,6 +305,8 @@ def main(argv=None):
                     help="sphere refinement (default geodesic: the paper's sizes)")
     ap.add_argument("--cut", choices=("plane", "wavy"), default="plane", help="labelling (default z > 0.3)")
     ap.add_argument("--tets", action="store_true", help="3-D Kuhn tetrahedral grids instead of spheres")
+    ap.add_argument("--jitter", type=float, default=0.25,
+                    help="--tets: vertex jitter of the Kuhn grids, in grid steps (default 0.25)")
     ap.add_argument("--repeats", type=int, default=3, help="runs per size; medians reported (default 3)")
     ap.add_argument("--params", choices=("default", "paper"), default="default",
                     help="library defaults (lam %(default)s) or ndboundary.PAPER (lam 0.5, 3 passes, plain)")
@@ -331,7 +335,7 @@ def main(argv=None):
         pdesc = f"PAPER {ndboundary.PAPER}"
     else:
         pdesc = f"defaults lam={ndboundary.DEFAULT_LAM} smoothing={ndboundary.DEFAULT_SMOOTHING} form=mass"
-    label = "ball r=0.6" if args.tets else {"plane": "z > 0.3", "wavy": "z > 0.3 + 0.1 sin(3 theta)"}[args.cut]
+    label = f"ball r=0.6, jitter {args.jitter}" if args.tets else {"plane": "z > 0.3", "wavy": "z > 0.3 + 0.1 sin(3 theta)"}[args.cut]
     print(f"# table1: {family} series, labels {label}, {pdesc}, repeats {args.repeats}, budget {args.budget:.0f} s",
           flush=True)
     t_start = time.perf_counter()
