@@ -14,10 +14,12 @@ never depends on the other points predicted with it:
 * kNN graph: the neighbour-weighted first-order extension
   ``sum_j w_j (phi_j + grad phi_j . T_j^T (x - x_j)) / sum_j w_j`` over the
   ``extension_neighbors`` training points nearest to ``x``, with tangent gradients and
-  frames ``T_j`` and weights ``w_j = 1 / rank_j^p`` (the nearest has rank 1). The power
-  ``p`` sets how sharp the extension is (0: a plain average); by default it is chosen
-  at fit time by the leave-one-out accuracy of the extension at the training samples,
-  which needs no refit since ``phi`` stays as fitted;
+  frames ``T_j`` and weights ``w_j = (1 - d_j^2 / d_{k+1}^2) (d_1 / d_j)^p``, ``d_j``
+  the distance to the ``j``-th nearest and ``d_{k+1}`` to the next one, so that a
+  neighbour's weight fades to 0 before it leaves the set: the extension is continuous
+  in ``x``. The power ``p`` sets how sharply it follows the nearest samples; by default
+  it is chosen at fit time by the leave-one-out accuracy of the extension at the
+  training samples, which needs no refit since ``phi`` stays as fitted;
 * Delaunay: barycentric interpolation in the containing simplex; outside the convex
   hull, the first-order extension from the nearest vertex with its area-weighted
   gradient.
@@ -50,7 +52,7 @@ AUTO_NEIGHBORS_MAX_SAMPLES = 20_000
 AUTO_NEIGHBORS_LARGE = 15
 #: The powers ``extension_power="auto"`` chooses from; on equal leave-one-out accuracy
 #: the earlier one is kept.
-EXTENSION_POWERS = (1.0, 0.0, 2.0, 4.0, 8.0)
+EXTENSION_POWERS = (0.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 #: Neighbours per sample of the graph on which unlabelled samples get their labels.
 HARMONIC_NEIGHBORS = 15
 
@@ -64,22 +66,25 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         Neighbours per sample of the kNN graph. ``"auto"``: :data:`AUTO_NEIGHBORS` (40)
         up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES` (20 000) samples, 15 beyond. On small
         noisy samples the wider stencil steadies the tangent gradients (mean accuracy
-        over the ten sets of ``benchmarks/classify.py`` 0.881 with 40 against 0.871 with
-        15, both with ``vote=0``); on large ones the graph's cost grows with ``k`` (its
-        construction took over 180 s at 100 000 samples in 50 dimensions with 40,
-        against 28 s with 15) while 15 neighbours already hold the data's shape. The
-        value used is ``n_neighbors_``.
-    extension_neighbors : int, default=15
+        over the ten sets of ``benchmarks/classify.py`` MEAN_K15 with 15); on large ones
+        the graph's cost grows with ``k`` (its construction took over 180 s at 100 000
+        samples in 50 dimensions with 40, against 33 s with 15) while 15 neighbours
+        already hold the data's shape. The value used is ``n_neighbors_``.
+    extension_neighbors : int, default=25
         Nearest training samples whose first-order extensions of ``phi`` are averaged
-        at a new point (kNN graph only).
+        at a new point (kNN graph only), with weights that fade to 0 at the next
+        neighbour's distance: a continuous extension, whose 2-D boundary on the moons is
+        shorter than KNN15's (7.2 against 9.0; 10.3 with a plain average over 15).
     extension_power : float or "auto", default="auto"
-        Power ``p`` of the extension weights ``1 / rank^p`` (kNN graph only): 0 averages
-        the ``extension_neighbors`` extensions evenly (smoothest), large values follow
-        the nearest sample (sharpest). ``"auto"`` picks the power among
+        Power ``p`` of the factor ``(d_1 / d_j)^p`` of the extension weights (kNN graph
+        only, see the module docstring): 0 leaves the fading weights alone (smoothest),
+        large values follow the nearest sample (sharpest; in high dimension distances to
+        the neighbours differ little, so sharp needs large powers). ``"auto"`` picks the power among
         :data:`EXTENSION_POWERS` whose extension best predicts each training sample's
         label from its neighbours (leave-one-out, no refit). Noisy, overlapping classes
-        pick 0 and sparse high-dimensional ones 2-8: over the ten sets this gives 0.893
-        against 0.881 for ``p = 1`` everywhere. The value used is ``extension_power_``.
+        pick 0 and sparse high-dimensional ones 2-8: over the ten sets this gives
+        MEAN_AUTO against MEAN_ZERO for ``p = 0`` everywhere. The value used is
+        ``extension_power_``.
     graph : {"knn", "delaunay", "auto"}, default="knn"
         Domain over the samples: a kNN :class:`~ndboundary.pointcloud.PointCloud`, a
         Delaunay complex (2 to 6 features, distinct samples), or ``"auto"``: Delaunay
@@ -98,9 +103,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         label over the sample and its neighbours when that label holds at least
         ``vote_threshold`` of them, removing isolated labels that would otherwise each
         be enclosed by their own level set: one pass shortens the 2-D boundary on the
-        moons (length 9.1 against 10.3) but treats a diffuse minority class as noise
-        (ionosphere: a third of one class relabelled; mean accuracy over the ten sets
-        0.880 against 0.893).
+        moons but treats a diffuse minority class as noise (ionosphere: a third of one
+        class relabelled).
     vote_threshold : float, default=2/3
         Share of the sample and its neighbours a label needs to overrule the sample's
         own label in a voting pass, in ``[0, 1]``. 0 is plurality voting (ties keep the
@@ -164,7 +168,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self,
         *,
         n_neighbors="auto",
-        extension_neighbors=15,
+        extension_neighbors=25,
         extension_power="auto",
         graph="knn",
         lam=1.0,
@@ -348,9 +352,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
         self.phi_ = np.stack(phis, axis=1)
         self._prepare_extension()
-        self.extension_power_ = self._choose_extension_power(codes, labelled)
+        self.extension_power_, loo = self._choose_extension_power(codes, labelled)
         self._log(f"extension power {self.extension_power_}", t0)
-        self.proba_scale_ = self._fit_proba_scale(codes, labelled)
+        self.proba_scale_ = self._fit_proba_scale(codes, labelled, loo)
         self._log("fitted", t0)
         return self
 
@@ -407,29 +411,40 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
                 Gp.append(np.asarray(inc @ g) / wsum[:, None])
             self._grad_v = np.stack(Gp, axis=1)  # (n, r, D)
 
-    def _extension_weights(self, k, power):
-        w = 1.0 / np.arange(1, k + 1, dtype=np.float64) ** power
-        return w / w.sum()
+    @staticmethod
+    def _extend_with(vals, taper, log_ratio, power):
+        """Weighted mean over neighbours of ``vals`` (b, q, r): weights
+        ``taper (d_1 / d_q)^power``."""
+        w = taper * np.exp(-power * log_ratio)
+        return np.einsum("bq,bqr->br", w, vals) / w.sum(axis=1)[:, None]
 
     def _choose_extension_power(self, codes, labelled):
-        """``extension_power``, or with "auto" the power of :data:`EXTENSION_POWERS`
-        whose leave-one-out extension labels the most labelled training samples right."""
+        """``(power, loo)``: ``extension_power``, or with "auto" the power of
+        :data:`EXTENSION_POWERS` whose leave-one-out extension labels the most labelled
+        training samples right; ``loo`` is that extension at the labelled samples (None
+        when not computed here)."""
         if self._graph != "knn":
-            return None
+            return None, None
         if self.extension_power != "auto":
-            return float(self.extension_power)
+            return float(self.extension_power), None
         rows = np.flatnonzero(labelled)
         right = np.zeros(len(EXTENSION_POWERS), dtype=np.int64)
-        for c, vals in self._extension_terms(self._X[rows], exclude_self=True, rows=rows):
+        loo = np.empty((len(EXTENSION_POWERS), rows.size, self._phi_u.shape[1]))
+        for c, *terms in self._extension_terms(self._X[rows], exclude_self=True, rows=rows):
             for i, p in enumerate(EXTENSION_POWERS):
-                phi = np.einsum("q,bqr->br", self._extension_weights(vals.shape[1], p), vals)
+                phi = loo[i, c] = self._extend_with(*terms, p)
                 pred = (phi[:, 0] > 0.5).astype(np.int64) if phi.shape[1] == 1 else np.argmax(phi, axis=1)
                 right[i] += int((pred == codes[rows[c]]).sum())
-        return float(EXTENSION_POWERS[int(np.argmax(right))])  # the first of equals
+        best = int(np.argmax(right))  # the first of equals
+        return float(EXTENSION_POWERS[best]), loo[best]
 
     def _extension_terms(self, X, exclude_self=False, rows=None):
-        """Per chunk of ``X``: ``(slice, vals)``, ``vals[b, q]`` the first-order extension
-        of ``phi`` from the ``q``-th nearest training sample of ``X[b]``.
+        """Per chunk of ``X``: ``(slice, vals, taper, log_ratio)``.
+
+        ``vals[b, q]`` is the first-order extension of ``phi`` from the ``q``-th nearest
+        training sample of ``X[b]``, at distance ``d_q``; ``taper = 1 - (d_q / d_{k+1})^2``
+        measures it against the next neighbour's distance (a weight that reaches 0 where a
+        neighbour leaves the ``k`` nearest) and ``log_ratio = log(d_q / d_1)``.
 
         With ``exclude_self``, ``X`` is the training set (``rows`` of it, default all) and
         each sample's own point is left out. Those leave-one-out estimates read the
@@ -437,25 +452,37 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         the index, unless the extension uses more neighbours than the graph holds.
         """
         dom = self.domain_
-        k = min(self.extension_neighbors, dom.unique_points.shape[0] - (1 if exclude_self else 0))
+        n_u = dom.unique_points.shape[0]
+        own = 1 if exclude_self else 0
+        k = min(self.extension_neighbors, n_u - own)
+        nxt = 1 if k + own < n_u else 0  # a (k+1)-th neighbour exists
         rows = np.arange(X.shape[0]) if rows is None else rows
         for a in range(0, X.shape[0], _CHUNK):
             c = slice(a, min(X.shape[0], a + _CHUNK))
-            if exclude_self and k <= dom.neighbors.shape[1]:
-                ind = dom.neighbors[dom.unique_inverse[rows[c]], :k]
-            elif exclude_self:
-                ind = dom.kneighbors(X[c], k + 1)[0][:, 1:]
+            if exclude_self and k + nxt <= dom.neighbors.shape[1]:
+                u = dom.unique_inverse[rows[c]]
+                ind, dist = dom.neighbors[u, : k + nxt], dom.distances[u, : k + nxt]
             else:
-                ind = dom.kneighbors(X[c], k)[0]
+                ind, dist = dom.kneighbors(X[c], k + nxt + own)
+                ind, dist = ind[:, own:], dist[:, own:]
+            far = np.maximum(dist[:, -1:], np.finfo(np.float64).tiny)
+            if nxt:
+                t = dist[:, :k] / far
+                taper = np.clip(1.0 - t * t, 0.0, 1.0) + 1e-12  # all k tied with the next: even
+            else:
+                taper = np.ones((ind.shape[0], k))
+            # a point on a training sample (d_1 = 0) takes that sample's value
+            log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
+            ind = ind[:, :k]
             off = dom.tangent_offsets(X[c], ind)  # (b, q, m)
-            yield c, self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
+            yield c, self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off), taper, log_ratio
 
     def _extend_knn(self, X, exclude_self=False):
         """First-order extension at ``X`` weighted by ``extension_power_``; with
         ``exclude_self``, ``X`` is the training set (leave-one-out)."""
         out = np.empty((X.shape[0], self._phi_u.shape[1]))
-        for c, vals in self._extension_terms(X, exclude_self):
-            out[c] = np.einsum("q,bqr->br", self._extension_weights(vals.shape[1], self.extension_power_), vals)
+        for c, *terms in self._extension_terms(X, exclude_self):
+            out[c] = self._extend_with(*terms, self.extension_power_)
         return out
 
     def _extend_delaunay(self, X, exclude_self=False):
@@ -484,8 +511,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             return self._extend_knn(X, exclude_self)
         return self._extend_delaunay(X, exclude_self)
 
-    def _fit_proba_scale(self, codes, labelled):
-        phi = self._phi(self._X, exclude_self=True)[labelled]
+    def _fit_proba_scale(self, codes, labelled, loo=None):
+        """Slope of the logistic map fitted on leave-one-out ``phi`` at the labelled samples."""
+        phi = self._phi(self._X, exclude_self=True)[labelled] if loo is None else loo
         c = codes[labelled]
         if phi.shape[1] == 1:
             z = phi[:, 0] - 0.5

@@ -175,6 +175,8 @@ def test_auto_extension_power_is_the_best_leave_one_out_power():
     assert loo[auto.extension_power_] == max(loo.values())
     # the first of equally good powers
     assert auto.extension_power_ == next(p for p in EXTENSION_POWERS if loo[p] == max(loo.values()))
+    # the probability slope is fitted on the same leave-one-out values as a fresh pass gives
+    assert np.isclose(auto.proba_scale_, auto._fit_proba_scale(y, np.ones(y.size, dtype=bool)))
     # a fixed power is used as given, and a sharper one follows the nearest sample more
     sharp = LevelSetClassifier(extension_power=8.0).fit(X, y)
     flat = LevelSetClassifier(extension_power=0.0).fit(X, y)
@@ -200,3 +202,18 @@ def test_unlabelled_samples_take_labels_on_the_sparse_label_graph(moons):
     narrow = LevelSetClassifier(unlabeled=-1, n_neighbors=15).fit(X, yl)
     assert np.array_equal(wide.transduction_, narrow.transduction_)
     assert np.array_equal(wide.transduction_[yl != -1], y[yl != -1])
+
+
+@pytest.mark.parametrize("power", [0.0, 8.0])
+def test_decision_function_is_continuous(power):
+    # along a path across the classes, the largest step of the decision function shrinks
+    # with the path's step (a neighbour's weight fades to 0 before it leaves the set)
+    X, y = make_moons(300, noise=0.3, random_state=1)
+    clf = LevelSetClassifier(extension_power=power).fit(X, y)
+
+    def largest_step(n):
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        path = np.array([-1.0, 0.8]) * (1 - t) + np.array([2.0, -0.4]) * t
+        return np.abs(np.diff(clf.decision_function(path))).max()
+
+    assert largest_step(8000) < 0.35 * largest_step(2000)
