@@ -20,8 +20,9 @@ What is measured, per size, each in its own subprocess (so that peak memory,
 ``ru_maxrss``, belongs to that size alone):
     * ``relax`` on a freshly built domain (operators not cached), ``--repeats`` times;
       the median of each step of ``r.timings`` (pad, heat, field, smoothing,
-      integration, total). Operators of the padded domain are assembled inside the
-      steps, as a user's first call would.
+      integration, total). Operators are assembled inside the steps, as a user's
+      first call would: the stiffness and mass in ``pad``, the gradient in ``field``,
+      the adjacency in ``smoothing``.
     * operator assembly separately: building a fresh ``SimplicialComplex`` and
       accessing ``.K``, ``.G``, ``.mass``, ``.adjacency``.
     * peak resident memory of the process, and the resident size right after imports.

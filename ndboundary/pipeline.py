@@ -121,7 +121,9 @@ class RelaxResult:
     classes : ndarray of shape (2,)
         The label values of region 0 and region 1.
     timings : dict
-        Seconds per step: ``pad``, ``heat``, ``field``, ``smoothing``, ``integration``, ``total``.
+        Seconds per step: ``pad`` (finding zeta, padding, and assembling the stiffness and
+        mass of the padded domain when they are not cached yet), ``heat``, ``field``,
+        ``smoothing``, ``integration``, ``total``.
     solver : dict of SolveInfo
         Per linear solve, its method, iterations and relative residual.
     params : dict
@@ -382,6 +384,7 @@ def relax(
     vert_region1 = region1 if on == "vertices" else (domain.incidence @ region1.astype(np.float64)) > 0
     S, targets = _pin_components_without_boundary(domain, boundary.S, vert_region1)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - V))]).tocsr()
+    work.K, work.mass  # noqa: B018 - the operators every later step needs, assembled (and timed) here
     tick = prog.step("pad", tick)
 
     # 1. heat
