@@ -79,13 +79,13 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     extension_power : float or "auto", default="auto"
         Power ``p`` of the factor ``(d_1 / d_j)^p`` of the extension weights (kNN graph
         only, see the module docstring): 0 leaves the fading weights alone (smoothest),
-        large values follow the nearest sample (sharpest; in high dimension distances to
-        the neighbours differ little, so sharp needs large powers). ``"auto"`` picks the power among
-        :data:`EXTENSION_POWERS` whose extension best predicts each training sample's
-        label from its neighbours (leave-one-out, no refit). Noisy, overlapping classes
-        pick 0 and sparse high-dimensional ones 2-8: over the ten sets this gives
-        0.892 against 0.885 for ``p = 0`` everywhere. The value used is
-        ``extension_power_``.
+        large values follow the nearest sample (sharpest; in high dimension the
+        distances to the neighbours differ little, so sharp needs large powers).
+        ``"auto"`` picks the power among :data:`EXTENSION_POWERS` whose extension best
+        predicts each training sample's label from its neighbours (leave-one-out, no
+        refit). Noisy, overlapping classes pick 0 and sparse high-dimensional ones large
+        powers: over the ten sets this gives 0.892 against 0.885 for ``p = 0``
+        everywhere. The value used is ``extension_power_``.
     graph : {"knn", "delaunay", "auto"}, default="knn"
         Domain over the samples: a kNN :class:`~ndboundary.pointcloud.PointCloud`, a
         Delaunay complex (2 to 6 features, distinct samples), or ``"auto"``: Delaunay
