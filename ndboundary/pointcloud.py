@@ -53,6 +53,8 @@ __all__ = ["PointCloud", "delaunay_complex", "estimate_intrinsic_dim"]
 #: Above this many (distinct) points the neighbours come from pynndescent.
 EXACT_MAX_SAMPLES = 20000
 _CHUNK = 4096
+#: Elements of gathered tangent frames held at once by :meth:`PointCloud.tangent_offsets`.
+_GATHER = 1 << 22
 _EIG_RTOL = 1e-10
 _LSQ_RTOL = 1e-10
 #: Delaunay complexes are refused beyond these sizes (Qhull's practical range).
@@ -521,8 +523,10 @@ class PointCloud(Domain):
     def tangent_offsets(self, X, ind):
         """Tangent coordinates ``T_j^T (x - x_j)`` of ``X`` (n, D) seen from ``ind`` (n, q): (n, q, m)."""
         out = np.empty(ind.shape + (self.intrinsic_dim,))
-        for a in range(0, X.shape[0], _CHUNK):
-            c = slice(a, min(X.shape[0], a + _CHUNK))
+        # rows per chunk: the gathered frames (rows, q, D, m) stay within _GATHER elements
+        step = max(1, min(_CHUNK, _GATHER // max(1, ind.shape[1] * self.frames[0].size)))
+        for a in range(0, X.shape[0], step):
+            c = slice(a, min(X.shape[0], a + step))
             off = X[c][:, None, :] - self.unique_points[ind[c]]  # (b, q, D)
             out[c] = np.einsum("bqd,bqdm->bqm", off, self.frames[ind[c]], optimize=True)
         return out
