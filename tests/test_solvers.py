@@ -388,3 +388,27 @@ def test_auto_iterates_on_instead_of_factorising_a_large_3d_system(system, monke
     with pytest.warns(RuntimeWarning, match=r"did not converge in 5 iterations .* too many to factorise"):
         _phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, maxiter=1)
     assert info.iterations == 5 and info.residual > 1e-9
+
+
+def test_large_direct_solves_refine_a_single_precision_factor(monkeypatch):
+    _skip_unless_available("pardiso")
+    K, mass, S = _system(12, 2)
+    lam, mu = 2.0, 0.03
+    Q = (K @ sp.diags(1 / mass) @ K + mu * K + lam * (S.T @ S)).toarray()
+    rhs = np.random.default_rng(1).standard_normal(K.shape[0])
+    exact = np.linalg.solve(Q, rhs)
+    monkeypatch.setattr(solvers, "SINGLE_PRECISION_MIN", 0)
+    phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10)
+    assert info.method == "cholesky-single+cg"
+    assert 1 <= info.iterations <= solvers.SINGLE_REFINE_MAXITER
+    assert info.residual <= 1e-9 and _rel(phi, exact) < 1e-7
+    # the same system again reuses the single-precision factor
+    again, info2 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10)
+    assert info2.method == "cholesky-single+cg" and np.allclose(again, phi, rtol=0, atol=1e-12)
+    # another backend, or a refinement that cannot converge, factorises in double precision
+    other = "cvxopt" if "cvxopt" in solvers.available_backends() else "superlu"
+    _, info3 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, backend=other)
+    assert info3.method == "cholesky"
+    monkeypatch.setattr(solvers, "SINGLE_REFINE_MAXITER", 0)
+    phi4, info4 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10)
+    assert info4.method == "cholesky" and _rel(phi4, exact) < 1e-8
