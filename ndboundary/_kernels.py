@@ -27,23 +27,6 @@ def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _sweep2(indptr, indices, data, A, B):  # pragma: no cover - compiled
-    for i in range(A.shape[0]):
-        x = 0.0
-        y = 0.0
-        for p in range(indptr[i], indptr[i + 1]):
-            j = indices[p]
-            w = data[p]
-            x += w * A[j, 0]
-            y += w * A[j, 1]
-        s = x * x + y * y
-        if s > 0.0:
-            s = 1.0 / np.sqrt(s)
-        B[i, 0] = x * s
-        B[i, 1] = y * s
-
-
-@numba.njit(cache=True, nogil=True)
 def _sweep(indptr, indices, data, A, B):  # pragma: no cover - compiled
     d = A.shape[1]
     for i in range(A.shape[0]):
@@ -72,13 +55,16 @@ def smooth_rows(W, X, passes):
     field once per sweep instead of four times: 3x the sparse-product loop on a
     6M-element tetrahedral field.
     """
-    sweep = {2: _sweep2, 3: _sweep3}.get(X.shape[1], _sweep)
+    d = X.shape[1]
+    # planar fields run through the 3-column loop with a zero third component
+    sweep = _sweep3 if d in (2, 3) else _sweep
     indptr = W.indptr.astype(np.int64, copy=False)
     indices = W.indices.astype(np.int64, copy=False)
     data = W.data.astype(np.float64, copy=False)
-    A = np.array(X, dtype=np.float64, order="C")
+    A = np.zeros((X.shape[0], 3 if d == 2 else d))
+    A[:, :d] = X
     B = np.empty_like(A)
     for _ in range(passes):
         sweep(indptr, indices, data, A, B)
         A, B = B, A
-    return A
+    return A[:, :d].copy() if d == 2 else A

@@ -384,14 +384,13 @@ def relax(
     vert_region1 = region1 if on == "vertices" else (domain.incidence @ region1.astype(np.float64)) > 0
     S, targets = _pin_components_without_boundary(domain, boundary.S, vert_region1)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - V))]).tocsr()
-    work.K, work.mass  # noqa: B018 - the operators every later step needs, assembled (and timed) here
+    K, mass = work.K, work.mass  # assembled (and timed) with the padding
     tick = prog.step("pad", tick)
 
     # 1. heat
-    mass = work.mass
     b = np.zeros(work.n_vertices)
     b[boundary.sources] = mass[boundary.sources]
-    u, heat_info = solve_heat(mass, work.K, t_factor * h * h, b, rtol=rtol)
+    u, heat_info = solve_heat(mass, K, t_factor * h * h, b, rtol=rtol)
     tick = prog.step("heat", tick)
 
     # 2. field: the heat gradient where the heat is resolved; further away, where u is
@@ -421,7 +420,7 @@ def relax(
 
     # 4. integration, lengths in units of h
     k = work.element_dim
-    Kh = work.K * h ** (2 - k)
+    Kh = K * h ** (2 - k)
     mh = mass / h**k
     d = work.div(Xs) * h ** (1 - k)
     if form == "plain":
@@ -433,7 +432,7 @@ def relax(
     rhs = Kh @ (d / mh_used) + mu * d + lam_used * (S.T @ targets)
     # a padded copy's operators are not needed by the solve: free them before it
     # (at 1M triangle-mesh vertices, 0.5 GB of the peak memory)
-    work = None
+    work = K = None
     psi, int_info = solve_integration(Kh, mh_used, S, lam_used, rhs, mu=mu, rtol=rtol, method=solver)
     tick = prog.step("integration", tick)
 

@@ -12,10 +12,9 @@
     :data:`LARGE_SYSTEM` unknowns, MKL PARDISO (package ``pypardiso``: METIS ordering,
     30% less memory, reused by the next factorisation on the same mesh) from there, in
     single precision refined by conjugate gradients to ``rtol`` (half the factor's
-    memory; 16 s instead of 22 s at 1M vertices),
-    CHOLMOD of ``sksparse-minimal`` where neither has a
-    wheel, else scipy's SuperLU (5-7x slower at 250K-1M vertices), with one
-    :class:`SolverFallbackWarning` per process naming the cost;
+    memory; 16 s instead of 22 s at 1M vertices), CHOLMOD of ``sksparse-minimal`` where
+    neither has a wheel, else scipy's SuperLU (5-7x slower at 250K-1M vertices), with
+    one :class:`SolverFallbackWarning` per process naming the cost;
   - denser rows (tetrahedra, higher dimensions, neighbour graphs): conjugate gradients
     preconditioned by ``(K + D) M^{-1} (K + D)``, ``D`` diagonal, ``(K + D)^{-1}``
     applied by one smoothed-aggregation AMG V-cycle (package ``pyamg``: linear cost,
