@@ -3,36 +3,55 @@
 The method of Livesu, "A Heat Flow Based Relaxation Scheme for n Dimensional Discrete
 Hyper Surfaces" (Computers & Graphics, 2018), over any domain that provides a
 Laplacian, a gradient and a divergence.
+
+Where things are: :mod:`ndboundary.domains` (one module per kind of discretisation),
+:mod:`ndboundary.pipeline` (one module per step of the paper), :mod:`ndboundary.solvers`,
+:mod:`ndboundary.levelset`, :mod:`ndboundary.learn` (the classifier), :mod:`ndboundary.io`,
+:mod:`ndboundary.datasets`, :mod:`ndboundary.plot` and :mod:`ndboundary.cli`.
 """
 
-from .domain import Domain
+from . import datasets, io
+from .domains import (
+    DelaunayComplex,
+    Domain,
+    PointCloud,
+    PolygonMesh,
+    PolyhedralMesh,
+    SimplicialComplex,
+    delaunay_complex,
+)
+from .io import read_labels, read_mesh, write_labels, write_level_set, write_mesh, write_phi
+from .learn import LevelSetClassifier
 from .levelset import LevelSet, marching_simplices
-from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, RelaxResult, relax
-from .classifier import LevelSetClassifier
-from .pointcloud import PointCloud, delaunay_complex
-from .polygon import PolygonMesh
-from .polyhedral import PolyhedralMesh
-from .simplicial import SimplicialComplex
-from . import io
+from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, Relaxer, RelaxResult, relax
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "DEFAULT_LAM",
+    "DEFAULT_MU",
+    "DEFAULT_SMOOTHING",
+    "PAPER",
+    "Boundary",
+    "DelaunayComplex",
     "Domain",
-    "SimplicialComplex",
+    "LevelSet",
+    "LevelSetClassifier",
+    "PointCloud",
     "PolygonMesh",
     "PolyhedralMesh",
-    "PointCloud",
-    "delaunay_complex",
-    "LevelSetClassifier",
-    "io",
-    "relax",
     "RelaxResult",
-    "Boundary",
-    "LevelSet",
+    "Relaxer",
+    "SimplicialComplex",
+    "datasets",
+    "delaunay_complex",
+    "io",
     "marching_simplices",
-    "DEFAULT_LAM",
-    "DEFAULT_SMOOTHING",
-    "DEFAULT_MU",
-    "PAPER",
+    "read_labels",
+    "read_mesh",
+    "relax",
+    "write_labels",
+    "write_level_set",
+    "write_mesh",
+    "write_phi",
 ]

@@ -11,12 +11,15 @@ import numbers
 
 import numpy as np
 
+from ._arrays import sort_rows
+
 __all__ = [
     "check_points",
     "check_cells",
     "check_labels",
     "check_positive",
     "check_nonnegative_int",
+    "check_ragged",
 ]
 
 
@@ -146,3 +149,68 @@ def check_nonnegative_int(value, name):
     if value < 0:
         raise ValueError(f"{name} must be >= 0, got {value}")
     return int(value)
+
+
+def check_ragged(cells, n_points, *, name, min_size, what="vertex"):
+    """Validate polygons given as an (n, m) array or as a sequence of index sequences.
+
+    Returns
+    -------
+    indices : ndarray of int64 of shape (n_corners,)
+        The flat concatenation of the rows.
+    offsets : ndarray of int64 of shape (n_cells + 1,)
+        Row ``i`` is ``indices[offsets[i]:offsets[i + 1]]``.
+    """
+    if isinstance(cells, (str, bytes)) or cells is None:
+        raise TypeError(f"{name} must be an integer array or a sequence of index sequences, got {type(cells).__name__}")
+    rows = None
+    if isinstance(cells, np.ndarray) and cells.dtype != object:
+        if cells.ndim != 2:
+            raise ValueError(f"{name} must have shape (n_cells, {what}s_per_cell), got shape {cells.shape}")
+        rows_arr = cells
+        sizes = np.full(cells.shape[0], cells.shape[1], dtype=np.int64)
+    else:
+        try:
+            rows = [np.asarray(r) for r in cells]
+        except TypeError:
+            raise TypeError(f"{name} must be an integer array or a sequence of index sequences") from None
+        for i, r in enumerate(rows):
+            if r.ndim != 1:
+                raise ValueError(f"{name} row {i} must be a flat sequence of {what} indices, got shape {r.shape}")
+        sizes = np.array([r.size for r in rows], dtype=np.int64)
+        rows_arr = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+    if sizes.size == 0:
+        raise ValueError(f"{name} is empty")
+    raw = np.asarray(rows_arr)
+    if raw.dtype.kind == "b":
+        raise TypeError(f"{name} must hold integer {what} indices, got booleans")
+    if raw.dtype.kind == "f":
+        if raw.size and not np.all(np.isfinite(raw) & (raw == np.round(raw))):
+            raise TypeError(f"{name} must hold integer {what} indices, got non-integer values")
+    elif raw.dtype.kind not in "iu" and raw.size:
+        raise TypeError(f"{name} must hold integer {what} indices, got dtype {raw.dtype}")
+    indices = np.array(raw, dtype=np.int64).reshape(-1)
+    offsets = np.zeros(sizes.size + 1, dtype=np.int64)
+    np.cumsum(sizes, out=offsets[1:])
+    short = np.flatnonzero(sizes < min_size)
+    if short.size:
+        i = int(short[0])
+        raise ValueError(
+            f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) has {sizes[i]} "
+            f"{what}(s); at least {min_size} are needed"
+        )
+    bad = (indices < 0) | (indices >= n_points)
+    if bad.any():
+        i = int(np.searchsorted(offsets, np.flatnonzero(bad)[0], side="right") - 1)
+        raise ValueError(
+            f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) indexes a {what} "
+            f"outside 0..{n_points - 1}"
+        )
+    owner = np.repeat(np.arange(sizes.size), sizes)
+    order, _ = sort_rows(np.stack([owner, indices], axis=1))
+    srt_i, srt_o = indices[order], owner[order]
+    rep = (srt_i[1:] == srt_i[:-1]) & (srt_o[1:] == srt_o[:-1])
+    if rep.any():
+        i = int(srt_o[1:][rep][0])
+        raise ValueError(f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) repeats a {what}")
+    return indices, offsets

@@ -37,10 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .domain import Domain
-from .polygon import PolygonMesh
-from .polyhedral import HEX_FACES, TET_FACES, PolyhedralMesh
-from .simplicial import SimplicialComplex, group_rows
+from ._arrays import group_rows
+from .domains import Domain, PolygonMesh, PolyhedralMesh, SimplicialComplex
+from .domains.polyhedral_cells import HEX_FACES, TET_FACES
 
 __all__ = ["read_mesh", "write_mesh", "write_phi", "write_level_set", "read_labels", "write_labels"]
 
@@ -355,7 +354,7 @@ def _points3(points):
 
 def _hexes_or_tets(mesh):
     """VTK hexahedra or tetrahedra of a PolyhedralMesh whose cells all are such, else None."""
-    cell, vert = mesh._cell_vertices
+    cell, vert = mesh.cell_vertices
     nv = np.bincount(cell, minlength=mesh.n_elements)
     nf = np.diff(mesh.cell_offsets)
     fs = np.diff(mesh.face_offsets)
@@ -417,7 +416,7 @@ def _cell_blocks(domain):
                 loop = domain.face_indices[domain.face_offsets[f]:domain.face_offsets[f + 1]]
                 loops.append(loop if domain.cell_face_signs[k] > 0 else loop[::-1])
             cells.append(loops)
-        nv = np.bincount(domain._cell_vertices[0], minlength=domain.n_elements)
+        nv = np.bincount(domain.cell_vertices[0], minlength=domain.n_elements)
         blocks, order = [], []
         for m in np.unique(nv):
             els = np.flatnonzero(nv == m)

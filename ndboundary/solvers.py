@@ -42,6 +42,7 @@ process used it.
 from __future__ import annotations
 
 import contextlib
+import os
 import ctypes
 import functools
 import hashlib
@@ -60,7 +61,7 @@ __all__ = [
     "SolveInfo",
     "SolverFallbackWarning",
     "available_backends",
-    "clear_cache",
+    "FactorCache",
     "factorize_spd",
     "solve_heat",
     "solve_integration",
@@ -265,7 +266,7 @@ class _Pardiso:
         + [ctypes.POINTER(ctypes.c_int32)]  # error
     )
 
-    def __init__(self, A, single=False):
+    def __init__(self, A, single=False, orderings=None):
         self._pardiso, self._set_threads = _mkl_functions()
         self._dtype = np.float32 if single else np.float64
         U = sp.triu(sp.csr_matrix(A), format="csr")
@@ -284,7 +285,7 @@ class _Pardiso:
         self._iparm[27] = int(single)  # single-precision factor and solves
         self._iparm[34] = 1  # zero-based indices
         pattern = _digest("pattern", self._ia, self._ja)
-        known = _orderings.get("entry")
+        known = None if orderings is None else orderings.get("entry")
         if known is not None and known[0] == pattern:
             self._perm = known[1]
             self._iparm[4] = 1  # use this ordering
@@ -297,8 +298,8 @@ class _Pardiso:
         self._finalizer = weakref.finalize(
             self, _Pardiso._release, self._pardiso, self._pt, self._iparm
         )
-        if not self.reused_ordering:
-            _orderings["entry"] = (pattern, self._perm)
+        if orderings is not None and not self.reused_ordering:
+            orderings["entry"] = (pattern, self._perm)
 
     @staticmethod
     def _release(func, pt, iparm):
@@ -353,10 +354,6 @@ class _Pardiso:
         return X.reshape(b.shape).astype(np.float64, copy=False)
 
 
-# The last ordering PARDISO computed, keyed by the sparsity pattern it orders.
-_orderings: dict = {}
-
-
 @functools.lru_cache(maxsize=1)
 def _mkl_functions():
     """MKL's ``pardiso`` and ``MKL_Set_Num_Threads_Local``, from the library pypardiso finds."""
@@ -367,15 +364,15 @@ def _mkl_functions():
     return pardiso, set_threads
 
 
-def _pardiso(A):
-    return _Pardiso(A).solve
+def _pardiso(A, orderings=None):
+    return _Pardiso(A, orderings=orderings).solve
 
 
 _FACTORISE = {"pardiso": _pardiso, "cvxopt": _cvxopt, "cholmod": _cholmod, "superlu": _superlu}
 _PACKAGE = {"pardiso": "pypardiso", "cvxopt": "cvxopt", "cholmod": "sksparse-minimal"}
 
 
-def factorize_spd(A, backend="auto"):
+def factorize_spd(A, backend="auto", orderings=None):
     """Return a function solving ``A x = b`` for a sparse symmetric positive definite ``A``.
 
     Parameters
@@ -392,6 +389,9 @@ def factorize_spd(A, backend="auto"):
         the matrix, in the order of :data:`BACKENDS` (cvxopt, pardiso, cholmod, superlu),
         PARDISO first from :data:`LARGE_SYSTEM` unknowns; an error of one backend (a
         missing runtime library, a pivot that is not positive) moves on to the next.
+    orderings : dict, optional
+        Where PARDISO keeps its METIS ordering for the next matrix of the same sparsity
+        pattern (:attr:`FactorCache.orderings`); None computes it afresh.
 
     Returns
     -------
@@ -411,16 +411,20 @@ def factorize_spd(A, backend="auto"):
         mod = BACKENDS[backend]
         if mod is not None and _load(mod) is None:
             raise ImportError(f"backend={backend!r} needs the package {_PACKAGE[backend]}")
-        return _FACTORISE[backend](A)
+        return _factorise(backend, A, orderings)
     for name in _auto_order(A.shape[0]):
         mod = BACKENDS[name]
         if mod is None or _load(mod) is None:
             continue
         try:
-            return _FACTORISE[name](A)
+            return _factorise(name, A, orderings)
         except Exception:  # noqa: BLE001, S112 - a failing optional backend: try the next
             continue
     return _superlu(A)
+
+
+def _factorise(name, A, orderings):
+    return _FACTORISE[name](A, orderings=orderings) if name == "pardiso" else _FACTORISE[name](A)
 
 
 def _auto_order(n):
@@ -511,16 +515,77 @@ def _amg(A):
     return ml.aspreconditioner(cycle="V").matvec
 
 
-# A one-entry cache of the last factorisation / preconditioner, keyed by the content of
-# the matrix: a second relax() on the same domain, labels and lam reuses it.
-_cache: dict = {}
+class FactorCache:
+    """The last factorisation or preconditioner of a solve, kept for the next one.
+
+    One entry, keyed by the content of the matrix it factorises (so a changed matrix is
+    never solved with a stale factor), and the last METIS ordering PARDISO computed,
+    keyed by the sparsity pattern it orders (the integration matrix of a mesh has one
+    pattern whatever the labels and parameters). A :class:`~ndboundary.Relaxer` owns one;
+    nothing is kept between solves without it.
+
+    Attributes
+    ----------
+    nbytes : int
+        Memory the kept entry holds: the factor's entries where the backend reports them,
+        else the resident memory its construction added (Linux), else 0.
+
+    Examples
+    --------
+    >>> import scipy.sparse as sp
+    >>> from ndboundary.solvers import FactorCache, solve_integration
+    >>> cache = FactorCache()
+    >>> K = sp.csr_matrix([[1.0, -1.0], [-1.0, 1.0]])
+    >>> S = sp.csr_matrix([[1.0, 0.0]])
+    >>> phi, info = solve_integration(K, [1.0, 1.0], S, 1.0, [0.5, 0.0], cache=cache)
+    >>> len(cache) == 1 and cache.nbytes >= 0
+    True
+    """
+
+    def __init__(self):
+        self._entry = None
+        self.orderings = {}
+        self.nbytes = 0
+
+    def __len__(self):
+        return int(self._entry is not None)
+
+    def get(self, kind, A, build):
+        """The cached value for ``(kind, A)``, or ``build(A)`` cached in its place."""
+        key = _key(kind, A)
+        entry = self._entry  # one (key, value) tuple: safe to read from any thread
+        if entry is not None and entry[0] == key:
+            return entry[1]
+        self.clear(orderings=False)  # free the old one before building the new one
+        before = _resident_bytes()
+        value = build(A)
+        self.nbytes = _factor_bytes(value, max(0, _resident_bytes() - before))
+        self._entry = (key, value)
+        return value
+
+    def clear(self, orderings=True):
+        """Free the kept factorisation (and, by default, the kept ordering)."""
+        self._entry = None
+        self.nbytes = 0
+        if orderings:
+            self.orderings.clear()
 
 
-def clear_cache():
-    """Drop the cached factorisation (it holds memory of the order of the factor) and the
-    kept PARDISO ordering."""
-    _cache.clear()
-    _orderings.clear()
+def _resident_bytes():
+    """Resident memory of this process (Linux), else 0."""
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return 0
+
+
+def _factor_bytes(solve, measured):
+    """Bytes held by a factor's solve function: the factor's entries where known."""
+    owner = getattr(solve, "__self__", None)
+    if isinstance(owner, _Pardiso):
+        return owner.factor_nnz * (owner._dtype().itemsize + 4)
+    return measured
 
 
 def _digest(tag, *arrays):
@@ -538,16 +603,11 @@ def _key(kind, A):
 
 
 def _cached(kind, A, build, cache):
-    if not cache:
-        return build(A)
-    key = _key(kind, A)
-    entry = _cache.get("entry")  # one (key, value) tuple: safe to read from any thread
-    if entry is not None and entry[0] == key:
-        return entry[1]
-    _cache.clear()  # free the old one before building the new one
-    value = build(A)
-    _cache["entry"] = (key, value)
-    return value
+    return build(A) if cache is None else cache.get(kind, A, build)
+
+
+def _orderings_of(cache):
+    return None if cache is None else cache.orderings
 
 
 def _relres(A, x, b):
@@ -601,7 +661,7 @@ def _refined_single(Q, rhs, rtol, cache):
     t0 = time.perf_counter()
     try:
         with _one_blas_thread():
-            solve = _cached(("direct", "pardiso-single"), Q, lambda A: _Pardiso(A, single=True).solve, cache)
+            solve = _cached(("direct", "pardiso-single"), Q, lambda A: _Pardiso(A, single=True, orderings=_orderings_of(cache)).solve, cache)
     except Exception:  # noqa: BLE001 - any failure of the optional path: factorise in double
         return None
     t1 = time.perf_counter()
@@ -617,7 +677,9 @@ def _refined_single(Q, rhs, rtol, cache):
 def _direct(Q, rhs, backend, cache, iters=0):
     t0 = time.perf_counter()
     with _one_blas_thread():
-        solve = _cached(("direct", backend), Q, lambda A: factorize_spd(A, backend=backend), cache)
+        solve = _cached(
+            ("direct", backend), Q, lambda A: factorize_spd(A, backend=backend, orderings=_orderings_of(cache)), cache
+        )
         t1 = time.perf_counter()
         phi = solve(rhs)
     t2 = time.perf_counter()
@@ -637,7 +699,7 @@ def solve_integration(
     method="auto",
     backend="auto",
     preconditioner="auto",
-    cache=True,
+    cache=None,
 ):
     """Solve ``(K M^{-1} K + mu K + lam S^T S) phi = rhs``.
 
@@ -672,9 +734,10 @@ def solve_integration(
         How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) or a
         sparse Cholesky factor. ``"auto"``: amg on meshes with denser rows when pyamg
         is installed, cholesky otherwise.
-    cache : bool, default=True
-        Keep the last factorisation / AMG hierarchy and reuse it when the same matrix
-        comes again (compared by content); :func:`clear_cache` frees it.
+    cache : FactorCache, optional
+        Where to keep the factorisation / AMG hierarchy for the next solve of the same
+        matrix (compared by content) and PARDISO's ordering for the same pattern. None
+        keeps nothing.
 
     Returns
     -------
@@ -739,7 +802,7 @@ def solve_integration(
             solve = _cached("amg", A, _amg, cache)
         else:
             solve = _cached(
-                ("factor", backend), A, lambda B: factorize_spd(B, backend=backend), cache
+                ("factor", backend), A, lambda B: factorize_spd(B, backend=backend, orderings=_orderings_of(cache)), cache
             )
 
     def apply(r):

@@ -1,4 +1,4 @@
-"""Compiled loops (numba, a dependency of pynndescent) for the pipeline's hot spots."""
+"""Compiled loops (numba) for the hot spots of the field smoothing."""
 
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def _sweep(indptr, indices, data, A, B):  # pragma: no cover - compiled
             B[i, c] *= s
 
 
-def smooth_rows(W, X, passes):
+def smooth_rows_compiled(W, X, passes):
     """``passes`` sweeps of ``X <- normalize_rows(W @ X)``, each row in one go.
 
     ``W`` is a CSR matrix, ``X`` an (n, d) array (not modified). Every sweep reads the

@@ -1,7 +1,7 @@
-"""Domains over data: a kNN point cloud with intrinsic operators, and Delaunay complexes.
+"""A kNN point cloud with intrinsic (tangent-space) operators.
 
 :class:`PointCloud` is a kNN graph over ``n`` points in R^D whose operators live in
-the tangent spaces of the data (sign convention of :mod:`ndboundary.domain`: ``K`` is
+the tangent spaces of the data (sign convention of :mod:`ndboundary.domains.base`: ``K`` is
 positive semidefinite, ``Delta = -M^{-1} K``):
 
 * **tangent frames** by local PCA over each point's ``k`` nearest neighbours, with an
@@ -16,7 +16,7 @@ positive semidefinite, ``Delta = -M^{-1} K``):
   ``V_m`` the unit-ball volume: the volume per sample of a kNN density estimate), and
   ``mass = A``;
 * ``K = G^T diag(A) G``, consistent with ``div``: symmetric, PSD, ``K @ 1 == 0``;
-* **smoothing** (:meth:`PointCloud._smoothing_operator`) transports neighbouring
+* **smoothing** (:meth:`PointCloud.smoothing_operator`) transports neighbouring
   vectors between frames, ``X_j <- sum_i T_j^T T_i X_i``, so vectors are compared in
   ambient coordinates although only ``m`` numbers per point are stored.
 
@@ -44,143 +44,24 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from ._validation import check_points
-from .domain import Domain
-from .simplicial import SimplicialComplex
+from .._validation import check_points
+from ..fields import normalize_rows
+from .base import Domain
+from .neighbors import component_bridges, estimate_intrinsic_dim, kneighbors
+from .pointcloud_extension import NeighborExtension
 
-__all__ = ["PointCloud", "delaunay_complex", "estimate_intrinsic_dim"]
+__all__ = ["PointCloud"]
 
-#: Above this many (distinct) points the neighbours come from pynndescent.
-EXACT_MAX_SAMPLES = 20000
+
 _CHUNK = 4096
 #: Elements of gathered tangent frames held at once by :meth:`PointCloud.tangent_offsets`.
 _GATHER = 1 << 22
 _EIG_RTOL = 1e-10
 _LSQ_RTOL = 1e-10
-#: Delaunay complexes are refused beyond these sizes (Qhull's practical range).
-DELAUNAY_MAX_DIM = 6
-DELAUNAY_MAX_POINTS = {2: 2_000_000, 3: 500_000, 4: 50_000, 5: 10_000, 6: 3_000}
 
 
 def _ball_volume(m):
     return pi ** (m / 2) / gamma(m / 2 + 1)
-
-
-def _seed(random_state):
-    if random_state is None or isinstance(random_state, (numbers.Integral, np.random.Generator)):
-        return int(np.random.default_rng(random_state).integers(2**31 - 1))
-    if isinstance(random_state, np.random.RandomState):
-        return int(random_state.randint(2**31 - 1))
-    raise TypeError(f"random_state must be None, an int or a numpy Generator, got {type(random_state).__name__}")
-
-
-def _drop_self(ind, dist, k):
-    """Remove each row's own index (or, if absent, its last neighbour); keep k columns."""
-    n = ind.shape[0]
-    is_self = ind == np.arange(n)[:, None]
-    no_self = ~is_self.any(axis=1)
-    is_self[no_self, -1] = True
-    keep = ~is_self
-    first = np.argmax(is_self, axis=1)
-    keep[np.arange(n), first] = False
-    keep &= np.cumsum(keep, axis=1) <= k
-    return ind[keep].reshape(n, k), dist[keep].reshape(n, k)
-
-
-def kneighbors(points, n_neighbors, *, method="auto", random_state=None, return_index=False):
-    """The ``n_neighbors`` nearest other points of every point (exact or pynndescent).
-
-    Parameters
-    ----------
-    points : ndarray of shape (n_points, n_features)
-        Distinct points.
-    n_neighbors : int
-        Neighbours per point, ``< n_points``.
-    method : {"auto", "exact", "approximate"}, default="auto"
-        ``"exact"``: scikit-learn's NearestNeighbors; ``"approximate"``: pynndescent;
-        ``"auto"``: exact up to ``EXACT_MAX_SAMPLES`` points.
-    random_state : int, Generator or None, default=None
-        Seed of pynndescent's random projection trees.
-    return_index : bool, default=False
-        Also return the fitted index (it answers queries of new points).
-
-    Returns
-    -------
-    indices : ndarray of int of shape (n_points, n_neighbors)
-        Sorted by increasing distance, never the point itself.
-    distances : ndarray of shape (n_points, n_neighbors)
-    index : _NeighborIndex
-        Only with ``return_index=True``.
-    """
-    n = points.shape[0]
-    if method == "auto":
-        method = "exact" if n <= EXACT_MAX_SAMPLES else "approximate"
-    index = _NeighborIndex(points, n_neighbors + 1, method, random_state)
-    ind, dist = index.graph()
-    ind, dist = _drop_self(ind, dist, n_neighbors)
-    return (ind, dist, index) if return_index else (ind, dist)
-
-
-class _NeighborIndex:
-    """A kNN index over fixed points with one result format for both back ends."""
-
-    def __init__(self, points, n_neighbors, method, random_state):
-        self.method = method
-        self.n_neighbors = n_neighbors
-        if method == "exact":
-            from sklearn.neighbors import NearestNeighbors
-
-            self._nn = NearestNeighbors(n_neighbors=n_neighbors).fit(points)
-        else:
-            from pynndescent import NNDescent
-
-            self._nn = NNDescent(
-                points,
-                n_neighbors=max(n_neighbors, 10),
-                random_state=np.random.RandomState(_seed(random_state)),
-                low_memory=True,
-            )
-
-    def graph(self):
-        if self.method == "exact":
-            dist, ind = self._nn.kneighbors(n_neighbors=self.n_neighbors - 1)
-            n = ind.shape[0]
-            # kneighbors() without X excludes the point itself; put it back first
-            ind = np.concatenate([np.arange(n)[:, None], ind[:, : self.n_neighbors - 1]], axis=1)
-            dist = np.concatenate([np.zeros((n, 1)), dist[:, : self.n_neighbors - 1]], axis=1)
-            return ind, dist
-        ind, dist = self._nn.neighbor_graph
-        return ind[:, : self.n_neighbors].astype(np.int64), dist[:, : self.n_neighbors].astype(np.float64)
-
-    def query(self, X, k):
-        if self.method == "exact":
-            dist, ind = self._nn.kneighbors(X, n_neighbors=k)
-            return ind, dist
-        ind, dist = self._nn.query(X, k=k)
-        order = np.argsort(dist, axis=1, kind="stable")
-        return np.take_along_axis(ind, order, 1).astype(np.int64), np.take_along_axis(dist, order, 1).astype(np.float64)
-
-
-def estimate_intrinsic_dim(distances):
-    """Maximum-likelihood intrinsic dimension from kNN distances (Levina and Bickel 2004).
-
-    Parameters
-    ----------
-    distances : ndarray of shape (n_points, k)
-        Sorted distances to the ``k >= 2`` nearest other points, all positive.
-
-    Returns
-    -------
-    float
-        The harmonic mean of the per-point estimates (MacKay and Ghahramani's correction).
-    """
-    d = np.asarray(distances, dtype=np.float64)
-    k = d.shape[1]
-    if k < 2:
-        return 1.0
-    logs = np.log(d[:, -1:] / np.maximum(d[:, :-1], 1e-300))
-    inv = logs.sum(axis=1) / (k - 1)  # 1 / m_j
-    return float(1.0 / max(inv.mean(), 1e-12))
 
 
 def _local_pca(points, nbr, m):
@@ -211,40 +92,6 @@ def _lsq_coefficients(Z):
     ZtZ = ZtZ + reg[:, None, None] * np.eye(m)
     return np.linalg.solve(ZtZ, Z.transpose(0, 2, 1))
 
-
-def _bridges(points, labels, n_comp, random_state):
-    """Pairs of points linking the components of a graph (Boruvka over closest pairs)."""
-    from sklearn.neighbors import NearestNeighbors
-
-    comp = labels.copy()
-    pairs = []
-    while n_comp > 1:
-        best = {}
-        for c in range(n_comp):
-            inside = np.flatnonzero(comp == c)
-            outside = np.flatnonzero(comp != c)
-            nn = NearestNeighbors(n_neighbors=1).fit(points[outside])
-            dist, ind = nn.kneighbors(points[inside])
-            j = int(np.argmin(dist[:, 0]))
-            best[c] = (float(dist[j, 0]), int(inside[j]), int(outside[ind[j, 0]]))
-        parent = list(range(n_comp))
-
-        def find(a):
-            while parent[a] != a:
-                parent[a] = parent[parent[a]]
-                a = parent[a]
-            return a
-
-        for _, a, b in sorted(best.values()):
-            ra, rb = find(comp[a]), find(comp[b])
-            if ra != rb:
-                parent[ra] = rb
-                pairs.append((a, b))
-        roots = np.array([find(c) for c in range(n_comp)])
-        _, comp_new = np.unique(roots[comp], return_inverse=True)
-        comp = comp_new.reshape(-1)
-        n_comp = int(comp.max()) + 1
-    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
 class PointCloud(Domain):
@@ -294,7 +141,7 @@ class PointCloud(Domain):
     Examples
     --------
     >>> import numpy as np
-    >>> from ndboundary.pointcloud import PointCloud
+    >>> from ndboundary import PointCloud
     >>> X = np.random.default_rng(0).normal(size=(200, 3))
     >>> pc = PointCloud(X, n_neighbors=10, intrinsic_dim=3)
     >>> pc.G.shape
@@ -302,8 +149,6 @@ class PointCloud(Domain):
     >>> bool(abs(pc.K @ np.ones(200)).max() < 1e-8)
     True
     """
-
-    _calibrate_lam = False
 
     def __init__(self, X, *, n_neighbors=15, intrinsic_dim=None, method="auto", random_state=None):
         self.points = check_points(X, name="X")
@@ -354,7 +199,7 @@ class PointCloud(Domain):
         sym = self._unique_graph()
         self.n_components, comp = connected_components(sym, directed=False)
         if self.n_components > 1:
-            self.bridges = rep[_bridges(self.unique_points, comp, self.n_components, random_state)]
+            self.bridges = rep[component_bridges(self.unique_points, comp, self.n_components, random_state)]
         else:
             self.bridges = np.zeros((0, 2), dtype=np.int64)
 
@@ -396,7 +241,7 @@ class PointCloud(Domain):
         b = self.bridges
         return np.linalg.norm(self.points[b[:, 0]] - self.points[b[:, 1]], axis=1)
 
-    def _build_gradient(self):
+    def build_gradient(self):
         N = self.points.shape[0]
         m, s = self.intrinsic_dim, self._stencil
         k1 = s.shape[1]
@@ -415,7 +260,7 @@ class PointCloud(Domain):
         Gb = sp.csr_matrix((vals, (rows, cols)), shape=(nb * m, N))
         return sp.vstack([G, Gb]).tocsr()
 
-    def _build_measures(self):
+    def build_measures(self):
         A = self._point_measure
         if self.bridges.shape[0] == 0:
             return A.copy()
@@ -423,7 +268,7 @@ class PointCloud(Domain):
         h = self.mean_edge_length()
         return np.concatenate([A, np.median(A) * (self._bridge_lengths() / h) ** 2])
 
-    def _build_mass(self):
+    def build_mass(self):
         return self._point_measure.copy()
 
     def _element_vertices(self):
@@ -437,7 +282,7 @@ class PointCloud(Domain):
             v = np.concatenate([v, self.bridges.ravel()])
         return e, v
 
-    def _build_incidence(self):
+    def build_incidence(self):
         e, v = self._element_vertices()
         inc = sp.csr_matrix((np.ones(e.size), (v, e)), shape=(self.n_vertices, self.n_elements))
         inc.data[:] = 1.0
@@ -452,7 +297,7 @@ class PointCloud(Domain):
         j = np.concatenate([j, self._rep[self.unique_inverse[dup]]])
         return i, j
 
-    def _build_adjacency(self):
+    def build_adjacency(self):
         i, j = self._point_pairs()
         adj = sp.csr_matrix((np.ones(i.size), (i, j)), shape=(self.n_elements, self.n_elements))
         adj = (adj + adj.T).tocsr()
@@ -461,7 +306,7 @@ class PointCloud(Domain):
         adj.data[:] = 1.0
         return adj
 
-    def _build_edges(self):
+    def build_edges(self):
         i, j = self._point_pairs()
         i = np.concatenate([i, self.bridges[:, 0]])
         j = np.concatenate([j, self.bridges[:, 1]])
@@ -469,7 +314,7 @@ class PointCloud(Domain):
         key = np.unique(np.minimum(i, j) * N + np.maximum(i, j))
         return np.stack([key // N, key % N], axis=1)
 
-    def _smoothing_operator(self):
+    def smoothing_operator(self):
         """The linear map of one smoothing pass on the flattened field, shape (n_elements * m,) * 2.
 
         Element ``j``'s new vector is ``sum_i T_j^T T_i X_i`` over ``i`` in ``j``'s
@@ -495,8 +340,24 @@ class PointCloud(Domain):
             W = sp.block_diag([W, sp.identity(nb * m)], format="csr")
         return W
 
-    # -- hooks ------------------------------------------------------------------------------
-    def _split_elements(self, mask):
+    # -- what the relaxation asks ---------------------------------------------------------
+    def smooth_field(self, X, passes):
+        """Step 3 on tangent fields: ``passes`` sweeps of :meth:`smoothing_operator` (every
+        neighbour's vector carried into the point's tangent frame before averaging),
+        renormalised after each sweep, in Jacobi order. ``X`` is not modified."""
+        if passes == 0:
+            return X
+        W = self.smoothing_operator()
+        Xs = X
+        for _ in range(passes):
+            Xs = normalize_rows((W @ Xs.reshape(-1)).reshape(Xs.shape))
+        return Xs
+
+    def lam_reference(self):
+        """None: a kNN graph has no regular grid to measure ``lam`` against."""
+        return None
+
+    def split_elements(self, mask):
         """No padding: a point's gradient is a least-squares fit over ``k`` neighbours.
 
         Padding exists for simplices all of whose vertices hold the same heat. Here the
@@ -507,12 +368,37 @@ class PointCloud(Domain):
         """
         return self, np.arange(self.n_elements)
 
-    def _level_set_simplices(self):
-        raise NotImplementedError(
+    def simplicial_refinement(self):
+        """A point cloud has no simplices: evaluate phi at new points instead."""
+        raise TypeError(
             "a PointCloud has no simplices to extract a level set from; build a Delaunay "
-            "complex (ndboundary.pointcloud.delaunay_complex) or evaluate phi at new points "
+            "complex (ndboundary.DelaunayComplex) or evaluate phi at new points "
             "with LevelSetClassifier"
         )
+
+    def propagation_edges(self, max_neighbors):
+        """Each sample's ``max_neighbors`` nearest neighbours, its duplicates and the bridges.
+
+        Label propagation wants a sparser graph than the relaxation's stencils (see
+        :class:`~ndboundary.LevelSetClassifier`).
+        """
+        n = self.points.shape[0]
+        kk = min(max_neighbors, self.neighbors.shape[1])
+        i = np.repeat(np.arange(n), kk)
+        j = self._rep[self.neighbors[self.unique_inverse, :kk]].ravel()
+        dup = np.flatnonzero(self._rep[self.unique_inverse] != np.arange(n))
+        i = np.concatenate([i, dup, self.bridges[:, 0]])
+        j = np.concatenate([j, self._rep[self.unique_inverse[dup]], self.bridges[:, 1]])
+        return np.stack([i, j], axis=1)
+
+    def vertex_neighborhoods(self):
+        """Row ``i``: point ``i`` and its ``k`` nearest neighbours (its gradient stencil)."""
+        return self.incidence[:, : self.points.shape[0]].T.tocsr()
+
+    def extension(self, phi, *, n_neighbors=25, power="auto", labels=None, labelled=None):
+        """The first-order extension of ``phi`` from the nearest samples: a
+        :class:`~ndboundary.domains.pointcloud_extension.NeighborExtension`."""
+        return NeighborExtension(self, phi, n_neighbors=n_neighbors, power=power, labels=labels, labelled=labelled)
 
     # -- new points -------------------------------------------------------------------------
     def kneighbors(self, X, n_neighbors=None):
@@ -540,74 +426,6 @@ class PointCloud(Domain):
 
     def __getstate__(self):
         state = self.__dict__.copy()
-        for name in ("G", "K", "A", "mass", "adjacency", "incidence", "edges"):
+        for name in ("G", "K", "A", "mass", "adjacency", "incidence", "edges", "vertex_components"):
             state.pop(name, None)
         return state
-
-
-def delaunay_complex(points, *, rtol=1e-10):
-    """The Delaunay triangulation of data points as a :class:`SimplicialComplex`.
-
-    Parameters
-    ----------
-    points : array-like of shape (n_points, dim)
-        Distinct points, ``2 <= dim <= 6``.
-    rtol : float, default=1e-10
-        Simplices whose volume is below ``rtol`` times that of a regular simplex
-        of the mean edge length (Qhull's flat slivers) are dropped.
-
-    Returns
-    -------
-    SimplicialComplex
-        Over all of ``points``, in the original order.
-
-    Raises
-    ------
-    ValueError
-        Beyond Qhull's practical range (dimension above 6, or too many points for the
-        dimension), on duplicate points, on points Qhull leaves out of every simplex,
-        or on fewer than ``dim + 1`` affinely independent points. The message names
-        the kNN alternative, :class:`PointCloud`.
-    """
-    pts = check_points(points, min_dim=2)
-    n, dim = pts.shape
-    alt = "use the kNN alternative, ndboundary.PointCloud(points, n_neighbors=...)"
-    if dim > DELAUNAY_MAX_DIM:
-        raise ValueError(
-            f"points are {dim}-dimensional; Delaunay complexes are practical up to "
-            f"{DELAUNAY_MAX_DIM} dimensions: {alt}"
-        )
-    if n > DELAUNAY_MAX_POINTS[dim]:
-        raise ValueError(
-            f"{n} points in {dim} dimensions exceed what Qhull triangulates in reasonable time "
-            f"and memory (at most {DELAUNAY_MAX_POINTS[dim]}): {alt}"
-        )
-    uniq = np.unique(pts, axis=0).shape[0]
-    if uniq < n:
-        raise ValueError(f"points contain {n - uniq} duplicate row(s); Delaunay needs distinct points: {alt}")
-    from scipy.spatial import Delaunay, QhullError
-
-    try:
-        tri = Delaunay(pts)
-    except QhullError as exc:
-        raise ValueError(
-            f"Qhull could not triangulate the {n} points (they may lie in a lower-dimensional "
-            f"subspace): {str(exc).splitlines()[0]}; {alt}"
-        ) from None
-    simplices = tri.simplices.astype(np.int64)
-    X = pts[simplices]
-    E = X[:, 1:, :] - X[:, :1, :]
-    det = np.abs(np.linalg.det(E))
-    edges = np.linalg.norm(E, axis=2).mean()
-    from math import factorial, sqrt
-
-    regular = sqrt(dim + 1) / (factorial(dim) * 2 ** (dim / 2)) * edges**dim * factorial(dim)
-    simplices = simplices[det > rtol * regular]
-    used = np.zeros(n, dtype=bool)
-    used[simplices.ravel()] = True
-    if not used.all():
-        raise ValueError(
-            f"{int((~used).sum())} point(s) (first: row {int(np.flatnonzero(~used)[0])}) lie in no "
-            f"non-degenerate Delaunay simplex; {alt}"
-        )
-    return SimplicialComplex(pts, simplices)

@@ -1,6 +1,6 @@
 """Polygon meshes: quads and general polygons, in the plane or on a surface in 3-D.
 
-Operators (sign convention of :mod:`ndboundary.domain`: ``K`` is positive
+Operators (sign convention of :mod:`ndboundary.domains.base`: ``K`` is positive
 semidefinite, ``Delta = -M^{-1} K``):
 
 * gradient by Green-Gauss (Livesu 2018, section 3), per polygon with area ``A``,
@@ -42,172 +42,22 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ._validation import check_points, check_positive
-from .domain import Domain
-from .simplicial import (
-    SimplicialComplex,
-    _sort_rows,
+from .._arrays import (
+    DEGENERATE_RTOL,
+    fill_unused_mass,
     first_of_groups,
     group_rows,
     mixed_facets,
+    ragged_next,
+    ragged_rows,
     shared_facet_adjacency,
 )
+from .._validation import check_points, check_ragged
+from .base import Domain
+from .cell_operators import check_laplacian_options, combinatorial_laplacian, local_stiffness, refinement_matrix
+from .simplicial import SimplicialComplex
 
 __all__ = ["PolygonMesh"]
-
-_DEGENERATE_RTOL = 1e-10
-_LAPLACIANS = ("consistent", "combinatorial")
-
-
-# -- ragged index arrays ----------------------------------------------------------------
-
-def check_ragged(cells, n_points, *, name, min_size, what="vertex"):
-    """Validate polygons given as an (n, m) array or as a sequence of index sequences.
-
-    Returns
-    -------
-    indices : ndarray of int64 of shape (n_corners,)
-        The flat concatenation of the rows.
-    offsets : ndarray of int64 of shape (n_cells + 1,)
-        Row ``i`` is ``indices[offsets[i]:offsets[i + 1]]``.
-    """
-    if isinstance(cells, (str, bytes)) or cells is None:
-        raise TypeError(f"{name} must be an integer array or a sequence of index sequences, got {type(cells).__name__}")
-    rows = None
-    if isinstance(cells, np.ndarray) and cells.dtype != object:
-        if cells.ndim != 2:
-            raise ValueError(f"{name} must have shape (n_cells, {what}s_per_cell), got shape {cells.shape}")
-        rows_arr = cells
-        sizes = np.full(cells.shape[0], cells.shape[1], dtype=np.int64)
-    else:
-        try:
-            rows = [np.asarray(r) for r in cells]
-        except TypeError:
-            raise TypeError(f"{name} must be an integer array or a sequence of index sequences") from None
-        for i, r in enumerate(rows):
-            if r.ndim != 1:
-                raise ValueError(f"{name} row {i} must be a flat sequence of {what} indices, got shape {r.shape}")
-        sizes = np.array([r.size for r in rows], dtype=np.int64)
-        rows_arr = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-    if sizes.size == 0:
-        raise ValueError(f"{name} is empty")
-    raw = np.asarray(rows_arr)
-    if raw.dtype.kind == "b":
-        raise TypeError(f"{name} must hold integer {what} indices, got booleans")
-    if raw.dtype.kind == "f":
-        if raw.size and not np.all(np.isfinite(raw) & (raw == np.round(raw))):
-            raise TypeError(f"{name} must hold integer {what} indices, got non-integer values")
-    elif raw.dtype.kind not in "iu" and raw.size:
-        raise TypeError(f"{name} must hold integer {what} indices, got dtype {raw.dtype}")
-    indices = np.array(raw, dtype=np.int64).reshape(-1)
-    offsets = np.zeros(sizes.size + 1, dtype=np.int64)
-    np.cumsum(sizes, out=offsets[1:])
-    short = np.flatnonzero(sizes < min_size)
-    if short.size:
-        i = int(short[0])
-        raise ValueError(
-            f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) has {sizes[i]} "
-            f"{what}(s); at least {min_size} are needed"
-        )
-    bad = (indices < 0) | (indices >= n_points)
-    if bad.any():
-        i = int(np.searchsorted(offsets, np.flatnonzero(bad)[0], side="right") - 1)
-        raise ValueError(
-            f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) indexes a {what} "
-            f"outside 0..{n_points - 1}"
-        )
-    owner = np.repeat(np.arange(sizes.size), sizes)
-    order, _ = _sort_rows(np.stack([owner, indices], axis=1))
-    srt_i, srt_o = indices[order], owner[order]
-    rep = (srt_i[1:] == srt_i[:-1]) & (srt_o[1:] == srt_o[:-1])
-    if rep.any():
-        i = int(srt_o[1:][rep][0])
-        raise ValueError(f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) repeats a {what}")
-    return indices, offsets
-
-
-def ragged_next(offsets):
-    """For every corner of a ragged array, the flat index of the next and previous corner (cyclic)."""
-    sizes = np.diff(offsets)
-    owner = np.repeat(np.arange(sizes.size), sizes)
-    pos = np.arange(offsets[-1]) - offsets[owner]
-    nxt = offsets[owner] + (pos + 1) % sizes[owner]
-    prv = offsets[owner] + (pos - 1) % sizes[owner]
-    return owner, nxt, prv
-
-
-def ragged_rows(indices, offsets):
-    """The rows of a ragged array as a list of arrays."""
-    return np.split(indices, offsets[1:-1])
-
-
-def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabilization, n_vertices):
-    """Assemble ``sum_e A_e G_e^T G_e + s_e (I - P_e)^T (I - P_e)`` (see the module docstring).
-
-    Parameters
-    ----------
-    points : ndarray of shape (n_vertices, dim)
-    pair_elem, pair_vertex : ndarray of int of shape (n_pairs,)
-        The (element, vertex) incidences, sorted by element, each element's run contiguous.
-    pair_grad : ndarray of shape (n_pairs, dim)
-        Gradient coefficient of each vertex in its element.
-    measures : ndarray of shape (n_elements,)
-    stabilization : float
-    n_vertices : int
-
-    Returns
-    -------
-    scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
-    """
-    n_el = measures.size
-    sizes = np.bincount(pair_elem, minlength=n_el)
-    starts = np.zeros(n_el + 1, dtype=np.int64)
-    np.cumsum(sizes, out=starts[1:])
-    rows, cols, vals = [], [], []
-    for m in np.flatnonzero(np.bincount(sizes)):
-        els = np.flatnonzero(sizes == m)
-        idx = starts[els][:, None] + np.arange(m)[None, :]  # (n, m)
-        verts = pair_vertex[idx]
-        Ge = pair_grad[idx]  # (n, m, dim)
-        A = measures[els]
-        Kc = A[:, None, None] * (Ge @ Ge.transpose(0, 2, 1))  # (n, m, m)
-        Ke = Kc
-        if stabilization > 0:
-            X = points[verts]
-            Xc = X - X.mean(axis=1, keepdims=True)
-            P = 1.0 / m + Xc @ Ge.transpose(0, 2, 1)  # (n, m, m): P[i, j] = 1/m + xc_i . g_j
-            Q = np.eye(m)[None] - P
-            s = stabilization * np.einsum("nii->n", Kc) / m
-            Ke = Kc + s[:, None, None] * (Q.transpose(0, 2, 1) @ Q)
-        rows.append(np.repeat(verts, m, axis=1).ravel())
-        cols.append(np.tile(verts, (1, m)).ravel())
-        vals.append(Ke.ravel())
-    K = sp.csr_matrix(
-        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_vertices, n_vertices)
-    )
-    return (K + K.T) * 0.5
-
-
-def combinatorial_laplacian(edges, n_vertices, scale):
-    """Uniform graph Laplacian ``scale * (D - W)`` over the given edges (weight 1 each)."""
-    i, j = edges[:, 0], edges[:, 1]
-    W = sp.coo_matrix((np.ones(i.size), (i, j)), shape=(n_vertices, n_vertices))
-    W = (W + W.T).tocsr()
-    return (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr() * scale
-
-
-def check_laplacian_options(laplacian, stabilization):
-    if laplacian not in _LAPLACIANS:
-        raise ValueError(f"laplacian must be 'consistent' or 'combinatorial', got {laplacian!r}")
-    return check_positive(stabilization, "stabilization", allow_zero=True)
-
-
-def refinement_matrix(n_vertices, indices, offsets):
-    """Sparse (n_vertices + n_rows, n_vertices): identity, then one averaging row per ragged row."""
-    sizes = np.diff(offsets)
-    owner = np.repeat(np.arange(sizes.size), sizes)
-    avg = sp.csr_matrix((1.0 / sizes[owner], (owner, indices)), shape=(sizes.size, n_vertices))
-    return sp.vstack([sp.identity(n_vertices, format="csr"), avg]).tocsr()
 
 
 class PolygonMesh(Domain):
@@ -245,7 +95,7 @@ class PolygonMesh(Domain):
 
     Examples
     --------
-    >>> from ndboundary.polygon import PolygonMesh
+    >>> from ndboundary import PolygonMesh
     >>> sq = PolygonMesh([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1, 2, 3]])
     >>> float(sq.A[0])
     1.0
@@ -317,7 +167,7 @@ class PolygonMesh(Domain):
             cross = np.cross(Xc, Xc[nxt])
             N = 0.5 * np.stack([np.bincount(owner, weights=cross[:, d], minlength=self.n_elements) for d in range(3)], 1)
             area = np.linalg.norm(N, axis=1)
-        bad = ~(area > _DEGENERATE_RTOL * scale)
+        bad = ~(area > DEGENERATE_RTOL * scale)
         if bad.any():
             e = int(np.flatnonzero(bad)[0])
             more = "" if bad.sum() == 1 else f" ({int(bad.sum())} degenerate polygons in all)"
@@ -341,7 +191,7 @@ class PolygonMesh(Domain):
         return c / self.sizes[:, None]
 
     # -- operators ---------------------------------------------------------------------------
-    def _build_gradient(self):
+    def build_gradient(self):
         owner = self._corners[0]
         D = self.dim
         rows = owner[:, None] * D + np.arange(D)[None, :]
@@ -350,10 +200,10 @@ class PolygonMesh(Domain):
             (self._corner_grads.ravel(), (rows.ravel(), cols.ravel())), shape=(self.n_elements * D, self.n_vertices)
         )
 
-    def _build_measures(self):
+    def build_measures(self):
         return self._areas.copy()
 
-    def _build_stiffness(self):
+    def build_stiffness(self):
         if self.laplacian == "combinatorial":
             return combinatorial_laplacian(self.edges, self.n_vertices, self.mean_edge_length() ** (self.element_dim - 2))
         return local_stiffness(
@@ -361,16 +211,12 @@ class PolygonMesh(Domain):
             self.stabilization, self.n_vertices,
         )
 
-    def _build_mass(self):
+    def build_mass(self):
         w = (self._areas / self.sizes)[self._corners[0]]
         m = np.bincount(self.indices, weights=w, minlength=self.n_vertices)
-        unused = m <= 0
-        if unused.any():
-            # Vertices in no polygon carry no measure; give them a tiny one so M stays invertible.
-            m[unused] = self._areas.mean() / self.sizes.mean() * 1e-12
-        return m
+        return fill_unused_mass(m, self._areas / self.sizes)
 
-    def _build_incidence(self):
+    def build_incidence(self):
         return sp.csr_matrix(
             (np.ones(self.indices.size), (self.indices, self._corners[0])), shape=(self.n_vertices, self.n_elements)
         )
@@ -383,20 +229,20 @@ class PolygonMesh(Domain):
         ids, _ = group_rows(pairs)
         return pairs, ids
 
-    def _build_adjacency(self):
+    def build_adjacency(self):
         return shared_facet_adjacency(self._edge_ids[1], self._corners[0], self.n_elements)
 
-    def _build_edges(self):
+    def build_edges(self):
         pairs, ids = self._edge_ids
         return pairs[first_of_groups(ids, int(ids.max()) + 1)]
 
-    def _interface_facets(self, region1):
+    def interface_facets(self, region1):
         """Edges shared by a region-0 and a region-1 polygon: the jagged boundary, (n, 2)."""
         pairs, ids = self._edge_ids
         return pairs[mixed_facets(ids, self._corners[0], region1)]
 
     # -- padding and level sets -----------------------------------------------------------------
-    def _split_elements(self, mask):
+    def split_elements(self, mask):
         """Split the polygons selected by ``mask`` into fans of triangles at their vertex mean."""
         mask = np.asarray(mask, dtype=bool)
         idx = np.flatnonzero(mask)
@@ -421,8 +267,9 @@ class PolygonMesh(Domain):
         )
         return out, parent
 
-    def _refinement(self):
-        """Points, triangles and the (n_refined, n_vertices) interpolation matrix of the centroid fan."""
+    def simplicial_refinement(self):
+        """Points, triangles and the (n_refined, n_vertices) interpolation matrix of the
+        centroid fan: triangles are kept, larger polygons are fanned from their vertex mean."""
         owner, nxt, _ = self._corners
         sizes = self.sizes
         big = sizes > 3
@@ -447,19 +294,8 @@ class PolygonMesh(Domain):
         R : scipy.sparse.csr_matrix of shape (complex.n_vertices, n_vertices)
             Interpolation of vertex values to the refinement (identity, then vertex means).
         """
-        pts, tris, R = self._simplicial_split
+        pts, tris, R = self.simplicial_refinement()
         return SimplicialComplex(pts, tris), R
-
-    def _level_set_simplices(self):
-        """Fan triangles of every polygon from its lowest-index vertex, over this mesh's vertices only.
-
-        A conforming triangulation for convex polygons; :meth:`_level_set_complex` is preferred.
-        """
-        owner, nxt, _ = self._corners
-        pos_min = np.flatnonzero(self.indices == np.minimum.reduceat(self.indices, self.offsets[:-1])[owner])
-        apex = self.indices[pos_min]
-        sel = (self.indices != apex[owner]) & (self.indices[nxt] != apex[owner])
-        return np.stack([apex[owner[sel]], self.indices[sel], self.indices[nxt[sel]]], axis=1)
 
     def __repr__(self):
         return (

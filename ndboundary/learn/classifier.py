@@ -32,29 +32,24 @@ import sys
 import time
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.optimize import minimize_scalar
-from scipy.sparse.csgraph import laplacian
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .pipeline import relax
-from .pointcloud import DELAUNAY_MAX_DIM, PointCloud, delaunay_complex
+from ..domains import DelaunayComplex, PointCloud
+from ..domains.delaunay import DELAUNAY_MAX_DIM
+from ..domains.pointcloud_extension import EXTENSION_POWERS
+from ..pipeline import relax
+from .propagation import harmonic_labels, vote
 
 __all__ = ["LevelSetClassifier"]
 
-_CHUNK = 8192
 #: ``n_neighbors="auto"``: this many neighbours up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES`
 #: samples, then :data:`AUTO_NEIGHBORS_LARGE`.
 AUTO_NEIGHBORS = 40
 AUTO_NEIGHBORS_MAX_SAMPLES = 20_000
 AUTO_NEIGHBORS_LARGE = 15
-#: The powers ``extension_power="auto"`` chooses from; on equal leave-one-out accuracy
-#: the earlier one is kept.
-EXTENSION_POWERS = (0.0, 2.0, 4.0, 8.0, 16.0, 32.0)
-#: Neighbours per sample of the graph on which unlabelled samples get their labels.
-HARMONIC_NEIGHBORS = 15
 
 
 class LevelSetClassifier(ClassifierMixin, BaseEstimator):
@@ -243,56 +238,12 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
                 raise ValueError(
                     f"graph='delaunay' needs 2 to {DELAUNAY_MAX_DIM} features, got {X.shape[1]}; use graph='knn'"
                 )
-            return delaunay_complex(X), "delaunay"
+            return DelaunayComplex(X), 0
         k = self.n_neighbors
         if k == "auto":
             k = AUTO_NEIGHBORS if X.shape[0] <= AUTO_NEIGHBORS_MAX_SAMPLES else AUTO_NEIGHBORS_LARGE
-        return (
-            PointCloud(X, n_neighbors=k, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state),
-            "knn",
-        )
-
-    def _label_graph(self, domain):
-        """Edges on which unlabelled samples get their labels: the Delaunay edges, or each
-        sample's :data:`HARMONIC_NEIGHBORS` nearest neighbours (label propagation wants a
-        sparse graph: on digits with 5% of the labels, 0.890 accuracy with 15 neighbours
-        against 0.818 with the 40 of the relaxation's graph), its duplicates and bridges."""
-        if self._graph != "knn":
-            return domain.edges
-        n = domain.points.shape[0]
-        kk = min(HARMONIC_NEIGHBORS, domain.neighbors.shape[1])
-        i = np.repeat(np.arange(n), kk)
-        j = domain._rep[domain.neighbors[domain.unique_inverse, :kk]].ravel()
-        dup = np.flatnonzero(domain._rep[domain.unique_inverse] != np.arange(n))
-        i = np.concatenate([i, dup, domain.bridges[:, 0]])
-        j = np.concatenate([j, domain._rep[domain.unique_inverse[dup]], domain.bridges[:, 1]])
-        return np.stack([i, j], axis=1)
-
-    def _harmonic_labels(self, domain, codes, labelled):
-        """Fill unlabelled codes by the harmonic extension of the labelled indicators."""
-        n = codes.shape[0]
-        e = self._label_graph(domain)
-        W = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(n, n))
-        W = W + W.T
-        W.data[:] = 1.0
-        L = laplacian(W.tocsr()).tocsr()
-        u = ~labelled
-        Luu = L[u][:, u]
-        Lul = L[u][:, labelled]
-        n_cls = int(codes[labelled].max()) + 1
-        F = np.zeros((labelled.sum(), n_cls))
-        F[np.arange(F.shape[0]), codes[labelled]] = 1.0
-        # a small shift keeps components without labels solvable: they get the prior
-        prior = F.mean(axis=0)
-        eps = 1e-8 * max(float(L.diagonal().mean()), 1.0)
-        rhs = -(Lul @ F) + eps * prior[None, :]
-        from scipy.sparse.linalg import splu
-
-        lu = splu((Luu + eps * sp.identity(Luu.shape[0])).tocsc())
-        Fu = lu.solve(np.asarray(rhs))
-        out = codes.copy()
-        out[u] = np.argmax(Fu, axis=1)
-        return out
+        cloud = PointCloud(X, n_neighbors=k, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state)
+        return cloud, cloud.n_neighbors
 
     # -- fit -------------------------------------------------------------------------------
     def fit(self, X, y):
@@ -321,7 +272,6 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         codes = np.full(y.shape[0], -1, dtype=np.int64)
         codes[labelled] = codes_l.reshape(-1)
         n_cls = self.classes_.shape[0]
-        self._X = X
         if n_cls == 1 or np.unique(X, axis=0).shape[0] < 2:
             self._constant = int(np.argmax(np.bincount(codes[labelled], minlength=n_cls)))
             self.transduction_ = self.classes_[np.where(labelled, codes, self._constant)]
@@ -332,14 +282,15 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             self.extension_power_ = None
             return self
         self._constant = None
-        self.domain_, self._graph = self._build_domain(X)
-        self.n_neighbors_ = int(self.domain_.n_neighbors) if self._graph == "knn" else 0
-        self._log(f"built the {self._graph} graph over {X.shape[0]} samples", t0)
+        self.domain_, self.n_neighbors_ = self._build_domain(X)
+        self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)
         if not labelled.all():
-            codes = self._harmonic_labels(self.domain_, codes, labelled)
+            codes = harmonic_labels(self.domain_, codes, labelled)
             self._log("harmonic extension of the labels", t0)
         self.transduction_ = self.classes_[codes]
-        votes = self._vote(codes, n_cls)
+        votes = codes
+        if self.vote:
+            votes = vote(self.domain_.vertex_neighborhoods(), codes, n_cls, self.vote, self.vote_threshold)
         targets = [votes == 1] if n_cls == 2 else [votes == c for c in range(n_cls)]
         phis = []
         for c, target in enumerate(targets):
@@ -352,169 +303,18 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             phis.append(res.phi)
             self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
         self.phi_ = np.stack(phis, axis=1)
-        self._prepare_extension()
-        self.extension_power_, loo = self._choose_extension_power(codes, labelled)
+        self._extension = self.domain_.extension(
+            self.phi_, n_neighbors=self.extension_neighbors, power=self.extension_power, labels=codes, labelled=labelled
+        )
+        self.extension_power_ = self._extension.power
         self._log(f"extension power {self.extension_power_}", t0)
-        self.proba_scale_ = self._fit_proba_scale(codes, labelled, loo)
+        self.proba_scale_ = self._fit_proba_scale(codes, labelled)
         self._log("fitted", t0)
         return self
 
-    def _vote(self, codes, n_cls):
-        """Labels after ``vote`` passes of neighbourhood voting with ``vote_threshold``."""
-        if self.vote == 0:
-            return codes
-        n = codes.shape[0]
-        inc = self.domain_.incidence[:, :n] if self._graph == "knn" else None
-        if inc is None:
-            e = self.domain_.edges
-            W = sp.csr_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(n, n))
-            W = (W + W.T + sp.identity(n)).tocsr()
-        else:
-            W = inc.T.tocsr()
-        rows = np.arange(n)
-        for _ in range(self.vote):
-            F = np.zeros((n, n_cls))
-            F[rows, codes] = 1.0
-            F = W @ F
-            F = F / F.sum(axis=1, keepdims=True)
-            F[rows, codes] += 1e-9
-            best = np.argmax(F, axis=1)
-            codes = np.where(F[rows, best] >= self.vote_threshold - 1e-12, best, codes)
-        return codes
-
-    def _prepare_extension(self):
-        dom = self.domain_
-        if self._graph == "knn":
-            u = dom.unique_inverse
-            n_u = dom.unique_points.shape[0]
-            cnt = np.bincount(u, minlength=n_u).astype(np.float64)
-            phi_u = np.stack([np.bincount(u, weights=p, minlength=n_u) for p in self.phi_.T], axis=1) / cnt[:, None]
-            grads = []
-            for p in self.phi_.T:
-                g = dom.gradient(p)[: dom.points.shape[0]]  # (N, m)
-                gu = np.stack([np.bincount(u, weights=g[:, a], minlength=n_u) for a in range(g.shape[1])], axis=1)
-                grads.append(gu / cnt[:, None])
-            self._phi_u = phi_u  # (n_u, r)
-            self._grad_u = np.stack(grads, axis=1)  # (n_u, r, m)
-        else:
-            from scipy.spatial import Delaunay
-
-            from sklearn.neighbors import NearestNeighbors
-
-            self._tri = Delaunay(dom.points)
-            self._nn_vertices = NearestNeighbors(n_neighbors=2).fit(dom.points)
-            # per-vertex gradient: measure-weighted mean over its simplices
-            Gp = []
-            inc = dom.incidence.multiply(dom.A[None, :]).tocsr()
-            wsum = np.asarray(inc.sum(axis=1)).ravel()
-            for p in self.phi_.T:
-                g = dom.gradient(p)
-                Gp.append(np.asarray(inc @ g) / wsum[:, None])
-            self._grad_v = np.stack(Gp, axis=1)  # (n, r, D)
-
-    @staticmethod
-    def _extend_with(vals, taper, log_ratio, power):
-        """Weighted mean over neighbours of ``vals`` (b, q, r): weights
-        ``taper (d_1 / d_q)^power``."""
-        w = taper * np.exp(-power * log_ratio)
-        return np.einsum("bq,bqr->br", w, vals) / w.sum(axis=1)[:, None]
-
-    def _choose_extension_power(self, codes, labelled):
-        """``(power, loo)``: ``extension_power``, or with "auto" the power of
-        :data:`EXTENSION_POWERS` whose leave-one-out extension labels the most labelled
-        training samples right; ``loo`` is that extension at the labelled samples (None
-        when not computed here)."""
-        if self._graph != "knn":
-            return None, None
-        if self.extension_power != "auto":
-            return float(self.extension_power), None
-        rows = np.flatnonzero(labelled)
-        right = np.zeros(len(EXTENSION_POWERS), dtype=np.int64)
-        loo = np.empty((len(EXTENSION_POWERS), rows.size, self._phi_u.shape[1]))
-        for c, *terms in self._extension_terms(self._X[rows], exclude_self=True, rows=rows):
-            for i, p in enumerate(EXTENSION_POWERS):
-                phi = loo[i, c] = self._extend_with(*terms, p)
-                pred = (phi[:, 0] > 0.5).astype(np.int64) if phi.shape[1] == 1 else np.argmax(phi, axis=1)
-                right[i] += int((pred == codes[rows[c]]).sum())
-        best = int(np.argmax(right))  # the first of equals
-        return float(EXTENSION_POWERS[best]), loo[best]
-
-    def _extension_terms(self, X, exclude_self=False, rows=None):
-        """Per chunk of ``X``: ``(slice, vals, taper, log_ratio)``.
-
-        ``vals[b, q]`` is the first-order extension of ``phi`` from the ``q``-th nearest
-        training sample of ``X[b]``, at distance ``d_q``; ``taper = 1 - (d_q / d_{k+1})^2``
-        measures it against the next neighbour's distance (a weight that reaches 0 where a
-        neighbour leaves the ``k`` nearest) and ``log_ratio = log(d_q / d_1)``.
-
-        With ``exclude_self``, ``X`` is the training set (``rows`` of it, default all) and
-        each sample's own point is left out. Those leave-one-out estimates read the
-        neighbours from the graph (the nearest other distinct points) instead of querying
-        the index, unless the extension uses more neighbours than the graph holds.
-        """
-        dom = self.domain_
-        n_u = dom.unique_points.shape[0]
-        own = 1 if exclude_self else 0
-        k = min(self.extension_neighbors, n_u - own)
-        nxt = 1 if k + own < n_u else 0  # a (k+1)-th neighbour exists
-        rows = np.arange(X.shape[0]) if rows is None else rows
-        for a in range(0, X.shape[0], _CHUNK):
-            c = slice(a, min(X.shape[0], a + _CHUNK))
-            if exclude_self and k + nxt <= dom.neighbors.shape[1]:
-                u = dom.unique_inverse[rows[c]]
-                ind, dist = dom.neighbors[u, : k + nxt], dom.distances[u, : k + nxt]
-            else:
-                ind, dist = dom.kneighbors(X[c], k + nxt + own)
-                ind, dist = ind[:, own:], dist[:, own:]
-            far = np.maximum(dist[:, -1:], np.finfo(np.float64).tiny)
-            if nxt:
-                t = dist[:, :k] / far
-                taper = np.clip(1.0 - t * t, 0.0, 1.0) + 1e-12  # all k tied with the next: even
-            else:
-                taper = np.ones((ind.shape[0], k))
-            # a point on a training sample (d_1 = 0) takes that sample's value
-            log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
-            ind = ind[:, :k]
-            off = dom.tangent_offsets(X[c], ind)  # (b, q, m)
-            yield c, self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off), taper, log_ratio
-
-    def _extend_knn(self, X, exclude_self=False):
-        """First-order extension at ``X`` weighted by ``extension_power_``; with
-        ``exclude_self``, ``X`` is the training set (leave-one-out)."""
-        out = np.empty((X.shape[0], self._phi_u.shape[1]))
-        for c, *terms in self._extension_terms(X, exclude_self):
-            out[c] = self._extend_with(*terms, self.extension_power_)
-        return out
-
-    def _extend_delaunay(self, X, exclude_self=False):
-        dom = self.domain_
-        P = dom.points
-        out = np.empty((X.shape[0], self.phi_.shape[1]))
-        simplex = self._tri.find_simplex(X) if not exclude_self else np.full(X.shape[0], -1)
-        inside = simplex >= 0
-        if inside.any():
-            s = simplex[inside]
-            T = self._tri.transform[s]
-            b = np.einsum("nij,nj->ni", T[:, :-1, :], X[inside] - T[:, -1, :])
-            bary = np.concatenate([b, 1.0 - b.sum(axis=1, keepdims=True)], axis=1)
-            verts = self._tri.simplices[s]
-            out[inside] = np.einsum("nv,nvr->nr", bary, self.phi_[verts])
-        rest = np.flatnonzero(~inside)
-        if rest.size:
-            dist, ind = self._nn_vertices.kneighbors(X[rest], n_neighbors=2)
-            j = ind[:, 1] if exclude_self else ind[:, 0]
-            off = X[rest] - P[j]
-            out[rest] = self.phi_[j] + np.einsum("nrd,nd->nr", self._grad_v[j], off)
-        return out
-
-    def _phi(self, X, exclude_self=False):
-        if self._graph == "knn":
-            return self._extend_knn(X, exclude_self)
-        return self._extend_delaunay(X, exclude_self)
-
-    def _fit_proba_scale(self, codes, labelled, loo=None):
+    def _fit_proba_scale(self, codes, labelled):
         """Slope of the logistic map fitted on leave-one-out ``phi`` at the labelled samples."""
-        phi = self._phi(self._X, exclude_self=True)[labelled] if loo is None else loo
+        phi = self._extension.leave_one_out(np.flatnonzero(labelled))
         c = codes[labelled]
         if phi.shape[1] == 1:
             z = phi[:, 0] - 0.5
@@ -559,7 +359,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             out = np.full((X.shape[0], n_cls), -0.5)
             out[:, self._constant] = 0.5
             return out
-        phi = self._phi(X) - 0.5
+        phi = self._extension(X) - 0.5
         return phi[:, 0] if phi.shape[1] == 1 else phi
 
     def predict(self, X):

@@ -1,0 +1,31 @@
+"""The domains: each kind of discretisation builds the operators of the relaxation.
+
+=========================  ===================================================
+module                     domain
+=========================  ===================================================
+:mod:`.base`               :class:`Domain`, the protocol every domain follows
+:mod:`.simplicial`         :class:`SimplicialComplex`: simplices of any dimension
+:mod:`.polygon`            :class:`PolygonMesh`: quads and general polygons
+:mod:`.polyhedral`         :class:`PolyhedralMesh`: hexahedra and general polyhedra
+:mod:`.pointcloud`         :class:`PointCloud`: a kNN graph over data points
+:mod:`.delaunay`           :class:`DelaunayComplex`: Delaunay simplices over data
+=========================  ===================================================
+"""
+
+from .base import Domain, kuhn_grid_stiffness
+from .delaunay import DelaunayComplex, delaunay_complex
+from .pointcloud import PointCloud
+from .polygon import PolygonMesh
+from .polyhedral import PolyhedralMesh
+from .simplicial import SimplicialComplex
+
+__all__ = [
+    "DelaunayComplex",
+    "Domain",
+    "PointCloud",
+    "PolygonMesh",
+    "PolyhedralMesh",
+    "SimplicialComplex",
+    "delaunay_complex",
+    "kuhn_grid_stiffness",
+]

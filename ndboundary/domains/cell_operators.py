@@ -1,0 +1,87 @@
+"""Operators shared by polygon and polyhedral meshes.
+
+The consistent stiffness of cells that are not simplices (Green-Gauss ``G^T A G`` plus
+the virtual-element stabilisation of its hourglass modes), the paper's combinatorial
+Laplacian, and the interpolation from a mesh's vertices to its simplicial refinement.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .._validation import check_positive
+
+__all__ = ["check_laplacian_options", "combinatorial_laplacian", "local_stiffness", "refinement_matrix"]
+
+LAPLACIANS = ("consistent", "combinatorial")
+
+
+def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabilization, n_vertices):
+    """Assemble ``sum_e A_e G_e^T G_e + s_e (I - P_e)^T (I - P_e)`` (see :mod:`ndboundary.domains.polygon`).
+
+    Parameters
+    ----------
+    points : ndarray of shape (n_vertices, dim)
+    pair_elem, pair_vertex : ndarray of int of shape (n_pairs,)
+        The (element, vertex) incidences, sorted by element, each element's run contiguous.
+    pair_grad : ndarray of shape (n_pairs, dim)
+        Gradient coefficient of each vertex in its element.
+    measures : ndarray of shape (n_elements,)
+    stabilization : float
+    n_vertices : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
+    """
+    n_el = measures.size
+    sizes = np.bincount(pair_elem, minlength=n_el)
+    starts = np.zeros(n_el + 1, dtype=np.int64)
+    np.cumsum(sizes, out=starts[1:])
+    rows, cols, vals = [], [], []
+    for m in np.flatnonzero(np.bincount(sizes)):
+        els = np.flatnonzero(sizes == m)
+        idx = starts[els][:, None] + np.arange(m)[None, :]  # (n, m)
+        verts = pair_vertex[idx]
+        Ge = pair_grad[idx]  # (n, m, dim)
+        A = measures[els]
+        Kc = A[:, None, None] * (Ge @ Ge.transpose(0, 2, 1))  # (n, m, m)
+        Ke = Kc
+        if stabilization > 0:
+            X = points[verts]
+            Xc = X - X.mean(axis=1, keepdims=True)
+            P = 1.0 / m + Xc @ Ge.transpose(0, 2, 1)  # (n, m, m): P[i, j] = 1/m + xc_i . g_j
+            Q = np.eye(m)[None] - P
+            s = stabilization * np.einsum("nii->n", Kc) / m
+            Ke = Kc + s[:, None, None] * (Q.transpose(0, 2, 1) @ Q)
+        rows.append(np.repeat(verts, m, axis=1).ravel())
+        cols.append(np.tile(verts, (1, m)).ravel())
+        vals.append(Ke.ravel())
+    K = sp.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_vertices, n_vertices)
+    )
+    return (K + K.T) * 0.5
+
+
+def combinatorial_laplacian(edges, n_vertices, scale):
+    """Uniform graph Laplacian ``scale * (D - W)`` over the given edges (weight 1 each)."""
+    i, j = edges[:, 0], edges[:, 1]
+    W = sp.coo_matrix((np.ones(i.size), (i, j)), shape=(n_vertices, n_vertices))
+    W = (W + W.T).tocsr()
+    return (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr() * scale
+
+
+def check_laplacian_options(laplacian, stabilization):
+    """Validate the stiffness options of a polygon or polyhedral mesh; returns the weight."""
+    if laplacian not in LAPLACIANS:
+        raise ValueError(f"laplacian must be 'consistent' or 'combinatorial', got {laplacian!r}")
+    return check_positive(stabilization, "stabilization", allow_zero=True)
+
+
+def refinement_matrix(n_vertices, indices, offsets):
+    """Sparse (n_vertices + n_rows, n_vertices): identity, then one averaging row per ragged row."""
+    sizes = np.diff(offsets)
+    owner = np.repeat(np.arange(sizes.size), sizes)
+    avg = sp.csr_matrix((1.0 / sizes[owner], (owner, indices)), shape=(sizes.size, n_vertices))
+    return sp.vstack([sp.identity(n_vertices, format="csr"), avg]).tocsr()

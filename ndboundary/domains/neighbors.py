@@ -1,0 +1,172 @@
+"""Nearest neighbours of data points: exact or approximate search, intrinsic dimension, bridges.
+
+One result format for both back ends: scikit-learn's exact search (up to
+:data:`EXACT_MAX_SAMPLES` points) and pynndescent's approximate graph.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = ["EXACT_MAX_SAMPLES", "NeighborIndex", "component_bridges", "estimate_intrinsic_dim", "kneighbors"]
+
+#: Above this many (distinct) points the neighbours come from pynndescent.
+EXACT_MAX_SAMPLES = 20000
+
+
+def seed_of(random_state):
+    if random_state is None or isinstance(random_state, (numbers.Integral, np.random.Generator)):
+        return int(np.random.default_rng(random_state).integers(2**31 - 1))
+    if isinstance(random_state, np.random.RandomState):
+        return int(random_state.randint(2**31 - 1))
+    raise TypeError(f"random_state must be None, an int or a numpy Generator, got {type(random_state).__name__}")
+
+
+def drop_self(ind, dist, k):
+    """Remove each row's own index (or, if absent, its last neighbour); keep k columns."""
+    n = ind.shape[0]
+    is_self = ind == np.arange(n)[:, None]
+    no_self = ~is_self.any(axis=1)
+    is_self[no_self, -1] = True
+    keep = ~is_self
+    first = np.argmax(is_self, axis=1)
+    keep[np.arange(n), first] = False
+    keep &= np.cumsum(keep, axis=1) <= k
+    return ind[keep].reshape(n, k), dist[keep].reshape(n, k)
+
+
+def kneighbors(points, n_neighbors, *, method="auto", random_state=None, return_index=False):
+    """The ``n_neighbors`` nearest other points of every point (exact or pynndescent).
+
+    Parameters
+    ----------
+    points : ndarray of shape (n_points, n_features)
+        Distinct points.
+    n_neighbors : int
+        Neighbours per point, ``< n_points``.
+    method : {"auto", "exact", "approximate"}, default="auto"
+        ``"exact"``: scikit-learn's NearestNeighbors; ``"approximate"``: pynndescent;
+        ``"auto"``: exact up to ``EXACT_MAX_SAMPLES`` points.
+    random_state : int, Generator or None, default=None
+        Seed of pynndescent's random projection trees.
+    return_index : bool, default=False
+        Also return the fitted index (it answers queries of new points).
+
+    Returns
+    -------
+    indices : ndarray of int of shape (n_points, n_neighbors)
+        Sorted by increasing distance, never the point itself.
+    distances : ndarray of shape (n_points, n_neighbors)
+    index : NeighborIndex
+        Only with ``return_index=True``.
+    """
+    n = points.shape[0]
+    if method == "auto":
+        method = "exact" if n <= EXACT_MAX_SAMPLES else "approximate"
+    index = NeighborIndex(points, n_neighbors + 1, method, random_state)
+    ind, dist = index.graph()
+    ind, dist = drop_self(ind, dist, n_neighbors)
+    return (ind, dist, index) if return_index else (ind, dist)
+
+
+class NeighborIndex:
+    """A kNN index over fixed points with one result format for both back ends.
+
+    ``graph()`` gives every point's neighbours, itself first; ``query(X, k)`` those of new points.
+    """
+
+    def __init__(self, points, n_neighbors, method, random_state):
+        self.method = method
+        self.n_neighbors = n_neighbors
+        if method == "exact":
+            from sklearn.neighbors import NearestNeighbors
+
+            self._nn = NearestNeighbors(n_neighbors=n_neighbors).fit(points)
+        else:
+            from pynndescent import NNDescent
+
+            self._nn = NNDescent(
+                points,
+                n_neighbors=max(n_neighbors, 10),
+                random_state=np.random.RandomState(seed_of(random_state)),
+                low_memory=True,
+            )
+
+    def graph(self):
+        if self.method == "exact":
+            dist, ind = self._nn.kneighbors(n_neighbors=self.n_neighbors - 1)
+            n = ind.shape[0]
+            # kneighbors() without X excludes the point itself; put it back first
+            ind = np.concatenate([np.arange(n)[:, None], ind[:, : self.n_neighbors - 1]], axis=1)
+            dist = np.concatenate([np.zeros((n, 1)), dist[:, : self.n_neighbors - 1]], axis=1)
+            return ind, dist
+        ind, dist = self._nn.neighbor_graph
+        return ind[:, : self.n_neighbors].astype(np.int64), dist[:, : self.n_neighbors].astype(np.float64)
+
+    def query(self, X, k):
+        if self.method == "exact":
+            dist, ind = self._nn.kneighbors(X, n_neighbors=k)
+            return ind, dist
+        ind, dist = self._nn.query(X, k=k)
+        order = np.argsort(dist, axis=1, kind="stable")
+        return np.take_along_axis(ind, order, 1).astype(np.int64), np.take_along_axis(dist, order, 1).astype(np.float64)
+
+
+def estimate_intrinsic_dim(distances):
+    """Maximum-likelihood intrinsic dimension from kNN distances (Levina and Bickel 2004).
+
+    Parameters
+    ----------
+    distances : ndarray of shape (n_points, k)
+        Sorted distances to the ``k >= 2`` nearest other points, all positive.
+
+    Returns
+    -------
+    float
+        The harmonic mean of the per-point estimates (MacKay and Ghahramani's correction).
+    """
+    d = np.asarray(distances, dtype=np.float64)
+    k = d.shape[1]
+    if k < 2:
+        return 1.0
+    logs = np.log(d[:, -1:] / np.maximum(d[:, :-1], 1e-300))
+    inv = logs.sum(axis=1) / (k - 1)  # 1 / m_j
+    return float(1.0 / max(inv.mean(), 1e-12))
+
+
+
+def component_bridges(points, labels, n_comp, random_state):
+    """Pairs of points linking the components of a graph (Boruvka over closest pairs)."""
+    from sklearn.neighbors import NearestNeighbors
+
+    comp = labels.copy()
+    pairs = []
+    while n_comp > 1:
+        best = {}
+        for c in range(n_comp):
+            inside = np.flatnonzero(comp == c)
+            outside = np.flatnonzero(comp != c)
+            nn = NearestNeighbors(n_neighbors=1).fit(points[outside])
+            dist, ind = nn.kneighbors(points[inside])
+            j = int(np.argmin(dist[:, 0]))
+            best[c] = (float(dist[j, 0]), int(inside[j]), int(outside[ind[j, 0]]))
+        parent = list(range(n_comp))
+
+        def find(a):
+            while parent[a] != a:
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            return a
+
+        for _, a, b in sorted(best.values()):
+            ra, rb = find(comp[a]), find(comp[b])
+            if ra != rb:
+                parent[ra] = rb
+                pairs.append((a, b))
+        roots = np.array([find(c) for c in range(n_comp)])
+        _, comp_new = np.unique(roots[comp], return_inverse=True)
+        comp = comp_new.reshape(-1)
+        n_comp = int(comp.max()) + 1
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)

@@ -1,0 +1,185 @@
+"""Geometry of simplices of any dimension: barycentric gradients, volumes, stiffness terms.
+
+With ``E = [x1-x0, ..., xk-x0]`` (dim x k) the barycentric gradients are the columns of
+``E (E^T E)^{-1}``, exact for linear functions and intrinsic to the simplex (valid for
+surfaces in 3-D), and the volume is ``sqrt(det(E^T E)) / k!``. Up to three dimensions
+the Gram matrices are inverted by cofactors, beyond by LU; both run over blocks of
+simplices small enough for the temporaries to stay in cache.
+"""
+
+from __future__ import annotations
+
+from math import factorial
+
+import numpy as np
+import scipy.sparse as sp
+
+from .._arrays import DEGENERATE_RTOL, counting_sort, index_dtype
+
+__all__ = ["simplex_geometry", "stiffness_terms", "symmetric_csr", "symmetric_inverse"]
+
+# Entries of the per-block temporaries of the geometry (simplices x vertices x dim).
+_BLOCK = 1 << 16
+
+
+def symmetric_inverse(gram, k):
+    """Determinants and cofactors of symmetric k x k matrices, k <= 3.
+
+    ``gram[i][j]`` holds entry (i, j) of every matrix, as arrays of one shape; returns
+    ``(det, cof)`` with ``cof[i, j]`` (``i <= j``) likewise: the inverse is ``cof / det``.
+    """
+    g = gram
+    if k == 1:
+        det = g[0][0]
+        cof = {(0, 0): np.ones_like(det)}
+    elif k == 2:
+        det = g[0][0] * g[1][1] - g[0][1] * g[0][1]
+        cof = {(0, 0): g[1][1], (0, 1): -g[0][1], (1, 1): g[0][0]}
+    else:
+        cof = {
+            (0, 0): g[1][1] * g[2][2] - g[1][2] * g[1][2],
+            (0, 1): g[0][2] * g[1][2] - g[0][1] * g[2][2],
+            (0, 2): g[0][1] * g[1][2] - g[0][2] * g[1][1],
+            (1, 1): g[0][0] * g[2][2] - g[0][2] * g[0][2],
+            (1, 2): g[0][1] * g[0][2] - g[0][0] * g[1][2],
+            (2, 2): g[0][0] * g[1][1] - g[0][1] * g[0][1],
+        }
+        det = g[0][0] * cof[0, 0] + g[0][1] * cof[0, 1] + g[0][2] * cof[0, 2]
+    return det, cof
+
+
+def simplex_geometry(points, simplices):
+    """Barycentric gradients and volumes of simplices.
+
+    Returns ``(grads, vol)``: ``grads[e, :, a]`` (shape (E, dim, k+1), the layout of the
+    rows of the gradient operator) is the gradient of the barycentric coordinate of
+    vertex ``simplices[e, a]`` over simplex ``e``, ``vol`` the volumes (E,). Degenerate
+    simplices (volume below a relative tolerance) get volume NaN and zero gradients, for
+    the caller to report. Simplices are taken in blocks small enough for the
+    temporaries to stay in cache.
+    """
+    E, k1 = simplices.shape
+    dim = points.shape[1]
+    grads = np.empty((E, dim, k1))
+    vol = np.empty(E)
+    block = max(64, _BLOCK // (k1 * dim))
+    if k1 <= 4:
+        coords = np.ascontiguousarray(points.T)
+        for start in range(0, E, block):
+            b = slice(start, start + block)
+            vol[b] = small_simplex_geometry(coords, simplices[b], grads[b])
+    else:
+        for start in range(0, E, block):
+            b = slice(start, start + block)
+            vol[b] = large_simplex_geometry(points, simplices[b], grads[b])
+    return grads, vol
+
+
+def small_simplex_geometry(coords, simplices, grads):
+    """:func:`simplex_geometry` of simplices of at most 3 dimensions, by cofactors.
+
+    ``coords`` is the (dim, n_vertices) array of coordinates; the gradients are written
+    to ``grads`` (n, dim, k+1) and the volumes returned.
+    """
+    k = simplices.shape[1] - 1
+    x0 = coords[:, simplices[:, 0]]
+    e = [coords[:, simplices[:, i + 1]] - x0 for i in range(k)]  # edge vectors from x0, (dim, n)
+    gram = [[None] * k for _ in range(k)]
+    for i in range(k):
+        for j in range(i, k):
+            gram[i][j] = gram[j][i] = np.einsum("dn,dn->n", e[i], e[j])
+    scale = sum(gram[i][i] for i in range(k)) / k  # mean squared edge length from x0
+    det, cof = symmetric_inverse(gram, k)
+    bad = ~(det > (DEGENERATE_RTOL * scale) ** k)
+    inv_det = 1.0 / np.where(bad, 1.0, det)
+    total = 0.0
+    for i in range(k):
+        # gradient of the barycentric coordinate i + 1: row i of gram^{-1} times the edges
+        row = sum(e[j] * (cof[min(i, j), max(i, j)] * inv_det) for j in range(k))
+        grads[:, :, i + 1] = row.T
+        total = total + row
+    grads[:, :, 0] = -total.T
+    grads[bad] = 0.0
+    vol = np.sqrt(np.where(bad, 1.0, det)) / factorial(k)
+    vol[bad] = np.nan
+    return vol
+
+
+def large_simplex_geometry(points, simplices, grads):
+    """:func:`simplex_geometry` by LU factorisations of the Gram matrices; the
+    gradients are written to ``grads`` (n, dim, k+1) and the volumes returned."""
+    X = points[simplices]
+    Ed = X[:, 1:, :] - X[:, :1, :]  # (n, k, dim)
+    gram = Ed @ Ed.transpose(0, 2, 1)  # (n, k, k)
+    k = Ed.shape[1]
+    det = np.linalg.det(gram)
+    scale = np.einsum("eij,eij->e", Ed, Ed) / k  # mean squared edge length from x0
+    bad = ~(det > (DEGENERATE_RTOL * scale) ** k)
+    gram[bad] = np.eye(k)
+    vol = np.sqrt(np.where(bad, 1.0, det)) / factorial(k)
+    vol[bad] = np.nan
+    rest = np.linalg.inv(gram) @ Ed  # (n, k, dim): row i is grad of barycentric coordinate i+1
+    rest[bad] = 0.0
+    grads[:, :, 1:] = rest.transpose(0, 2, 1)
+    grads[:, :, 0] = -rest.sum(axis=1)
+    return vol
+
+
+def stiffness_terms(grads, vol):
+    """Per simplex, the entries ``vol g_i . g_j`` of ``G^T diag(A) G`` over its vertices.
+
+    Parameters
+    ----------
+    grads : ndarray of shape (n, dim, k + 1)
+        Barycentric gradients, as :func:`simplex_geometry` returns them.
+    vol : ndarray of shape (n,)
+
+    Returns
+    -------
+    off : ndarray of shape (n, k (k + 1) / 2)
+        The vertex pairs ``i < j`` in ``triu_indices`` order.
+    diag : ndarray of shape (n, k + 1)
+    """
+    n, _, k1 = grads.shape
+    iu, ju = np.triu_indices(k1, 1)
+    off = np.empty((n, iu.size))
+    for p, (i, j) in enumerate(zip(iu, ju)):
+        off[:, p] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, j]) * vol
+    diag = np.empty((n, k1))
+    for i in range(k1):
+        diag[:, i] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, i]) * vol
+    return off, diag
+
+
+def symmetric_csr(edges, off, diag, has_diag):
+    """The symmetric sparse matrix with entries ``off`` at the ``edges`` and at their
+    transposes and ``diag`` on the diagonal where ``has_diag``, in canonical CSR form.
+
+    ``edges`` are distinct pairs ``i < j`` in lexicographic order (the row-major order of
+    the upper triangle); the lower triangle is their counting sort by ``j``.
+    """
+    n = diag.size
+    i, j = edges[:, 0], edges[:, 1]
+    n_edges = i.size
+    idx = index_dtype(2 * n_edges + n)
+    lower, lower_start = counting_sort(j, n)  # (j, i) in row-major order
+    n_lower = np.diff(lower_start)
+    n_upper = np.bincount(i, minlength=n)
+    indptr = np.zeros(n + 1, dtype=idx)
+    np.cumsum(n_lower + has_diag + n_upper, out=indptr[1:])
+    indices = np.empty(int(indptr[-1]), dtype=idx)
+    data = np.empty(int(indptr[-1]))
+    rank = np.arange(n_edges)
+    # per row: the lower triangle, the diagonal, the upper triangle
+    pos = rank + (indptr[:-1] - lower_start[:-1])[j[lower]]
+    indices[pos] = i[lower]
+    data[pos] = off[lower]
+    rows = np.flatnonzero(has_diag)
+    pos = indptr[rows] + n_lower[rows]
+    indices[pos] = rows
+    data[pos] = diag[rows]
+    upper_start = np.cumsum(n_upper) - n_upper
+    pos = rank + (indptr[:-1] + n_lower + has_diag - upper_start)[i]
+    indices[pos] = j
+    data[pos] = off
+    return sp.csr_matrix((data, indices, indptr), shape=(n, n))

@@ -1,0 +1,6 @@
+"""Learning with relaxed boundaries: the level-set classifier and label propagation."""
+
+from .classifier import LevelSetClassifier
+from .propagation import harmonic_labels, vote
+
+__all__ = ["LevelSetClassifier", "harmonic_labels", "vote"]

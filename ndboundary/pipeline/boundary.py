@@ -1,0 +1,81 @@
+"""The jagged boundary zeta between the two regions, and the rows that hold phi to it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary"]
+
+
+@dataclass
+class Boundary:
+    """The jagged boundary zeta between the two regions.
+
+    Attributes
+    ----------
+    sources : ndarray of int
+        Vertices that receive heat (zeta's vertices for element labels; the ends of
+        cut edges for vertex labels).
+    S : sparse matrix of shape (n_points, n_vertices)
+        One row per point of zeta with its interpolation weights over the vertices.
+    points : ndarray of shape (n_points, dim)
+        The points of zeta (``S @ domain.points``).
+    edges : ndarray of int of shape (n_cut_edges, 2) or None
+        For vertex labels, the edges whose ends differ.
+    facets : ndarray of int of shape (n_facets, k) or None
+        For element labels, the facets between elements of different labels: the
+        jagged boundary as a complex over the domain's vertices.
+    """
+
+    sources: np.ndarray
+    S: sp.csr_matrix
+    points: np.ndarray
+    edges: np.ndarray | None = None
+    facets: np.ndarray | None = None
+
+
+def element_boundary(domain, region1):
+    """zeta for element labels: the vertices shared by elements of both labels."""
+    inc = domain.incidence
+    n1 = inc @ region1.astype(np.float64)
+    n0 = inc @ (~region1).astype(np.float64)
+    sources = np.flatnonzero((n1 > 0) & (n0 > 0))
+    S = sp.csr_matrix(
+        (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
+    )
+    return Boundary(sources, S, domain.points[sources], facets=domain.interface_facets(region1))
+
+
+def vertex_boundary(domain, region1):
+    """zeta for vertex labels: the midpoints of the edges whose ends differ."""
+    e = domain.edges
+    cut = e[region1[e[:, 0]] != region1[e[:, 1]]]
+    sources = np.unique(cut)
+    m = cut.shape[0]
+    S = sp.csr_matrix(
+        (np.full(2 * m, 0.5), (np.repeat(np.arange(m), 2), cut.ravel())), shape=(m, domain.n_vertices)
+    )
+    return Boundary(sources, S, 0.5 * (domain.points[cut[:, 0]] + domain.points[cut[:, 1]]), cut)
+
+
+def pinned_rows(domain, S, vert_region1):
+    """Constraint rows and targets: ``S`` at 1/2, and phi held at 1/2 -/+ 1 on the connected
+    parts of the domain that zeta does not reach.
+
+    There the field term alone leaves phi free up to a constant; pinning it keeps the
+    system definite and puts the part on its own side of 1/2.
+    """
+    targets = np.full(S.shape[0], 0.5)
+    n_comp, comp = domain.vertex_components
+    if n_comp == 1:
+        return S, targets
+    touched = np.zeros(n_comp, dtype=bool)
+    touched[comp[S.nonzero()[1]]] = True
+    free = np.flatnonzero(~touched[comp])
+    if free.size == 0:
+        return S, targets
+    rows = sp.csr_matrix((np.ones(free.size), (np.arange(free.size), free)), shape=(free.size, domain.n_vertices))
+    return sp.vstack([S, rows]).tocsr(), np.concatenate([targets, np.where(vert_region1[free], 1.5, -0.5)])

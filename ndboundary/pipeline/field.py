@@ -1,0 +1,73 @@
+"""Step 2: the unit field that crosses zeta, from region 0 into region 1.
+
+Per element ``X = grad u / |grad u|`` in region 0 and ``-grad u / |grad u|`` in region 1.
+Far from zeta the heat falls below the iterative solver's accuracy (absolute, not
+relative); there the direction comes from the graph distance to zeta instead, which
+points the same way and is exact in any range. For vertex labels, the elements whose
+vertices disagree (they straddle zeta) take the gradient of the region-1 indicator,
+which points from region 0 to region 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse.csgraph import dijkstra
+
+from ..fields import normalize_rows
+
+__all__ = ["HEAT_FLOOR", "graph_distance", "initial_field"]
+
+#: Where the heat is below this fraction of its maximum (or 100 times the solver's
+#: ``rtol``, if larger), its gradient is at the level of the solver's error: the field
+#: there follows the graph distance to zeta.
+HEAT_FLOOR = 1e-5
+
+
+def graph_distance(domain, sources):
+    """Shortest-path distance along the domain's edges from the vertices ``sources``.
+
+    Vertices that no path reaches get distance 0 (they get no field direction).
+    """
+    e = domain.edges
+    w = np.linalg.norm(domain.points[e[:, 0]] - domain.points[e[:, 1]], axis=1)
+    dist = dijkstra(domain.edge_graph(w), directed=False, indices=sources, min_only=True)
+    dist[~np.isfinite(dist)] = 0.0
+    return dist
+
+
+def initial_field(domain, padded, region1, sources, u, rtol):
+    """The unit field ``X`` of step 2 on the padded domain, shape (n_elements, dim).
+
+    Parameters
+    ----------
+    domain : Domain
+        The input domain (distances are taken on it).
+    padded : Padded
+    region1 : ndarray of bool
+        The labels as given (per element or per vertex).
+    sources : ndarray of int
+        zeta's heated vertices.
+    u : ndarray of shape (padded.work.n_vertices,)
+        The heat.
+    rtol : float
+        The heat solve's tolerance.
+    """
+    work = padded.work
+    V = domain.n_vertices
+    X = normalize_rows(work.gradient(u))
+    far = work.element_max(u) < max(HEAT_FLOOR, 100.0 * rtol) * u.max()
+    if far.any():
+        # distances on the unpadded domain; a padding vertex takes its element's mean
+        dist = graph_distance(domain, sources)
+        if work.n_vertices - V == padded.split.size:
+            inc = domain.incidence[:, padded.split].T.tocsr()
+            dist = np.concatenate([dist, (inc @ dist) / np.diff(inc.indptr)])
+        else:
+            dist = graph_distance(work, sources)
+        X[far] = -normalize_rows(work.gradient(dist)[far])
+    X[padded.elem_region1] *= -1.0
+    if padded.straddle.any():
+        ind = np.zeros(work.n_vertices)
+        ind[:V] = region1
+        X[padded.straddle] = normalize_rows(work.gradient(ind)[padded.straddle])
+    return X

@@ -1,0 +1,92 @@
+"""Padding (paper section 4): split the elements whose heat would be flat.
+
+An element all of whose vertices lie on zeta receives the same heat at every vertex:
+its gradient, and so the field of step 2, is undefined. Such elements are split at their
+barycentre by the domain (:meth:`~ndboundary.Domain.split_elements`) before step 1; the
+added vertices are dropped from the returned phi.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .boundary import Boundary, pinned_rows
+
+__all__ = ["Padded", "pad"]
+
+
+@dataclass
+class Padded:
+    """The domain the four steps run on, and what the labels say on it.
+
+    Attributes
+    ----------
+    work : Domain
+        The padded domain (the input domain itself when nothing was split).
+    split : ndarray of int
+        The input elements that were split, increasing.
+    elem_region1 : ndarray of bool of shape (work.n_elements,)
+        Elements of region 1 (for vertex labels: holding a region-1 vertex).
+    straddle : ndarray of bool of shape (work.n_elements,)
+        For vertex labels, the elements whose vertices disagree (they cross zeta).
+    S : sparse matrix of shape (n_rows, work.n_vertices)
+        The constraint rows of the integration: zeta's points, and one row per vertex of
+        a domain component that zeta does not reach.
+    targets : ndarray of shape (n_rows,)
+        Their values: 1/2 on zeta, 1/2 -/+ 1 on the components without boundary.
+    """
+
+    work: object
+    split: np.ndarray
+    elem_region1: np.ndarray
+    straddle: np.ndarray
+    S: sp.csr_matrix
+    targets: np.ndarray
+
+
+def pad(domain, region1, boundary: Boundary, on, enabled=True):
+    """Split the elements all of whose vertices receive heat, and carry the labels over.
+
+    Parameters
+    ----------
+    domain : Domain
+    region1 : ndarray of bool
+        Region 1, per element or per vertex (``on``).
+    boundary : Boundary
+    on : {"elements", "vertices"}
+    enabled : bool, default=True
+        False leaves the domain as it is (the flat elements keep a zero gradient).
+
+    Returns
+    -------
+    Padded
+    """
+    inc = domain.incidence
+    if on == "elements":
+        straddle = np.zeros(domain.n_elements, dtype=bool)
+    else:
+        per_elem = inc.T @ region1.astype(np.float64)
+        size = np.asarray(inc.sum(axis=0)).ravel()
+        straddle = (per_elem > 0) & (per_elem < size)
+    hot = np.zeros(domain.n_vertices, dtype=bool)
+    hot[boundary.sources] = True
+    flat = (inc.T @ (~hot).astype(np.float64)) == 0
+    flat &= ~straddle
+    if enabled and flat.any():
+        work, parent = domain.split_elements(flat)
+    else:
+        work, parent = domain, np.arange(domain.n_elements)
+    split = np.flatnonzero(flat) if work is not domain else np.zeros(0, dtype=np.int64)
+    if on == "elements":
+        elem_region1 = region1[parent]
+        vert_region1 = (inc @ region1.astype(np.float64)) > 0
+    else:
+        elem_region1 = (inc.T @ region1.astype(np.float64))[parent] > 0
+        straddle = straddle[parent]
+        vert_region1 = region1
+    S, targets = pinned_rows(domain, boundary.S, vert_region1)
+    S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()
+    return Padded(work, split, elem_region1, straddle, S, targets)

@@ -1,0 +1,41 @@
+"""The parameters of the relaxation: defaults, the paper's settings, and their validation."""
+
+from __future__ import annotations
+
+from .._validation import check_nonnegative_int, check_positive
+
+__all__ = ["DEFAULT_LAM", "DEFAULT_MU", "DEFAULT_SMOOTHING", "PAPER", "check_params"]
+
+#: Default weight of the boundary term (dimensionless, see :mod:`.integration`): strong
+#: enough to hold the level set on zeta through many smoothing passes (paper Fig. 8:
+#: ``lam >= 0.5`` stays faithful whatever the passes).
+DEFAULT_LAM = 2.0
+#: Default number of field smoothing passes: many more than the paper's 3-5, which leave
+#: ripples on jittered grids; the boundary term keeps the level set in place.
+DEFAULT_SMOOTHING = 60
+#: Default weight of the first-order fit ``||grad phi - X'||^2`` added to the paper's
+#: Laplacian fit: it anchors phi to the field far from zeta, where the squared
+#: Laplacian alone lets phi bend freely (thin parts of a surface far from the boundary).
+DEFAULT_MU = 0.03
+#: The paper's own setting (Fig. 8, Table 1): 3 passes, its unweighted form, no first-order term.
+PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain", "mu": 0.0}
+
+
+def check_params(*, on, lam, smoothing, mu, t, form, rtol, solver):
+    """Validate the parameters of :func:`~ndboundary.relax`; returns them normalised as a dict."""
+    if on not in ("elements", "vertices"):
+        raise ValueError(f"on must be 'elements' or 'vertices', got {on!r}")
+    if form not in ("mass", "plain"):
+        raise ValueError(f"form must be 'mass' or 'plain', got {form!r}")
+    if solver not in ("auto", "pcg", "direct"):
+        raise ValueError(f"solver must be 'auto', 'pcg' or 'direct', got {solver!r}")
+    return {
+        "on": on,
+        "lam": check_positive(lam, "lam"),
+        "smoothing": check_nonnegative_int(smoothing, "smoothing"),
+        "mu": check_positive(mu, "mu", allow_zero=True),
+        "t": 1.0 if t is None else check_positive(t, "t"),
+        "form": form,
+        "rtol": check_positive(rtol, "rtol"),
+        "solver": solver,
+    }

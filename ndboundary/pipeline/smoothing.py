@@ -1,0 +1,17 @@
+"""Step 3: the field is smoothed by a few passes of averaging over neighbouring elements.
+
+Each pass averages every element's vector with its neighbours' and renormalises, in
+Jacobi order (one sparse product per pass, so the result does not depend on the element
+order). How vectors are averaged is the domain's (:meth:`~ndboundary.Domain.smooth_field`):
+uniform weights over facet neighbours on meshes, transport between tangent frames on a
+kNN graph.
+"""
+
+from __future__ import annotations
+
+__all__ = ["smooth"]
+
+
+def smooth(work, X, passes):
+    """``passes`` smoothing passes of the field ``X`` (not modified) on the padded domain."""
+    return work.smooth_field(X, passes) if passes else X
