@@ -7,17 +7,16 @@ import scipy.sparse as sp
 from ndboundary import SimplicialComplex
 from ndboundary._validation import check_cells, check_labels
 from ndboundary.datasets import icosphere, kuhn_grid
-from ndboundary.domain import Domain
-from ndboundary.simplicial import (
-    _large_simplex_geometry,
-    _pair_groups,
-    _small_simplex_geometry,
+from ndboundary import Domain
+from ndboundary._arrays import (
     counting_sort,
     first_of_groups,
     group_rows,
     mixed_facets,
+    pair_groups,
     shared_facet_adjacency,
 )
+from ndboundary.domains.simplex_geometry import large_simplex_geometry, small_simplex_geometry
 
 
 def reference_group_rows(rows):
@@ -37,10 +36,10 @@ def test_group_rows_numbers_rows_in_lexicographic_order(rng, width, high):
 
 
 @pytest.mark.parametrize("n", [1, 7, 300])
-def test_pair_groups_sorts_pairs_and_marks_the_distinct_ones(rng, n):
+def testpair_groups_sorts_pairs_and_marks_the_distinct_ones(rng, n):
     first = rng.integers(0, n, size=1000).astype(np.int32)
     second = rng.integers(0, n, size=1000).astype(np.int32)
-    order, new = _pair_groups(first, second, n)
+    order, new = pair_groups(first, second, n)
     pairs = np.stack([first, second], axis=1)
     np.testing.assert_array_equal(np.sort(order), np.arange(1000))
     np.testing.assert_array_equal(pairs[order], pairs[np.lexsort((second, first))])
@@ -104,8 +103,8 @@ def test_cofactor_geometry_matches_lu(rng, k, dim):
     simplices[0, 1] = simplices[0, 0]  # a degenerate one
     g_small = np.empty((30, dim, k + 1))
     g_large = np.empty((30, dim, k + 1))
-    v_small = _small_simplex_geometry(np.ascontiguousarray(points.T), simplices, g_small)
-    v_large = _large_simplex_geometry(points, simplices, g_large)
+    v_small = small_simplex_geometry(np.ascontiguousarray(points.T), simplices, g_small)
+    v_large = large_simplex_geometry(points, simplices, g_large)
     np.testing.assert_allclose(v_small, v_large, rtol=1e-10)
     np.testing.assert_allclose(g_small, g_large, rtol=1e-8, atol=1e-10)
     assert np.isnan(v_small[0]) and not g_small[0].any()
@@ -116,7 +115,7 @@ DOMAINS = {
     "right_triangles": kuhn_grid(5, 2),
     "surface": icosphere(2),
     "tets": kuhn_grid(3, 3, jitter=0.2, random_state=0),
-    "split_tets": kuhn_grid(3, 3)._split_elements(np.arange(162) % 5 == 0)[0],
+    "split_tets": kuhn_grid(3, 3).split_elements(np.arange(162) % 5 == 0)[0],
 }
 
 
@@ -154,7 +153,7 @@ def reference_facets(simplices):
 def test_edge_of_every_vertex_pair(domain):
     srt = np.sort(domain.simplices, axis=1)
     i, j = np.triu_indices(srt.shape[1], 1)
-    edges, pair_edge = domain._edge_index
+    edges, pair_edge = domain.edge_index
     pairs = np.stack([srt[:, i].ravel(), srt[:, j].ravel()], axis=1)
     np.testing.assert_array_equal(edges[pair_edge], pairs)
 
@@ -213,12 +212,12 @@ def test_facets_and_adjacency_match_their_definitions(name):
     assert (adj != ref).nnz == 0
     region1 = np.arange(E) % 3 == 0
     which = mixed_facets(ref_ids, np.repeat(np.arange(E), k1), region1)
-    np.testing.assert_array_equal(dom._interface_facets(region1), facets[which])
+    np.testing.assert_array_equal(dom.interface_facets(region1), facets[which])
 
 
 def test_element_max_matches_the_incidence(domain, rng):
     f = rng.normal(size=domain.n_vertices)
-    np.testing.assert_array_equal(domain._element_max(f), Domain._element_max(domain, f))
+    np.testing.assert_array_equal(domain.element_max(f), Domain.element_max(domain, f))
 
 
 SPLIT_DOMAINS = {
@@ -241,7 +240,7 @@ def assert_same_operators(split, fresh):
         np.testing.assert_array_equal(a.indices, b.indices, err_msg=name)
         np.testing.assert_array_equal(a.data, b.data, err_msg=name)
     np.testing.assert_array_equal(split.edges, fresh.edges)
-    np.testing.assert_array_equal(split._edge_index[1], fresh._edge_index[1])
+    np.testing.assert_array_equal(split.edge_index[1], fresh.edge_index[1])
     np.testing.assert_array_equal(split.A, fresh.A)
     np.testing.assert_array_equal(split.mass, fresh.mass)
 
@@ -256,23 +255,23 @@ def test_split_keeps_the_operators_of_a_fresh_build(rng, name, built, fraction):
         getattr(dom, op)
     mask = rng.random(dom.n_elements) < fraction
     mask[0] = True
-    split, _ = dom._split_elements(mask)
+    split, _ = dom.split_elements(mask)
     assert_same_operators(split, SimplicialComplex(split.points, split.simplices))
     # a split of a split
     for op in built:
         getattr(split, op)
     mask = rng.random(split.n_elements) < 0.2
     mask[-1] = True
-    again, _ = split._split_elements(mask)
+    again, _ = split.split_elements(mask)
     assert_same_operators(again, SimplicialComplex(again.points, again.simplices))
 
 
 def test_interface_facets_without_the_facet_table(rng):
     dom = kuhn_grid(4, 3, jitter=0.2, random_state=0)
     region1 = rng.random(dom.n_elements) < 0.5
-    got = dom._interface_facets(region1)
+    got = dom.interface_facets(region1)
     assert dom._facets.shape == (4 * dom.n_elements, 3)
-    np.testing.assert_array_equal(got, dom._interface_facets(region1))
+    np.testing.assert_array_equal(got, dom.interface_facets(region1))
 
 
 def test_first_of_groups_is_the_first_index_of_each_id(rng):

@@ -5,12 +5,12 @@ import pytest
 from sklearn.datasets import load_iris, make_moons
 from sklearn.inspection import DecisionBoundaryDisplay
 from sklearn.model_selection import GridSearchCV, StratifiedKFold, cross_val_score
-from sklearn.neighbors import KNeighborsClassifier
+from sklearn.neighbors import KNeighborsClassifier, NearestNeighbors
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from ndboundary.classifier import LevelSetClassifier
+from ndboundary import LevelSetClassifier
 
 
 @parametrize_with_checks([LevelSetClassifier()])
@@ -151,7 +151,7 @@ def test_solver_tolerance_does_not_move_decisions(moons):
 
 
 def test_auto_neighbours_follow_the_sample_size(moons, monkeypatch):
-    from ndboundary import classifier
+    from ndboundary.learn import classifier
 
     X, y, _, _ = moons
     assert LevelSetClassifier().fit(X, y).n_neighbors_ == classifier.AUTO_NEIGHBORS
@@ -161,12 +161,12 @@ def test_auto_neighbours_follow_the_sample_size(moons, monkeypatch):
 
 
 def _loo_accuracy(clf, X, y):
-    phi = clf._phi(X, exclude_self=True)[:, 0]
+    phi = clf.extension_.leave_one_out(np.arange(X.shape[0]))[:, 0]
     return np.mean(clf.classes_[(phi > 0.5).astype(int)] == y)
 
 
 def test_auto_extension_power_is_the_best_leave_one_out_power():
-    from ndboundary.classifier import EXTENSION_POWERS
+    from ndboundary.domains.pointcloud_extension import EXTENSION_POWERS, NeighborExtension
 
     X, y = make_moons(300, noise=0.3, random_state=1)
     auto = LevelSetClassifier().fit(X, y)
@@ -175,16 +175,18 @@ def test_auto_extension_power_is_the_best_leave_one_out_power():
     assert loo[auto.extension_power_] == max(loo.values())
     # the first of equally good powers
     assert auto.extension_power_ == next(p for p in EXTENSION_POWERS if loo[p] == max(loo.values()))
-    # the probability slope is fitted on the same leave-one-out values as a fresh pass gives
-    assert np.isclose(auto.proba_scale_, auto._fit_proba_scale(y, np.ones(y.size, dtype=bool)))
+    # the leave-one-out values kept from the choice are those a fresh pass gives
+    rows = np.arange(y.size)
+    fresh = NeighborExtension(auto.domain_, auto.phi_, power=auto.extension_power_)
+    np.testing.assert_array_equal(auto.extension_.leave_one_out(rows), fresh.leave_one_out(rows))
     # a fixed power is used as given, and a sharper one follows the nearest sample more
     sharp = LevelSetClassifier(extension_power=8.0).fit(X, y)
     flat = LevelSetClassifier(extension_power=0.0).fit(X, y)
     assert sharp.extension_power_ == 8.0
     near = X + 0.01
-    nearest = sharp.domain_.kneighbors(near, 1)[0][:, 0]
-    err_sharp = np.abs(sharp._phi(near)[:, 0] - sharp._phi_u[nearest, 0]).mean()
-    err_flat = np.abs(flat._phi(near)[:, 0] - flat._phi_u[nearest, 0]).mean()
+    nearest = NearestNeighbors(n_neighbors=1).fit(X).kneighbors(near)[1][:, 0]
+    err_sharp = np.abs(sharp.extension_(near)[:, 0] - sharp.phi_[nearest, 0]).mean()
+    err_flat = np.abs(flat.extension_(near)[:, 0] - flat.phi_[nearest, 0]).mean()
     assert err_sharp < 0.5 * err_flat
 
 

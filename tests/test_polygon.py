@@ -7,9 +7,9 @@ from _checks import assert_stiffness_kernel_is_constants
 
 from ndboundary import datasets as ds
 from ndboundary import marching_simplices, relax
-from ndboundary._polydata import quad_grid, voronoi_polygons
+from ndboundary.datasets import quad_grid, voronoi_polygons
 from ndboundary.metrics import fidelity
-from ndboundary.polygon import PolygonMesh
+from ndboundary import PolygonMesh
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
@@ -124,20 +124,20 @@ def test_adjacency_edges_incidence_interface():
     assert sp.issparse(q.incidence) and q.incidence.sum() == 36
     region1 = np.zeros(9, dtype=bool)
     region1[4] = True
-    assert q._interface_facets(region1).shape == (4, 2)
+    assert q.interface_facets(region1).shape == (4, 2)
 
 
 def test_padding_splits_into_fans():
     q = quad_grid(3, jitter=0.2, random_state=0)
     mask = np.zeros(q.n_elements, dtype=bool)
     mask[[0, 4]] = True
-    split, parent = q._split_elements(mask)
+    split, parent = q.split_elements(mask)
     assert isinstance(split, PolygonMesh)
     assert split.n_elements == 7 + 8 and split.n_vertices == q.n_vertices + 2
     np.testing.assert_array_equal(split.points[: q.n_vertices], q.points)
     np.testing.assert_allclose(np.bincount(parent, weights=split.A), q.A)
     assert split.sizes.tolist() == [4] * 7 + [3] * 8
-    same, p = q._split_elements(np.zeros(q.n_elements, dtype=bool))
+    same, p = q.split_elements(np.zeros(q.n_elements, dtype=bool))
     assert same is q and p.tolist() == list(range(q.n_elements))
 
 
@@ -148,8 +148,6 @@ def test_refinement_and_level_set_simplices():
     assert R.shape == (cx.n_vertices, v.n_vertices)
     f = v.points @ [1.0, -2.0]
     np.testing.assert_allclose(R @ f, cx.points @ [1.0, -2.0], atol=1e-12)
-    tri = v._level_set_simplices()
-    assert tri.max() < v.n_vertices and tri.shape[0] == (v.sizes - 2).sum()
 
 
 @pytest.mark.parametrize(

@@ -6,9 +6,10 @@ from _checks import assert_stiffness_kernel_is_constants
 
 from ndboundary import datasets as ds
 from ndboundary import relax
-from ndboundary._polydata import hex_grid
+from ndboundary.datasets import hex_grid
 from ndboundary.metrics import fidelity
-from ndboundary.polyhedral import HEX_FACES, PolyhedralMesh
+from ndboundary import PolyhedralMesh
+from ndboundary.domains.polyhedral_cells import HEX_FACES
 
 CUBE = np.array(
     [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=float
@@ -102,7 +103,7 @@ def test_adjacency_edges_and_interface():
     assert h.edges.shape == (54, 2)
     region1 = np.zeros(8, dtype=bool)
     region1[:4] = True
-    tris = h._interface_facets(region1)
+    tris = h.interface_facets(region1)
     assert tris.shape == (8, 3)  # four quads, two triangles each
 
 
@@ -110,7 +111,7 @@ def test_padding_splits_into_pyramids():
     h = hex_grid(2, jitter=0.2, random_state=0)
     mask = np.zeros(8, dtype=bool)
     mask[[1, 6]] = True
-    split, parent = h._split_elements(mask)
+    split, parent = h.split_elements(mask)
     assert isinstance(split, PolyhedralMesh)
     assert split.n_elements == 6 + 12 and split.n_vertices == h.n_vertices + 2
     np.testing.assert_allclose(np.bincount(parent, weights=split.A), h.A)
@@ -119,14 +120,12 @@ def test_padding_splits_into_pyramids():
     np.testing.assert_allclose(split.gradient(split.points @ a), np.broadcast_to(a, (18, 3)), atol=1e-10)
 
 
-def test_refinement_and_level_set_simplices():
+def test_refinement_interpolates_linear_functions():
     h = hex_grid(2, jitter=0.2, random_state=0)
     cx, R = h.to_simplicial()
     assert np.isclose(cx.A.sum(), h.A.sum())
     f = h.points @ [1.0, -2.0, 0.5]
     np.testing.assert_allclose(R @ f, cx.points @ [1.0, -2.0, 0.5], atol=1e-12)
-    tets = h._level_set_simplices()
-    assert tets.shape == (8 * 6, 4) and tets.max() < h.n_vertices
     t = PolyhedralMesh.from_tetrahedra(CUBE[[0, 1, 3, 4]], [[0, 1, 2, 3]])
     assert t.to_simplicial()[0].simplices.tolist() == [[0, 1, 2, 3]]
 

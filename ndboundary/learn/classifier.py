@@ -138,6 +138,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     transduction_ : ndarray of shape (n_samples,)
         The labels of the training samples, unlabelled ones filled in by
         harmonic extension before the relaxation.
+    extension_ : NeighborExtension or SimplexExtension or None
+        The evaluator of ``phi_`` at new points, given by the domain
+        (:meth:`~ndboundary.Domain.extension`); None when one class was seen.
     proba_scale_ : float
         Slope of the logistic map from ``phi`` to probabilities, fitted on
         leave-one-out estimates of ``phi`` at the training samples.
@@ -280,6 +283,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             self.proba_scale_ = 1.0
             self.n_neighbors_ = 0
             self.extension_power_ = None
+            self.extension_ = None
             return self
         self._constant = None
         self.domain_, self.n_neighbors_ = self._build_domain(X)
@@ -303,10 +307,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             phis.append(res.phi)
             self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
         self.phi_ = np.stack(phis, axis=1)
-        self._extension = self.domain_.extension(
+        self.extension_ = self.domain_.extension(
             self.phi_, n_neighbors=self.extension_neighbors, power=self.extension_power, labels=codes, labelled=labelled
         )
-        self.extension_power_ = self._extension.power
+        self.extension_power_ = self.extension_.power
         self._log(f"extension power {self.extension_power_}", t0)
         self.proba_scale_ = self._fit_proba_scale(codes, labelled)
         self._log("fitted", t0)
@@ -314,7 +318,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
     def _fit_proba_scale(self, codes, labelled):
         """Slope of the logistic map fitted on leave-one-out ``phi`` at the labelled samples."""
-        phi = self._extension.leave_one_out(np.flatnonzero(labelled))
+        phi = self.extension_.leave_one_out(np.flatnonzero(labelled))
         c = codes[labelled]
         if phi.shape[1] == 1:
             z = phi[:, 0] - 0.5
@@ -359,7 +363,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             out = np.full((X.shape[0], n_cls), -0.5)
             out[:, self._constant] = 0.5
             return out
-        phi = self._extension(X) - 0.5
+        phi = self.extension_(X) - 0.5
         return phi[:, 0] if phi.shape[1] == 1 else phi
 
     def predict(self, X):
