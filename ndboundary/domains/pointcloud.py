@@ -38,7 +38,6 @@ duplicates with different labels still form a boundary.
 from __future__ import annotations
 
 import numbers
-from math import gamma, pi
 
 import numpy as np
 import scipy.sparse as sp
@@ -49,6 +48,7 @@ from ..fields import normalize_rows
 from .base import Domain
 from .neighbors import component_bridges, estimate_intrinsic_dim, kneighbors
 from .pointcloud_extension import NeighborExtension
+from .tangent import ball_volume, local_pca, lsq_coefficients
 
 __all__ = ["PointCloud"]
 
@@ -56,42 +56,6 @@ __all__ = ["PointCloud"]
 _CHUNK = 4096
 #: Elements of gathered tangent frames held at once by :meth:`PointCloud.tangent_offsets`.
 _GATHER = 1 << 22
-_EIG_RTOL = 1e-10
-_LSQ_RTOL = 1e-10
-
-
-def _ball_volume(m):
-    return pi ** (m / 2) / gamma(m / 2 + 1)
-
-
-def _local_pca(points, nbr, m):
-    """Tangent coordinates of the neighbour offsets (n, k, m) and frames (n, D, m)."""
-    n, k = nbr.shape
-    D = points.shape[1]
-    Z = np.empty((n, k, m))
-    T = np.empty((n, D, m))
-    for s in range(0, n, _CHUNK):
-        c = slice(s, min(n, s + _CHUNK))
-        Y = points[nbr[c]] - points[c][:, None, :]  # (b, k, D)
-        C = Y @ Y.transpose(0, 2, 1)
-        w, V = np.linalg.eigh(C)
-        w, V = w[:, ::-1][:, :m], V[:, :, ::-1][:, :, :m]
-        ok = w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300)
-        sw = np.sqrt(np.where(ok, w, 0.0))
-        Z[c] = V * sw[:, None, :]
-        T[c] = (Y.transpose(0, 2, 1) @ V) * np.where(ok, 1.0 / np.where(ok, sw, 1.0), 0.0)[:, None, :]
-    return Z, T
-
-
-def _lsq_coefficients(Z):
-    """Least-squares gradient weights ``(Z^T Z)^{-1} Z^T`` per point, (n, m, k)."""
-    ZtZ = Z.transpose(0, 2, 1) @ Z
-    m = Z.shape[2]
-    tr = np.trace(ZtZ, axis1=1, axis2=2)
-    reg = _LSQ_RTOL * np.maximum(tr, 1e-300) / m
-    ZtZ = ZtZ + reg[:, None, None] * np.eye(m)
-    return np.linalg.solve(ZtZ, Z.transpose(0, 2, 1))
-
 
 
 class PointCloud(Domain):
@@ -183,8 +147,8 @@ class PointCloud(Domain):
         else:
             m = int(min(intrinsic_dim, k))
         self.intrinsic_dim = m
-        Z, self.frames = _local_pca(self.unique_points, self.neighbors, m)
-        self._coef = _lsq_coefficients(Z)  # (n_u, m, k)
+        Z, self.frames = local_pca(self.unique_points, self.neighbors, m)
+        self._coef = lsq_coefficients(Z)  # (n_u, m, k)
         # a representative original row of each distinct point
         rep = np.empty(n_u, dtype=np.int64)
         rep[self.unique_inverse[::-1]] = np.arange(self.points.shape[0])[::-1]
@@ -194,7 +158,7 @@ class PointCloud(Domain):
             [np.arange(self.points.shape[0])[:, None], rep[self.neighbors[self.unique_inverse]]], axis=1
         )
         mult = np.bincount(self.unique_inverse, minlength=n_u)
-        vol = _ball_volume(m) * self.distances[:, -1] ** m / k
+        vol = ball_volume(m) * self.distances[:, -1] ** m / k
         self._point_measure = (vol / mult)[self.unique_inverse]
         sym = self._unique_graph()
         self.n_components, comp = connected_components(sym, directed=False)

@@ -38,7 +38,6 @@ from .._arrays import (
     DEGENERATE_RTOL,
     expand_ranges,
     fill_unused_mass,
-    first_of_groups,
     group_rows,
     mixed_facets,
     ragged_next,
@@ -49,7 +48,15 @@ from .._arrays import (
 from .._validation import check_cells, check_points, check_ragged
 from .base import Domain
 from .cell_operators import check_laplacian_options, combinatorial_laplacian, local_stiffness
-from .polyhedral_cells import HEX_FACES, TET_FACES, fan_from_first, faces_from_cells, orient_faces, tetrahedral_refinement
+from .polyhedral_cells import (
+    HEX_FACES,
+    TET_FACES,
+    fan_from_first,
+    faces_from_cells,
+    orient_faces,
+    pyramid_split,
+    tetrahedral_refinement,
+)
 from .simplicial import SimplicialComplex
 
 __all__ = ["PolyhedralMesh"]
@@ -347,43 +354,10 @@ class PolyhedralMesh(Domain):
     def split_elements(self, mask):
         """Split the cells selected by ``mask`` into pyramids over their faces, apex at the vertex mean."""
         mask = np.asarray(mask, dtype=bool)
-        idx = np.flatnonzero(mask)
-        if idx.size == 0:
+        if not mask.any():
             return self, np.arange(self.n_elements)
-        cell_of_entry, entry_of_corner, corner = self.cell_face_entries
-        V, F = self.n_vertices, self.n_faces
-        apex = np.full(self.n_elements, -1, dtype=np.int64)
-        apex[idx] = V + np.arange(idx.size)
-        sel_corner = mask[cell_of_entry[entry_of_corner]]
-        ent = entry_of_corner[sel_corner]
-        cell = cell_of_entry[ent]
-        a = self.face_indices[corner[sel_corner]]
-        b = self.face_indices[self.face_next[corner[sel_corner]]]
-        side_ids, n_side = group_rows(np.stack([cell, np.minimum(a, b), np.maximum(a, b)], axis=1))
-        first = first_of_groups(side_ids, n_side)
-        side_faces = np.stack([apex[cell[first]], a[first], b[first]], axis=1)
-        fi = np.concatenate([self.face_indices, side_faces.ravel()])
-        fo = np.concatenate([self.face_offsets, self.face_offsets[-1] + 3 * np.arange(1, n_side + 1)])
-        keep = np.flatnonzero(~mask)
-        keep_entries = ~mask[cell_of_entry]
-        sel_entries = np.flatnonzero(mask[cell_of_entry])
-        # new cells: one per entry of a masked cell, its base face then its side faces
-        lens = np.diff(self.face_offsets)[self.cell_faces[sel_entries]]
-        base_pos = np.zeros(sel_entries.size + 1, dtype=np.int64)
-        np.cumsum(lens + 1, out=base_pos[1:])
-        ci_new = np.empty(int(base_pos[-1]), dtype=np.int64)
-        ci_new[base_pos[:-1]] = self.cell_faces[sel_entries]
-        ci_new[expand_ranges(base_pos[:-1] + 1, lens)] = F + side_ids  # corners are in entry order
-        ci = np.concatenate([self.cell_faces[keep_entries], ci_new])
-        co_keep = np.diff(self.cell_offsets)[keep]
-        co = np.zeros(keep.size + sel_entries.size + 1, dtype=np.int64)
-        np.cumsum(np.concatenate([co_keep, lens + 1]), out=co[1:])
-        parent = np.concatenate([keep, cell_of_entry[sel_entries]])
-        centres = self.element_centroids()[idx]
-        out = PolyhedralMesh._from_flat(
-            np.concatenate([self.points, centres]), fi, fo, ci, co, self.laplacian, self.stabilization
-        )
-        return out, parent
+        points, fi, fo, ci, co, parent = pyramid_split(self, mask)
+        return PolyhedralMesh._from_flat(points, fi, fo, ci, co, self.laplacian, self.stabilization), parent
 
     def simplicial_refinement(self):
         """Points, tetrahedra and the (n_refined, n_vertices) interpolation matrix of the

@@ -17,6 +17,7 @@ __all__ = [
     "faces_from_cells",
     "orient_cell",
     "orient_faces",
+    "pyramid_split",
     "tetrahedral_refinement",
 ]
 
@@ -151,3 +152,44 @@ def tetrahedral_refinement(mesh):
     tv = vert[np.isin(cell, tc)].reshape(-1, 4)
     tets.append(tv)
     return R @ mesh.points, np.concatenate(tets), R
+
+
+def pyramid_split(mesh, mask):
+    """Split the cells selected by ``mask`` into pyramids over their faces, apex at the vertex mean.
+
+    Returns ``(points, face_indices, face_offsets, cell_faces, cell_offsets, parent)`` of
+    the split mesh: the kept cells in order, then one pyramid per face of every split cell.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    idx = np.flatnonzero(mask)
+    cell_of_entry, entry_of_corner, corner = mesh.cell_face_entries
+    V, F = mesh.n_vertices, mesh.n_faces
+    apex = np.full(mesh.n_elements, -1, dtype=np.int64)
+    apex[idx] = V + np.arange(idx.size)
+    sel_corner = mask[cell_of_entry[entry_of_corner]]
+    ent = entry_of_corner[sel_corner]
+    cell = cell_of_entry[ent]
+    a = mesh.face_indices[corner[sel_corner]]
+    b = mesh.face_indices[mesh.face_next[corner[sel_corner]]]
+    side_ids, n_side = group_rows(np.stack([cell, np.minimum(a, b), np.maximum(a, b)], axis=1))
+    first = first_of_groups(side_ids, n_side)
+    side_faces = np.stack([apex[cell[first]], a[first], b[first]], axis=1)
+    fi = np.concatenate([mesh.face_indices, side_faces.ravel()])
+    fo = np.concatenate([mesh.face_offsets, mesh.face_offsets[-1] + 3 * np.arange(1, n_side + 1)])
+    keep = np.flatnonzero(~mask)
+    keep_entries = ~mask[cell_of_entry]
+    sel_entries = np.flatnonzero(mask[cell_of_entry])
+    # new cells: one per entry of a masked cell, its base face then its side faces
+    lens = np.diff(mesh.face_offsets)[mesh.cell_faces[sel_entries]]
+    base_pos = np.zeros(sel_entries.size + 1, dtype=np.int64)
+    np.cumsum(lens + 1, out=base_pos[1:])
+    ci_new = np.empty(int(base_pos[-1]), dtype=np.int64)
+    ci_new[base_pos[:-1]] = mesh.cell_faces[sel_entries]
+    ci_new[expand_ranges(base_pos[:-1] + 1, lens)] = F + side_ids  # corners are in entry order
+    ci = np.concatenate([mesh.cell_faces[keep_entries], ci_new])
+    co_keep = np.diff(mesh.cell_offsets)[keep]
+    co = np.zeros(keep.size + sel_entries.size + 1, dtype=np.int64)
+    np.cumsum(np.concatenate([co_keep, lens + 1]), out=co[1:])
+    parent = np.concatenate([keep, cell_of_entry[sel_entries]])
+    centres = mesh.element_centroids()[idx]
+    return np.concatenate([mesh.points, centres]), fi, fo, ci, co, parent

@@ -1,28 +1,18 @@
 """A classifier whose decision boundary is a relaxed level set over the training data.
 
 :class:`LevelSetClassifier` builds one domain over the training samples (a kNN
-:class:`~ndboundary.pointcloud.PointCloud`, or a Delaunay complex in low dimension),
-takes the class labels as vertex labels and relaxes each class's jagged boundary
-against the rest into the level set ``phi = 1/2`` of a smooth function
+:class:`~ndboundary.PointCloud`, or a :class:`~ndboundary.DelaunayComplex` in low
+dimension), takes the class labels as vertex labels and relaxes each class's jagged
+boundary against the rest into the level set ``phi = 1/2`` of a smooth function
 (:func:`ndboundary.relax`). Since ``grad phi`` is close to unit length, ``phi - 1/2``
 behaves like a signed distance (in units of the mean neighbour distance ``h``) to the
 relaxed boundary: it is the decision function.
 
-New points get ``phi`` from the fitted function alone, so the prediction of a point
-never depends on the other points predicted with it:
-
-* kNN graph: the neighbour-weighted first-order extension
-  ``sum_j w_j (phi_j + grad phi_j . T_j^T (x - x_j)) / sum_j w_j`` over the
-  ``extension_neighbors`` training points nearest to ``x``, with tangent gradients and
-  frames ``T_j`` and weights ``w_j = (1 - d_j^2 / d_{k+1}^2) (d_1 / d_j)^p``, ``d_j``
-  the distance to the ``j``-th nearest and ``d_{k+1}`` to the next one, so that a
-  neighbour's weight fades to 0 before it leaves the set: the extension is continuous
-  in ``x``. The power ``p`` sets how sharply it follows the nearest samples; by default
-  it is chosen at fit time by the leave-one-out accuracy of the extension at the
-  training samples, which needs no refit since ``phi`` stays as fitted;
-* Delaunay: barycentric interpolation in the containing simplex; outside the convex
-  hull, the first-order extension from the nearest vertex with its area-weighted
-  gradient.
+New points get ``phi`` from the fitted function alone, through the domain's
+:meth:`~ndboundary.Domain.extension` (a continuous neighbour-weighted first-order
+extension on a kNN graph, :mod:`ndboundary.domains.pointcloud_extension`; barycentric
+interpolation on a Delaunay complex, :mod:`ndboundary.domains.delaunay`), so the
+prediction of a point never depends on the other points predicted with it.
 """
 
 from __future__ import annotations
@@ -39,7 +29,6 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ..domains import DelaunayComplex, PointCloud
 from ..domains.delaunay import DELAUNAY_MAX_DIM
-from ..domains.pointcloud_extension import EXTENSION_POWERS
 from ..pipeline import relax
 from .propagation import harmonic_labels, vote
 
@@ -59,18 +48,16 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     ----------
     n_neighbors : int or "auto", default="auto"
         Neighbours per sample of the kNN graph. ``"auto"``: :data:`AUTO_NEIGHBORS` (40)
-        up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES` (20 000) samples, 15 beyond. On small
-        noisy samples the wider stencil steadies the tangent gradients (mean accuracy
-        over the ten sets of ``benchmarks/classify.py`` 0.892, against 0.883 with 15 and
-        haberman 3.6 points below KNN15); on large ones the graph's cost grows with ``k``
-        (its construction took over 180 s at 100 000 samples in 50 dimensions with 40,
-        against 32 s with 15) while 15 neighbours already hold the data's shape. The
-        value used is ``n_neighbors_``.
+        up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES` (20 000) samples, 15 beyond: on small
+        noisy samples the wider stencil steadies the tangent gradients, on large ones the
+        graph's cost grows with ``k`` while 15 neighbours already hold the data's shape
+        (``benchmarks/classify.py`` and ``benchmarks/scale.py`` measure both). The value
+        used is ``n_neighbors_``.
     extension_neighbors : int, default=25
         Nearest training samples whose first-order extensions of ``phi`` are averaged
         at a new point (kNN graph only), with weights that fade to 0 at the next
-        neighbour's distance: a continuous extension, whose 2-D boundary on the moons is
-        shorter than KNN15's (7.2 against 9.0; 10.3 with a plain average over 15).
+        neighbour's distance: a continuous extension, whose decision boundary is smoother
+        than that of a plain average over fewer neighbours.
     extension_power : float or "auto", default="auto"
         Power ``p`` of the factor ``(d_1 / d_j)^p`` of the extension weights (kNN graph
         only, see the module docstring): 0 leaves the fading weights alone (smoothest),
@@ -78,12 +65,11 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         distances to the neighbours differ little, so sharp needs large powers).
         ``"auto"`` picks the power among :data:`EXTENSION_POWERS` whose extension best
         predicts each training sample's label from its neighbours (leave-one-out, no
-        refit). Noisy, overlapping classes pick 0 and sparse high-dimensional ones large
-        powers: over the ten sets this gives 0.892 against 0.885 for ``p = 0``
-        everywhere. The value used is ``extension_power_``.
+        refit): noisy, overlapping classes pick 0 and sparse high-dimensional ones large
+        powers. The value used is ``extension_power_``.
     graph : {"knn", "delaunay", "auto"}, default="knn"
-        Domain over the samples: a kNN :class:`~ndboundary.pointcloud.PointCloud`, a
-        Delaunay complex (2 to 6 features, distinct samples), or ``"auto"``: Delaunay
+        Domain over the samples: a kNN :class:`~ndboundary.PointCloud`, a
+        :class:`~ndboundary.DelaunayComplex` (2 to 6 features, distinct samples), or ``"auto"``: Delaunay
         for 2 or 3 features and distinct samples, kNN otherwise.
     lam : float, default=1.0
         Weight of the boundary term of the integration (see :func:`ndboundary.relax`):
@@ -98,9 +84,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         relaxation (0: relax the raw labels). A pass gives a sample the most frequent
         label over the sample and its neighbours when that label holds at least
         ``vote_threshold`` of them, removing isolated labels that would otherwise each
-        be enclosed by their own level set: one pass shortens the 2-D boundary on the
-        moons but treats a diffuse minority class as noise (ionosphere: a third of one
-        class relabelled).
+        be enclosed by their own level set; off by default, since voting also treats a
+        diffuse minority class as noise.
     vote_threshold : float, default=2/3
         Share of the sample and its neighbours a label needs to overrule the sample's
         own label in a voting pass, in ``[0, 1]``. 0 is plurality voting (ties keep the
@@ -108,8 +93,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         boundary alone and removes only labels that are isolated among another class.
     tol : float, default=1e-6
         Relative residual of the linear solves of the relaxation. Decisions do not move
-        below about 1e-5 (no prediction changed from 1e-10 to 1e-6 on the benchmarks),
-        and each decade costs a few more iterations.
+        below about 1e-5, and each decade costs a few more iterations.
     unlabeled : int, float, str or None, default=None
         The label that marks an unlabelled sample (``-1`` to follow
         :class:`~sklearn.semi_supervised.LabelSpreading`). None: every label is a class.

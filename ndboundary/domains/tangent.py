@@ -1,0 +1,50 @@
+"""Tangent spaces of data points: local PCA frames and least-squares gradient weights."""
+
+from __future__ import annotations
+
+from math import gamma, pi
+
+import numpy as np
+
+__all__ = ["ball_volume", "local_pca", "lsq_coefficients"]
+
+#: Eigenvalues of the local covariance below this fraction of the largest span no direction.
+_EIG_RTOL = 1e-10
+#: Tikhonov weight of the least-squares gradient, relative to the mean eigenvalue.
+_LSQ_RTOL = 1e-10
+# Points per block of the local PCA.
+_CHUNK = 4096
+
+
+def ball_volume(m):
+    """Volume of the unit ball in R^m."""
+    return pi ** (m / 2) / gamma(m / 2 + 1)
+
+
+def local_pca(points, nbr, m):
+    """Tangent coordinates of the neighbour offsets (n, k, m) and frames (n, D, m)."""
+    n, k = nbr.shape
+    D = points.shape[1]
+    Z = np.empty((n, k, m))
+    T = np.empty((n, D, m))
+    for s in range(0, n, _CHUNK):
+        c = slice(s, min(n, s + _CHUNK))
+        Y = points[nbr[c]] - points[c][:, None, :]  # (b, k, D)
+        C = Y @ Y.transpose(0, 2, 1)
+        w, V = np.linalg.eigh(C)
+        w, V = w[:, ::-1][:, :m], V[:, :, ::-1][:, :, :m]
+        ok = w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300)
+        sw = np.sqrt(np.where(ok, w, 0.0))
+        Z[c] = V * sw[:, None, :]
+        T[c] = (Y.transpose(0, 2, 1) @ V) * np.where(ok, 1.0 / np.where(ok, sw, 1.0), 0.0)[:, None, :]
+    return Z, T
+
+
+def lsq_coefficients(Z):
+    """Least-squares gradient weights ``(Z^T Z)^{-1} Z^T`` per point, (n, m, k)."""
+    ZtZ = Z.transpose(0, 2, 1) @ Z
+    m = Z.shape[2]
+    tr = np.trace(ZtZ, axis1=1, axis2=2)
+    reg = _LSQ_RTOL * np.maximum(tr, 1e-300) / m
+    ZtZ = ZtZ + reg[:, None, None] * np.eye(m)
+    return np.linalg.solve(ZtZ, Z.transpose(0, 2, 1))
