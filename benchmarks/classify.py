@@ -30,7 +30,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.semi_supervised import LabelSpreading
 from sklearn.svm import SVC
 
-from ndboundary.classifier import LevelSetClassifier
+from ndboundary import LevelSetClassifier
 
 ROOT = Path(__file__).resolve().parents[1]
 TABULAR = ROOT.parent / "shared" / "data" / "tabular"

@@ -44,12 +44,12 @@ import numpy as np
 ZOOM = (0.28, 0.74, -0.14, 0.32)  # x0, x1, y0, y1: one lobe tip (theta = 0) and a concave waist
 
 
-def true_flower(n=40_000, r=0.55, amplitude=0.2, lobes=5):
-    th = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
-    rad = r * (1 + amplitude * np.cos(lobes * th))
-    pts = np.stack([rad * np.cos(th), rad * np.sin(th)], axis=1)
-    length = float(np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1).sum())
-    return pts, length
+def true_flower(n=40_000):
+    from ndboundary.datasets import flower_curve
+    from ndboundary.metrics import closed_curve_length
+
+    pts = flower_curve(n)
+    return pts, closed_curve_length(pts)
 
 
 def measure(complex_, dist, s, true_len):

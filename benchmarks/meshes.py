@@ -30,9 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from ndboundary import PolyhedralMesh, relax
-from ndboundary._polydata import hex_grid, quad_grid, voronoi_polygons
-from ndboundary.datasets import ball, circle, kuhn_grid, label_by
-from ndboundary.io import read_mesh
+from ndboundary.datasets import ball, circle, hex_grid, kuhn_grid, label_by, quad_grid, voronoi_polygons
+from ndboundary import read_mesh
 from ndboundary.metrics import fidelity
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "data" / "meshes"

@@ -45,11 +45,12 @@ def dense_circle(r=0.6, n=40_000):
     return pts, 2 * np.pi * r
 
 
-def dense_flower(r=0.55, a=0.2, lobes=5, n=40_000):
-    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    rad = r * (1 + a * np.cos(lobes * th))
-    pts = np.stack([rad * np.cos(th), rad * np.sin(th)], 1)
-    return pts, float(np.linalg.norm(np.roll(pts, -1, 0) - pts, axis=1).sum())
+def dense_flower(n=40_000):
+    from ndboundary.datasets import flower_curve
+    from ndboundary.metrics import closed_curve_length
+
+    pts = flower_curve(n)
+    return pts, closed_curve_length(pts)
 
 
 def check(name, value, op, target):

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from ndboundary.classifier import LevelSetClassifier
+from ndboundary import LevelSetClassifier
 
 
 def make_data(n, D, m=5, seed=0):

@@ -202,7 +202,6 @@ def mixed_facets(facet_ids, owner, region1):
     return where[order[starts[:-1][mixed]]]
 
 
-
 def kept_then(a, keep, tail):
     """``concatenate([a[keep], tail])``, copying ``a`` once."""
     n_keep = int(np.count_nonzero(keep))

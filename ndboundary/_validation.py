@@ -68,9 +68,7 @@ def check_cells(cells, n_points, *, name="simplices", n_per_cell=None):
     lo, hi = arr.min(), arr.max()
     if lo < 0 or hi >= n_points:
         bad = int(np.argwhere((arr < 0) | (arr >= n_points))[0, 0])
-        raise ValueError(
-            f"{name} row {bad} ({arr[bad].tolist()}) indexes a vertex outside 0..{n_points - 1}"
-        )
+        raise ValueError(f"{name} row {bad} ({arr[bad].tolist()}) indexes a vertex outside 0..{n_points - 1}")
     m = arr.shape[1]
     if m <= 6:
         # few vertices per cell: compare every pair of columns rather than sort the rows
@@ -106,8 +104,7 @@ def check_labels(labels, n_expected, *, what):
         raise ValueError(f"labels must be one-dimensional, got an array of shape {np.shape(labels)}")
     if arr.shape[0] != n_expected:
         raise ValueError(
-            f"labels has length {arr.shape[0]} but the domain has {n_expected} {what}s "
-            f"(labels are given on={what}s)"
+            f"labels has length {arr.shape[0]} but the domain has {n_expected} {what}s (labels are given on={what}s)"
         )
     if arr.dtype.kind == "f" and np.isnan(arr).any():
         raise ValueError(f"labels contain NaN (first at index {int(np.flatnonzero(np.isnan(arr))[0])})")
@@ -196,14 +193,14 @@ def check_ragged(cells, n_points, *, name, min_size, what="vertex"):
     if short.size:
         i = int(short[0])
         raise ValueError(
-            f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) has {sizes[i]} "
+            f"{name} row {i} ({indices[offsets[i] : offsets[i + 1]].tolist()}) has {sizes[i]} "
             f"{what}(s); at least {min_size} are needed"
         )
     bad = (indices < 0) | (indices >= n_points)
     if bad.any():
         i = int(np.searchsorted(offsets, np.flatnonzero(bad)[0], side="right") - 1)
         raise ValueError(
-            f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) indexes a {what} "
+            f"{name} row {i} ({indices[offsets[i] : offsets[i + 1]].tolist()}) indexes a {what} "
             f"outside 0..{n_points - 1}"
         )
     owner = np.repeat(np.arange(sizes.size), sizes)
@@ -212,5 +209,5 @@ def check_ragged(cells, n_points, *, name, min_size, what="vertex"):
     rep = (srt_i[1:] == srt_i[:-1]) & (srt_o[1:] == srt_o[:-1])
     if rep.any():
         i = int(srt_o[1:][rep][0])
-        raise ValueError(f"{name} row {i} ({indices[offsets[i]:offsets[i + 1]].tolist()}) repeats a {what}")
+        raise ValueError(f"{name} row {i} ({indices[offsets[i] : offsets[i + 1]].tolist()}) repeats a {what}")
     return indices, offsets

@@ -96,14 +96,45 @@ def icosphere(subdivisions=5, radius=1.0):
     """
     p = (1 + 5**0.5) / 2
     v = np.array(
-        [[-1, p, 0], [1, p, 0], [-1, -p, 0], [1, -p, 0], [0, -1, p], [0, 1, p],
-         [0, -1, -p], [0, 1, -p], [p, 0, -1], [p, 0, 1], [-p, 0, -1], [-p, 0, 1]],
+        [
+            [-1, p, 0],
+            [1, p, 0],
+            [-1, -p, 0],
+            [1, -p, 0],
+            [0, -1, p],
+            [0, 1, p],
+            [0, -1, -p],
+            [0, 1, -p],
+            [p, 0, -1],
+            [p, 0, 1],
+            [-p, 0, -1],
+            [-p, 0, 1],
+        ],
         dtype=np.float64,
     )
     f = np.array(
-        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
-         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
-         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]],
+        [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ],
         dtype=np.int64,
     )
     v /= np.linalg.norm(v, axis=1, keepdims=True)
@@ -116,12 +147,14 @@ def icosphere(subdivisions=5, radius=1.0):
         nf = f.shape[0]
         m = v.shape[0] + inv.reshape(3, nf).T  # midpoints of edges 01, 12, 20
         v = np.concatenate([v, mid])
-        f = np.concatenate([
-            np.stack([f[:, 0], m[:, 0], m[:, 2]], 1),
-            np.stack([f[:, 1], m[:, 1], m[:, 0]], 1),
-            np.stack([f[:, 2], m[:, 2], m[:, 1]], 1),
-            m,
-        ])
+        f = np.concatenate(
+            [
+                np.stack([f[:, 0], m[:, 0], m[:, 2]], 1),
+                np.stack([f[:, 1], m[:, 1], m[:, 0]], 1),
+                np.stack([f[:, 2], m[:, 2], m[:, 1]], 1),
+                m,
+            ]
+        )
     return SimplicialComplex(radius * v, f)
 
 
@@ -249,8 +282,8 @@ def voronoi_polygons(n, *, jitter=0.25, lo=-1.0, hi=1.0, random_state=None, **kw
     points = np.zeros((used.size, 2))
     points[remap] = verts[np.concatenate(regions)]
     polys, k = [], 0
-    for reg, site in zip(regions, sites):
-        ids = remap[k:k + len(reg)]
+    for reg, site in zip(regions, sites, strict=True):
+        ids = remap[k : k + len(reg)]
         k += len(reg)
         ids = ids[np.r_[True, ids[1:] != ids[:-1]]]
         if ids.size > 1 and ids[0] == ids[-1]:
@@ -261,6 +294,7 @@ def voronoi_polygons(n, *, jitter=0.25, lo=-1.0, hi=1.0, random_state=None, **kw
 
 
 # --- smooth truths: signed functions, negative inside -------------------------
+
 
 def circle(x, r=0.6):
     """Signed distance to the circle of radius ``r`` about the origin (first two coordinates)."""

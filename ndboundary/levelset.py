@@ -14,7 +14,7 @@ the oriented frame of the input simplex).
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from itertools import combinations
 from math import factorial
 
@@ -47,10 +47,12 @@ class LevelSet:
 
     @property
     def n_points(self) -> int:
+        """Number of points."""
         return int(self.points.shape[0])
 
     @property
     def n_simplices(self) -> int:
+        """Number of simplices."""
         return int(self.simplices.shape[0])
 
     def __len__(self):
@@ -85,7 +87,8 @@ class LevelSet:
 
     def is_closed(self) -> bool:
         """True when every facet is shared by exactly two simplices with opposite orientations
-        (for curves: every point starts one segment and ends one)."""
+        (for curves: every point starts one segment and ends one).
+        """
         if self.n_simplices == 0 or self.simplices.shape[1] < 2:
             return False
         f = self.facets()
@@ -154,7 +157,7 @@ def _permutation_parity(perm):
     return inv % 2
 
 
-@lru_cache(maxsize=None)
+@cache
 def _staircase(a, b):
     """Monotone lattice paths from (0, 0) to (a-1, b-1): each is a list of (below, above) positions."""
     paths = []
@@ -200,7 +203,9 @@ def marching_simplices(points, simplices, values, value=0.5):
     cut = (nab > 0) & (nab < k1)
     S = simplices[cut]
     if S.shape[0] == 0:
-        return LevelSet(np.zeros((0, D)), np.zeros((0, k1 - 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), value)
+        return LevelSet(
+            np.zeros((0, D)), np.zeros((0, k1 - 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), value
+        )
     # sort every simplex's vertices by global index; the staircase uses that order
     parity = sorting_parity(S)
     S = np.sort(S, axis=1)

@@ -6,14 +6,16 @@ import numpy as np
 
 from .levelset import LevelSet
 
-__all__ = ["as_complex", "sample_points", "fidelity", "curve_distance"]
+__all__ = ["as_complex", "closed_curve_length", "curve_distance", "fidelity", "sample_points"]
 
 
 def as_complex(points, simplices) -> LevelSet:
     """Wrap a subset complex (e.g. the jagged boundary's facets) as a compact :class:`LevelSet`."""
     simplices = np.asarray(simplices, dtype=np.int64)
     used, inv = np.unique(simplices, return_inverse=True)
-    return LevelSet(np.asarray(points)[used], inv.reshape(simplices.shape), np.zeros((used.size, 2), dtype=np.int64), 0.0)
+    return LevelSet(
+        np.asarray(points)[used], inv.reshape(simplices.shape), np.zeros((used.size, 2), dtype=np.int64), 0.0
+    )
 
 
 def sample_points(complex_) -> np.ndarray:
@@ -42,6 +44,19 @@ def fidelity(complex_, distance, h=1.0):
         return {"mean": float("nan"), "max": float("nan")}
     d = np.abs(distance(x)) / h
     return {"mean": float(d.mean()), "max": float(d.max())}
+
+
+def closed_curve_length(points):
+    """Length of the closed polyline through ``points`` (n, dim), in order.
+
+    Examples
+    --------
+    >>> from ndboundary.metrics import closed_curve_length
+    >>> closed_curve_length([[0, 0], [1, 0], [1, 1], [0, 1]])
+    4.0
+    """
+    points = np.asarray(points, dtype=np.float64)
+    return float(np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1).sum())
 
 
 def curve_distance(curve_points):

@@ -38,8 +38,9 @@ def _segments(points, simplices):
     return points[np.asarray(simplices)[:, :2]]
 
 
-def plot_domain(domain, *, labels=None, phi=None, level_set=None, boundary=None, ax=None,
-                cmap="coolwarm", edgecolor=(0, 0, 0, 0.08)):
+def plot_domain(
+    domain, *, labels=None, phi=None, level_set=None, boundary=None, ax=None, cmap="coolwarm", edgecolor=(0, 0, 0, 0.08)
+):
     """Draw a 2-D domain or a surface with per-element labels or per-vertex ``phi``, and boundaries.
 
     Parameters
@@ -84,7 +85,9 @@ def plot_domain(domain, *, labels=None, phi=None, level_set=None, boundary=None,
         if boundary is not None and len(boundary):
             ax.add_collection(LineCollection(_segments(pts, boundary), colors="k", linewidths=1.0))
         if level_set is not None and level_set.n_simplices:
-            ax.add_collection(LineCollection(_segments(level_set.points, level_set.simplices), colors="red", linewidths=1.6))
+            ax.add_collection(
+                LineCollection(_segments(level_set.points, level_set.simplices), colors="red", linewidths=1.6)
+            )
         ax.set_aspect("equal")
         ax.autoscale_view()
         ax.set_xticks([])
@@ -94,13 +97,19 @@ def plot_domain(domain, *, labels=None, phi=None, level_set=None, boundary=None,
 
         cm = plt.get_cmap(cmap)
         lo, hi = (0.0, 1.0) if labels is not None else (values.min(), values.max() + 1e-12)
-        coll = Poly3DCollection([pts[f] for f in faces], facecolors=cm((values - lo) / (hi - lo)), edgecolors=edgecolor, linewidths=0.1)
+        coll = Poly3DCollection(
+            [pts[f] for f in faces], facecolors=cm((values - lo) / (hi - lo)), edgecolors=edgecolor, linewidths=0.1
+        )
         ax.computed_zorder = False  # boundaries drawn over the surface
         ax.add_collection3d(coll)
         if boundary is not None and len(boundary):
             ax.add_collection3d(Line3DCollection(_segments(pts, boundary), colors="k", linewidths=1.0, zorder=5))
         if level_set is not None and level_set.n_simplices:
-            ax.add_collection3d(Line3DCollection(_segments(level_set.points, level_set.simplices), colors="red", linewidths=1.6, zorder=6))
+            ax.add_collection3d(
+                Line3DCollection(
+                    _segments(level_set.points, level_set.simplices), colors="red", linewidths=1.6, zorder=6
+                )
+            )
         lo3, hi3 = pts.min(axis=0), pts.max(axis=0)
         ax.set_xlim(lo3[0], hi3[0])
         ax.set_ylim(lo3[1], hi3[1])
@@ -113,8 +122,13 @@ def plot_domain(domain, *, labels=None, phi=None, level_set=None, boundary=None,
 def plot_relaxation(result, *, ax=None, value=0.5):
     """Draw ``phi`` with the jagged boundary (black) and its relaxation ``phi = value`` (red)."""
     facets = result.boundary.facets
-    return plot_domain(result.domain, phi=result.phi, level_set=result.level_set(value),
-                       boundary=facets if facets is not None and facets.shape[1] == 2 else None, ax=ax)
+    return plot_domain(
+        result.domain,
+        phi=result.phi,
+        level_set=result.level_set(value),
+        boundary=facets if facets is not None and facets.shape[1] == 2 else None,
+        ax=ax,
+    )
 
 
 def figure_relaxation(result, labels, *, title=None, zoom=None):
@@ -144,7 +158,7 @@ def figure_relaxation(result, labels, *, title=None, zoom=None):
     plot_domain(dom, labels=labels, boundary=edges, ax=axes[0])
     plot_domain(dom, phi=result.phi, ax=axes[1], cmap="viridis")
     plot_domain(dom, labels=labels, boundary=edges, level_set=ls, ax=axes[2], edgecolor=(0, 0, 0, 0.04))
-    for ax, name in zip(axes, ("jagged boundary", "phi", "relaxed boundary (phi = 1/2)")):
+    for ax, name in zip(axes, ("jagged boundary", "phi", "relaxed boundary (phi = 1/2)"), strict=True):
         ax.set_title(name)
         if zoom is not None and dom.dim == 2:
             ax.set_xlim(zoom[0], zoom[1])

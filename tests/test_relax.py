@@ -6,13 +6,12 @@ import pytest
 import ndboundary
 from ndboundary import SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, flower_curve, icosphere, kuhn_grid, label_by, torus
-from ndboundary.metrics import as_complex, curve_distance, fidelity
+from ndboundary.metrics import as_complex, closed_curve_length, curve_distance, fidelity
 
 
 def flower_truth():
     pts = flower_curve()
-    length = np.linalg.norm(np.roll(pts, 1, axis=0) - pts, axis=1).sum()
-    return curve_distance(pts), length
+    return curve_distance(pts), closed_curve_length(pts)
 
 
 TRUTHS_2D = {"circle": (circle, 2 * np.pi * 0.6), "flower": flower_truth()}

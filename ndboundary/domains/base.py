@@ -160,7 +160,8 @@ class Domain:
 
     def edge_graph(self, weights) -> sp.csr_matrix:
         """The edges as an upper-triangular sparse matrix, ``weights[i]`` at ``edges[i]``,
-        shape (n_vertices, n_vertices)."""
+        shape (n_vertices, n_vertices).
+        """
         e = self.edges
         V = self.n_vertices
         key = e[:, 0] * V + e[:, 1]
@@ -271,9 +272,7 @@ class Domain:
         R : sparse matrix of shape (n_points, n_vertices) or None
             Interpolates vertex values to the points; None for the identity.
         """
-        raise TypeError(
-            f"a {type(self).__name__} has no simplices to extract a level set from"
-        )
+        raise TypeError(f"a {type(self).__name__} has no simplices to extract a level set from")
 
     @cached_property
     def _refinement(self):
@@ -281,7 +280,8 @@ class Domain:
 
     def level_set_complex(self, f):
         """The simplicial complex carrying the vertex function ``f`` piecewise linearly:
-        ``(points, simplices, values)``, the refinement built once."""
+        ``(points, simplices, values)``, the refinement built once.
+        """
         points, simplices, R = self._refinement
         f = np.asarray(f, dtype=np.float64)
         return points, simplices, f if R is None else R @ f
@@ -296,7 +296,8 @@ class Domain:
 
     def vertex_neighborhoods(self):
         """Each vertex with its neighbours: sparse 0/1 of shape (n_vertices, n_vertices), row
-        ``i`` holding ``i`` and the vertices it shares an edge with (the classifier's voting)."""
+        ``i`` holding ``i`` and the vertices it shares an edge with (the classifier's voting).
+        """
         W = self.edge_graph(np.ones(self.edges.shape[0]))
         return (W + W.T + sp.identity(self.n_vertices)).tocsr()
 

@@ -26,7 +26,8 @@ _ALTERNATIVE = "use the kNN alternative, ndboundary.PointCloud(points, n_neighbo
 
 def _triangulate(points, rtol):
     """Qhull's triangulation of ``points`` and its simplices, slivers dropped, or a ValueError
-    naming the kNN alternative."""
+    naming the kNN alternative.
+    """
     pts = check_points(points, min_dim=2)
     n, dim = pts.shape
     if dim > DELAUNAY_MAX_DIM:

@@ -95,6 +95,7 @@ class NeighborIndex:
             )
 
     def graph(self):
+        """Every point's neighbours, itself first: ``(indices, distances)``."""
         if self.method == "exact":
             dist, ind = self._nn.kneighbors(n_neighbors=self.n_neighbors - 1)
             n = ind.shape[0]
@@ -106,6 +107,7 @@ class NeighborIndex:
         return ind[:, : self.n_neighbors].astype(np.int64), dist[:, : self.n_neighbors].astype(np.float64)
 
     def query(self, X, k):
+        """The ``k`` nearest indexed points of new points ``X``: ``(indices, distances)``, nearest first."""
         if self.method == "exact":
             dist, ind = self._nn.kneighbors(X, n_neighbors=k)
             return ind, dist
@@ -136,6 +138,13 @@ def estimate_intrinsic_dim(distances):
     return float(1.0 / max(inv.mean(), 1e-12))
 
 
+def _find(parent, a):
+    """The root of ``a`` in the union-find forest ``parent``, halving the path on the way."""
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
 
 def component_bridges(points, labels, n_comp, random_state):
     """Pairs of points linking the components of a graph (Boruvka over closest pairs)."""
@@ -153,19 +162,12 @@ def component_bridges(points, labels, n_comp, random_state):
             j = int(np.argmin(dist[:, 0]))
             best[c] = (float(dist[j, 0]), int(inside[j]), int(outside[ind[j, 0]]))
         parent = list(range(n_comp))
-
-        def find(a):
-            while parent[a] != a:
-                parent[a] = parent[parent[a]]
-                a = parent[a]
-            return a
-
         for _, a, b in sorted(best.values()):
-            ra, rb = find(comp[a]), find(comp[b])
+            ra, rb = _find(parent, comp[a]), _find(parent, comp[b])
             if ra != rb:
                 parent[ra] = rb
                 pairs.append((a, b))
-        roots = np.array([find(c) for c in range(n_comp)])
+        roots = np.array([_find(parent, c) for c in range(n_comp)])
         _, comp_new = np.unique(roots[comp], return_inverse=True)
         comp = comp_new.reshape(-1)
         n_comp = int(comp.max()) + 1

@@ -48,7 +48,7 @@ from ..fields import normalize_rows
 from .base import Domain
 from .neighbors import component_bridges, estimate_intrinsic_dim, kneighbors
 from .pointcloud_extension import NeighborExtension
-from .tangent import ball_volume, local_pca, lsq_coefficients
+from .tangent import ball_volume, frame_transport, local_pca, lsq_coefficients
 
 __all__ = ["PointCloud"]
 
@@ -185,10 +185,12 @@ class PointCloud(Domain):
 
     @property
     def n_elements(self) -> int:
+        """Number of elements."""
         return int(self.points.shape[0] + self.bridges.shape[0])
 
     @property
     def element_dim(self) -> int:
+        """Dimension k of the elements."""
         return self.intrinsic_dim
 
     def mean_edge_length(self) -> float:
@@ -206,6 +208,7 @@ class PointCloud(Domain):
         return np.linalg.norm(self.points[b[:, 0]] - self.points[b[:, 1]], axis=1)
 
     def build_gradient(self):
+        """The gradient operator (see the module docstring)."""
         N = self.points.shape[0]
         m, s = self.intrinsic_dim, self._stencil
         k1 = s.shape[1]
@@ -225,6 +228,7 @@ class PointCloud(Domain):
         return sp.vstack([G, Gb]).tocsr()
 
     def build_measures(self):
+        """The element measures."""
         A = self._point_measure
         if self.bridges.shape[0] == 0:
             return A.copy()
@@ -233,6 +237,7 @@ class PointCloud(Domain):
         return np.concatenate([A, np.median(A) * (self._bridge_lengths() / h) ** 2])
 
     def build_mass(self):
+        """Each element's measure shared equally among its vertices."""
         return self._point_measure.copy()
 
     def _element_vertices(self):
@@ -247,6 +252,7 @@ class PointCloud(Domain):
         return e, v
 
     def build_incidence(self):
+        """The vertex-element incidence."""
         e, v = self._element_vertices()
         inc = sp.csr_matrix((np.ones(e.size), (v, e)), shape=(self.n_vertices, self.n_elements))
         inc.data[:] = 1.0
@@ -262,6 +268,7 @@ class PointCloud(Domain):
         return i, j
 
     def build_adjacency(self):
+        """Elements sharing a facet."""
         i, j = self._point_pairs()
         adj = sp.csr_matrix((np.ones(i.size), (i, j)), shape=(self.n_elements, self.n_elements))
         adj = (adj + adj.T).tocsr()
@@ -271,6 +278,7 @@ class PointCloud(Domain):
         return adj
 
     def build_edges(self):
+        """The unique edges, ``i < j``."""
         i, j = self._point_pairs()
         i = np.concatenate([i, self.bridges[:, 0]])
         j = np.concatenate([j, self.bridges[:, 1]])
@@ -286,29 +294,16 @@ class PointCloud(Domain):
         ``j``'s tangent frame through the ambient space before averaging. Bridges keep
         their own vector.
         """
-        N = self.points.shape[0]
-        m, s = self.intrinsic_dim, self._stencil
-        k1 = s.shape[1]
-        u = self.unique_inverse
-        data = np.empty((N, m, k1, m))
-        for a in range(0, N, _CHUNK):
-            c = slice(a, min(N, a + _CHUNK))
-            Tj = self.frames[u[c]]  # (b, D, m)
-            Ti = self.frames[u[s[c]]]  # (b, k1, D, m)
-            data[c] = np.einsum("bda,bkdc->bakc", Tj, Ti, optimize=True)
-        indices = (s[:, None, :, None] * m + np.arange(m)[None, None, None, :]).repeat(m, axis=1)
-        indptr = np.arange(N * m + 1, dtype=np.int64) * (k1 * m)
-        W = sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(N * m, N * m))
+        W = frame_transport(self.frames, self.unique_inverse, self._stencil)
         nb = self.bridges.shape[0]
-        if nb:
-            W = sp.block_diag([W, sp.identity(nb * m)], format="csr")
-        return W
+        return sp.block_diag([W, sp.identity(nb * self.intrinsic_dim)], format="csr") if nb else W
 
     # -- what the relaxation asks ---------------------------------------------------------
     def smooth_field(self, X, passes):
         """Step 3 on tangent fields: ``passes`` sweeps of :meth:`smoothing_operator` (every
         neighbour's vector carried into the point's tangent frame before averaging),
-        renormalised after each sweep, in Jacobi order. ``X`` is not modified."""
+        renormalised after each sweep, in Jacobi order. ``X`` is not modified.
+        """
         if passes == 0:
             return X
         W = self.smoothing_operator()
@@ -361,7 +356,8 @@ class PointCloud(Domain):
 
     def extension(self, phi, *, n_neighbors=25, power="auto", labels=None, labelled=None):
         """The first-order extension of ``phi`` from the nearest samples: a
-        :class:`~ndboundary.domains.pointcloud_extension.NeighborExtension`."""
+        :class:`~ndboundary.domains.pointcloud_extension.NeighborExtension`.
+        """
         return NeighborExtension(self, phi, n_neighbors=n_neighbors, power=power, labels=labels, labelled=labelled)
 
     # -- new points -------------------------------------------------------------------------

@@ -101,7 +101,8 @@ class NeighborExtension:
 
     def leave_one_out(self, rows):
         """The extension at the training samples ``rows``, each one's own point left out:
-        shape (len(rows), n_functions)."""
+        shape (len(rows), n_functions).
+        """
         if self._loo is not None and np.array_equal(rows, self._loo[0]):
             return self._loo[1]
         rows = np.asarray(rows)
@@ -112,7 +113,8 @@ class NeighborExtension:
 
     def _choose_power(self, labels, labelled):
         """``(power, (rows, loo))``: the power of :data:`EXTENSION_POWERS` whose leave-one-out
-        extension labels the most labelled samples right, and that extension there."""
+        extension labels the most labelled samples right, and that extension there.
+        """
         rows = np.arange(labels.shape[0]) if labelled is None else np.flatnonzero(labelled)
         right = np.zeros(len(EXTENSION_POWERS), dtype=np.int64)
         loo = np.empty((len(EXTENSION_POWERS), rows.size, self._phi_u.shape[1]))

@@ -127,10 +127,12 @@ class PolygonMesh(Domain):
     # -- sizes ---------------------------------------------------------------------------
     @property
     def n_elements(self) -> int:
+        """Number of elements."""
         return int(self.offsets.size - 1)
 
     @property
     def element_dim(self) -> int:
+        """Dimension k of the elements."""
         return 2
 
     @property
@@ -165,14 +167,16 @@ class PolygonMesh(Domain):
             area = np.abs(signed)
         else:
             cross = np.cross(Xc, Xc[nxt])
-            N = 0.5 * np.stack([np.bincount(owner, weights=cross[:, d], minlength=self.n_elements) for d in range(3)], 1)
+            N = 0.5 * np.stack(
+                [np.bincount(owner, weights=cross[:, d], minlength=self.n_elements) for d in range(3)], 1
+            )
             area = np.linalg.norm(N, axis=1)
         bad = ~(area > DEGENERATE_RTOL * scale)
         if bad.any():
             e = int(np.flatnonzero(bad)[0])
             more = "" if bad.sum() == 1 else f" ({int(bad.sum())} degenerate polygons in all)"
             raise ValueError(
-                f"polygon {e} (vertices {self.indices[self.offsets[e]:self.offsets[e + 1]].tolist()}) "
+                f"polygon {e} (vertices {self.indices[self.offsets[e] : self.offsets[e + 1]].tolist()}) "
                 f"is degenerate: zero area{more}"
             )
         span = X[nxt] - X[prv]
@@ -192,6 +196,7 @@ class PolygonMesh(Domain):
 
     # -- operators ---------------------------------------------------------------------------
     def build_gradient(self):
+        """The gradient operator (see the module docstring)."""
         owner = self._corners[0]
         D = self.dim
         rows = owner[:, None] * D + np.arange(D)[None, :]
@@ -201,22 +206,33 @@ class PolygonMesh(Domain):
         )
 
     def build_measures(self):
+        """The element measures."""
         return self._areas.copy()
 
     def build_stiffness(self):
+        """The stiffness (see the module docstring)."""
         if self.laplacian == "combinatorial":
-            return combinatorial_laplacian(self.edges, self.n_vertices, self.mean_edge_length() ** (self.element_dim - 2))
+            return combinatorial_laplacian(
+                self.edges, self.n_vertices, self.mean_edge_length() ** (self.element_dim - 2)
+            )
         return local_stiffness(
-            self.points, self._corners[0], self.indices, self._corner_grads, self._areas,
-            self.stabilization, self.n_vertices,
+            self.points,
+            self._corners[0],
+            self.indices,
+            self._corner_grads,
+            self._areas,
+            self.stabilization,
+            self.n_vertices,
         )
 
     def build_mass(self):
+        """Each element's measure shared equally among its vertices."""
         w = (self._areas / self.sizes)[self._corners[0]]
         m = np.bincount(self.indices, weights=w, minlength=self.n_vertices)
         return fill_unused_mass(m, self._areas / self.sizes)
 
     def build_incidence(self):
+        """The vertex-element incidence."""
         return sp.csr_matrix(
             (np.ones(self.indices.size), (self.indices, self._corners[0])), shape=(self.n_vertices, self.n_elements)
         )
@@ -230,9 +246,11 @@ class PolygonMesh(Domain):
         return pairs, ids
 
     def build_adjacency(self):
+        """Elements sharing a facet."""
         return shared_facet_adjacency(self._edge_ids[1], self._corners[0], self.n_elements)
 
     def build_edges(self):
+        """The unique edges, ``i < j``."""
         pairs, ids = self._edge_ids
         return pairs[first_of_groups(ids, int(ids.max()) + 1)]
 
@@ -269,7 +287,8 @@ class PolygonMesh(Domain):
 
     def simplicial_refinement(self):
         """Points, triangles and the (n_refined, n_vertices) interpolation matrix of the
-        centroid fan: triangles are kept, larger polygons are fanned from their vertex mean."""
+        centroid fan: triangles are kept, larger polygons are fanned from their vertex mean.
+        """
         owner, nxt, _ = self._corners
         sizes = self.sizes
         big = sizes > 3

@@ -181,6 +181,7 @@ class PolyhedralMesh(Domain):
     # -- sizes -------------------------------------------------------------------------
     @property
     def n_elements(self) -> int:
+        """Number of elements."""
         return int(self.cell_offsets.size - 1)
 
     @property
@@ -190,6 +191,7 @@ class PolyhedralMesh(Domain):
 
     @property
     def element_dim(self) -> int:
+        """Dimension k of the elements."""
         return 3
 
     @property
@@ -219,7 +221,7 @@ class PolyhedralMesh(Domain):
         if bad.any():
             f = int(np.flatnonzero(bad)[0])
             raise ValueError(
-                f"face {f} (vertices {self.face_indices[self.face_offsets[f]:self.face_offsets[f + 1]].tolist()}) "
+                f"face {f} (vertices {self.face_indices[self.face_offsets[f] : self.face_offsets[f + 1]].tolist()}) "
                 "is degenerate: zero area"
             )
         self.face_centres, self.fan_areas, self.face_areas = c, Nt, Nf
@@ -270,15 +272,16 @@ class PolyhedralMesh(Domain):
             s = self.cell_face_signs[entry_of_corner].astype(np.float64)
             Nt = self.fan_areas[corner] * s[:, None]
         cv, vv = self.cell_vertices
-        ext = np.maximum.reduceat(self.points[vv], np.r_[0, np.flatnonzero(np.diff(cv)) + 1], axis=0) - \
-            np.minimum.reduceat(self.points[vv], np.r_[0, np.flatnonzero(np.diff(cv)) + 1], axis=0)
+        ext = np.maximum.reduceat(
+            self.points[vv], np.r_[0, np.flatnonzero(np.diff(cv)) + 1], axis=0
+        ) - np.minimum.reduceat(self.points[vv], np.r_[0, np.flatnonzero(np.diff(cv)) + 1], axis=0)
         scale = np.linalg.norm(ext, axis=1) ** 3
         bad = ~(vol > DEGENERATE_RTOL * scale)
         if bad.any():
             c = int(np.flatnonzero(bad)[0])
             more = "" if bad.sum() == 1 else f" ({int(bad.sum())} degenerate cells in all)"
             raise ValueError(
-                f"cell {c} (faces {self.cell_faces[self.cell_offsets[c]:self.cell_offsets[c + 1]].tolist()}) "
+                f"cell {c} (faces {self.cell_faces[self.cell_offsets[c] : self.cell_offsets[c + 1]].tolist()}) "
                 f"is degenerate: zero volume{more}"
             )
         # vertex j of a face gets (N_{t,j-1} + N_{t,j}) / 3 + N_f / (3 m)
@@ -295,6 +298,7 @@ class PolyhedralMesh(Domain):
 
     # -- operators -------------------------------------------------------------------------
     def build_gradient(self):
+        """The gradient operator (see the module docstring)."""
         cell, vert = self.cell_vertices
         rows = cell[:, None] * 3 + np.arange(3)[None, :]
         cols = np.broadcast_to(vert[:, None], rows.shape)
@@ -303,9 +307,11 @@ class PolyhedralMesh(Domain):
         )
 
     def build_measures(self):
+        """The element measures."""
         return self._volumes.copy()
 
     def build_stiffness(self):
+        """The stiffness (see the module docstring)."""
         if self.laplacian == "combinatorial":
             return combinatorial_laplacian(self.edges, self.n_vertices, self.mean_edge_length())
         cell, vert = self.cell_vertices
@@ -314,12 +320,14 @@ class PolyhedralMesh(Domain):
         )
 
     def build_mass(self):
+        """Each element's measure shared equally among its vertices."""
         cell, vert = self.cell_vertices
         cnt = np.bincount(cell, minlength=self.n_elements)
         m = np.bincount(vert, weights=(self._volumes / cnt)[cell], minlength=self.n_vertices)
         return fill_unused_mass(m, self._volumes / cnt)
 
     def build_incidence(self):
+        """The vertex-element incidence."""
         cell, vert = self.cell_vertices
         return sp.csr_matrix((np.ones(cell.size), (vert, cell)), shape=(self.n_vertices, self.n_elements))
 
@@ -335,10 +343,12 @@ class PolyhedralMesh(Domain):
         return group_rows(pad)[0]
 
     def build_adjacency(self):
+        """Elements sharing a facet."""
         cell_of_entry = self.cell_face_entries[0]
         return shared_facet_adjacency(self._face_ids[self.cell_faces], cell_of_entry, self.n_elements)
 
     def build_edges(self):
+        """The unique edges, ``i < j``."""
         a = self.face_indices
         b = self.face_indices[self.face_next]
         pairs = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
@@ -361,7 +371,8 @@ class PolyhedralMesh(Domain):
 
     def simplicial_refinement(self):
         """Points, tetrahedra and the (n_refined, n_vertices) interpolation matrix of the
-        refinement (see :meth:`to_simplicial`)."""
+        refinement (see :meth:`to_simplicial`).
+        """
         return tetrahedral_refinement(self)
 
     def to_simplicial(self):

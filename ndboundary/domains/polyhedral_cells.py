@@ -52,10 +52,10 @@ def closure_defects(mesh, signs):
     return np.flatnonzero(np.bincount(cell[bad_group[ids]], minlength=mesh.n_elements))
 
 
-
 def orient_faces(mesh):
     """Sign of every cell-face entry making the face outward from its cell: geometric (the
-    face seen from the cell's vertex mean), then combinatorial where a cell does not close."""
+    face seen from the cell's vertex mean), then combinatorial where a cell does not close.
+    """
     cell_of_entry, entry_of_corner, corner = mesh.cell_face_entries
     centre = mesh.element_centroids()
     d = mesh.face_centres[mesh.cell_faces] - centre[cell_of_entry]
@@ -63,18 +63,17 @@ def orient_faces(mesh):
     bad = closure_defects(mesh, signs)
     if bad.size:
         for c in bad:
-            signs[mesh.cell_offsets[c]:mesh.cell_offsets[c + 1]] = orient_cell(mesh, int(c))
+            signs[mesh.cell_offsets[c] : mesh.cell_offsets[c + 1]] = orient_cell(mesh, int(c))
     return signs
-
 
 
 def orient_cell(mesh, c):
     """Orient one cell's faces consistently across shared edges, or refuse an open cell."""
-    faces = mesh.cell_faces[mesh.cell_offsets[c]:mesh.cell_offsets[c + 1]]
-    loops = [mesh.face_indices[mesh.face_offsets[f]:mesh.face_offsets[f + 1]] for f in faces]
+    faces = mesh.cell_faces[mesh.cell_offsets[c] : mesh.cell_offsets[c + 1]]
+    loops = [mesh.face_indices[mesh.face_offsets[f] : mesh.face_offsets[f + 1]] for f in faces]
     users = defaultdict(list)
     for k, loop in enumerate(loops):
-        for a, b in zip(loop, np.roll(loop, -1)):
+        for a, b in zip(loop, np.roll(loop, -1), strict=True):
             users[(min(a, b), max(a, b))].append((k, a < b))
     for (a, b), use in users.items():
         if len(use) != 2:
@@ -88,7 +87,7 @@ def orient_cell(mesh, c):
     while queue:
         k = queue.popleft()
         loop = loops[k]
-        for a, b in zip(loop, np.roll(loop, -1)):
+        for a, b in zip(loop, np.roll(loop, -1), strict=True):
             (k1, d1), (k2, d2) = users[(min(a, b), max(a, b))]
             other, d_other, d_self = (k2, d2, d1) if k1 == k else (k1, d1, d2)
             want = -signs[k] if d_self == d_other else signs[k]
@@ -102,14 +101,12 @@ def orient_cell(mesh, c):
     return signs
 
 
-
 def fan_from_first(mesh, faces):
     """Triangles ``(v0, v_j, v_j+1)`` of the given faces over their own vertices, (n, 3)."""
     sizes = np.diff(mesh.face_offsets)[faces]
     first = mesh.face_indices[mesh.face_offsets[faces]]
     corner = expand_ranges(mesh.face_offsets[faces] + 1, sizes - 2)
     return np.stack([np.repeat(first, sizes - 2), mesh.face_indices[corner], mesh.face_indices[corner + 1]], 1)
-
 
 
 def tetrahedral_refinement(mesh):
@@ -133,8 +130,9 @@ def tetrahedral_refinement(mesh):
     f_rows = np.repeat(np.arange(big_faces.size), fsizes[big_faces])
     csel = ~tet_cell[cell]
     c_rows = np.repeat(np.arange(big_cells.size), nv_cell[big_cells])
-    Rf = sp.csr_matrix((1.0 / fsizes[mesh.face_owner[fsel]], (f_rows, mesh.face_indices[fsel])),
-                       shape=(big_faces.size, V))
+    Rf = sp.csr_matrix(
+        (1.0 / fsizes[mesh.face_owner[fsel]], (f_rows, mesh.face_indices[fsel])), shape=(big_faces.size, V)
+    )
     Rc = sp.csr_matrix((1.0 / nv_cell[cell[csel]], (c_rows, vert[csel])), shape=(big_cells.size, V))
     R = sp.vstack([sp.identity(V, format="csr"), Rf, Rc]).tocsr()
     # tetrahedra of the non-tet cells: (cell point, face point or triangle)

@@ -107,7 +107,8 @@ def small_simplex_geometry(coords, simplices, grads):
 
 def large_simplex_geometry(points, simplices, grads):
     """:func:`simplex_geometry` by LU factorisations of the Gram matrices; the
-    gradients are written to ``grads`` (n, dim, k+1) and the volumes returned."""
+    gradients are written to ``grads`` (n, dim, k+1) and the volumes returned.
+    """
     X = points[simplices]
     Ed = X[:, 1:, :] - X[:, :1, :]  # (n, k, dim)
     gram = Ed @ Ed.transpose(0, 2, 1)  # (n, k, k)
@@ -143,7 +144,7 @@ def stiffness_terms(grads, vol):
     n, _, k1 = grads.shape
     iu, ju = np.triu_indices(k1, 1)
     off = np.empty((n, iu.size))
-    for p, (i, j) in enumerate(zip(iu, ju)):
+    for p, (i, j) in enumerate(zip(iu, ju, strict=True)):
         off[:, p] = np.einsum("ed,ed->e", grads[:, :, i], grads[:, :, j]) * vol
     diag = np.empty((n, k1))
     for i in range(k1):

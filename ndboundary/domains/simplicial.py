@@ -89,9 +89,7 @@ class SimplicialComplex(Domain):
         self.simplices = check_cells(simplices, self.points.shape[0], name="simplices")
         k1 = self.simplices.shape[1]
         if k1 < 2:
-            raise ValueError(
-                f"simplices has shape {self.simplices.shape}; a simplex needs at least 2 vertices"
-            )
+            raise ValueError(f"simplices has shape {self.simplices.shape}; a simplex needs at least 2 vertices")
         if k1 > self.dim + 1:
             raise ValueError(
                 f"simplices has shape {self.simplices.shape} but points are {self.dim}-dimensional; "
@@ -103,6 +101,7 @@ class SimplicialComplex(Domain):
     # -- sizes -------------------------------------------------------------------
     @property
     def n_elements(self) -> int:
+        """Number of elements."""
         return int(self.simplices.shape[0])
 
     @property
@@ -112,13 +111,15 @@ class SimplicialComplex(Domain):
 
     @property
     def element_dim(self) -> int:
+        """Dimension k of the elements."""
         return self.simplex_dim
 
     # -- geometry ------------------------------------------------------------------
     def _geometry(self):
         """Barycentric gradients and volumes (see :func:`simplex_geometry`) over the
         vertices of every simplex in increasing order (``sorted_simplices``, the column
-        order of the operators), refusing degenerate simplices."""
+        order of the operators), refusing degenerate simplices.
+        """
         grads, vol = simplex_geometry(self.points, self.sorted_simplices)
         bad = ~np.isfinite(vol)
         if bad.any():
@@ -132,10 +133,12 @@ class SimplicialComplex(Domain):
         return grads, vol
 
     def element_centroids(self) -> np.ndarray:
+        """Element centroids, shape (n_elements, dim)."""
         return self.points[self.simplices].mean(axis=1)
 
     # -- operators ------------------------------------------------------------------
     def build_gradient(self):
+        """The gradient operator (see the module docstring)."""
         # one row per element and component, its k+1 entries in increasing column order;
         # the data are the barycentric gradients themselves, not a copy
         E, k1 = self.simplices.shape
@@ -148,6 +151,7 @@ class SimplicialComplex(Domain):
         )
 
     def build_measures(self):
+        """The element measures."""
         return self.volumes.copy()
 
     @cached_property
@@ -159,7 +163,8 @@ class SimplicialComplex(Domain):
     def stiffness_sums(self):
         """``(off, diag, used)``: the entries of ``K = G^T diag(A) G`` at the edges (in the
         order of :attr:`edges`), its diagonal, and :attr:`vertex_used` (the rows with a
-        diagonal entry). Each entry is one sum over the simplices holding the edge or vertex."""
+        diagonal entry). Each entry is one sum over the simplices holding the edge or vertex.
+        """
         if self.split_from is not None:
             return self.split_from.stiffness_sums(self)
         off, diag = stiffness_terms(self.barycentric_gradients, self.volumes)
@@ -169,23 +174,24 @@ class SimplicialComplex(Domain):
         return off, diag, self.vertex_used
 
     def build_stiffness(self):
+        """The stiffness (see the module docstring)."""
         off, diag, used = self.stiffness_sums
         K = symmetric_csr(self.edges, off, diag, used)
         K.eliminate_zeros()  # an edge whose angles cancel exactly (right angles on both sides)
         return K
 
     def build_mass(self):
+        """Each element's measure shared equally among its vertices."""
         if self.split_from is not None:
             m = self.split_from.mass(self)
             if m is not None:
                 return m
         k1 = self.simplices.shape[1]
-        m = np.bincount(
-            self.simplices.ravel(), weights=np.repeat(self.volumes / k1, k1), minlength=self.n_vertices
-        )
+        m = np.bincount(self.simplices.ravel(), weights=np.repeat(self.volumes / k1, k1), minlength=self.n_vertices)
         return fill_unused_mass(m, self.volumes / k1)
 
     def build_incidence(self):
+        """The vertex-element incidence."""
         # the element-vertex matrix, one row per simplex, transposed
         E, k1 = self.simplices.shape
         idx = index_dtype(max(E * k1, self.n_vertices))
@@ -196,6 +202,7 @@ class SimplicialComplex(Domain):
         return by_element.T.tocsr()
 
     def element_max(self, f):
+        """Per element, the largest value of the vertex function ``f`` over its vertices."""
         f = np.asarray(f)
         out = f[self.simplices[:, 0]]
         for i in range(1, self.simplices.shape[1]):
@@ -206,7 +213,8 @@ class SimplicialComplex(Domain):
     def edge_index(self):
         """The unique edges, sorted (as :attr:`edges`), and the edge of every vertex pair
         ``(srt[e, i], srt[e, j])``, ``i < j`` in ``triu_indices`` order, element-major
-        (``srt = sorted_simplices``)."""
+        (``srt = sorted_simplices``).
+        """
         if self.split_from is not None:
             return self.split_from.edge_index()
         srt = self.sorted_simplices
@@ -228,7 +236,8 @@ class SimplicialComplex(Domain):
     @cached_property
     def _facets(self):
         """Sorted facets of every simplex, element-major, (E*(k+1), k): facet i leaves
-        out vertex i."""
+        out vertex i.
+        """
         E, k1 = self.simplices.shape
         leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
         return self.sorted_simplices[:, leave_out].reshape(E * k1, k1 - 1)
@@ -236,7 +245,8 @@ class SimplicialComplex(Domain):
     @cached_property
     def _facet_ids(self):
         """Group id of every row of :attr:`_facets` (equal facets, equal ids), the ids in
-        the lexicographic order of the facets."""
+        the lexicographic order of the facets.
+        """
         if self.simplices.shape[1] == 3:
             # the facets of triangles are their edges, in the reverse order of the pairs
             # of edge_index
@@ -280,6 +290,7 @@ class SimplicialComplex(Domain):
         return ids, order, starts
 
     def build_adjacency(self):
+        """Elements sharing a facet."""
         E, k1 = self.simplices.shape
         ids, order, starts = self._facet_groups
         size = np.diff(starts)
@@ -301,6 +312,7 @@ class SimplicialComplex(Domain):
         return sp.csr_matrix((np.ones(int(indptr[-1])), across[inner], indptr), shape=(E, E))
 
     def build_edges(self):
+        """The unique edges, ``i < j``."""
         if self.split_from is not None:
             return self.split_from.edge_map[0]
         return self.edge_index[0]
@@ -316,6 +328,7 @@ class SimplicialComplex(Domain):
         return self.sorted_simplices[which // k1][np.arange(which.size)[:, None], leave_out[which % k1]]
 
     def split_elements(self, mask):
+        """Split the simplices selected by ``mask`` at their barycentre (see :meth:`Domain.split_elements`)."""
         mask = np.asarray(mask, dtype=bool)
         idx = np.flatnonzero(mask)
         if idx.size == 0:

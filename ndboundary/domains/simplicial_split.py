@@ -77,7 +77,8 @@ class SplitOperators:
         """``(edges, old, new)``: the edges of the split complex (as ``edges``), the new id
         of every edge of the parent (-1 for an edge no simplex keeps) and, shape (m, k+1),
         the id of the edge from vertex ``srt[j, r]`` to the centre of ``split[j]``
-        (``srt`` the sorted simplices)."""
+        (``srt`` the sorted simplices).
+        """
         P = self.parent
         V = P.n_vertices
         edges_p, pair_edge_p = P.edge_index
@@ -110,7 +111,8 @@ class SplitOperators:
     @cached_property
     def children_pair_edge(self):
         """The edge of every vertex pair of the children, (n_children, k (k + 1) / 2), in
-        the order of ``edge_index``."""
+        the order of ``edge_index``.
+        """
         P = self.parent
         _, old, new = self.edge_map
         m, k1 = new.shape
@@ -139,7 +141,8 @@ class SplitOperators:
 
     def _recomputed(self, sums, targets, star_ids, star_terms, child_ids, child_terms):
         """Set ``sums[targets]`` to the sums of the terms of the star simplices whose ids
-        are in ``targets`` (increasing), then of every term of the children."""
+        are in ``targets`` (increasing), then of every term of the children.
+        """
         star_ids = star_ids.ravel()
         sel = np.zeros(sums.size, dtype=bool)
         sel[targets] = True
@@ -174,7 +177,8 @@ class SplitOperators:
 
     def mass(self, child):
         """The lumped mass of the split complex ``child`` from its parent's, or None when
-        the parent's is not built."""
+        the parent's is not built.
+        """
         P = self.parent
         if "mass" not in P.__dict__:
             return None

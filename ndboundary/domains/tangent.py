@@ -5,8 +5,9 @@ from __future__ import annotations
 from math import gamma, pi
 
 import numpy as np
+import scipy.sparse as sp
 
-__all__ = ["ball_volume", "local_pca", "lsq_coefficients"]
+__all__ = ["ball_volume", "frame_transport", "local_pca", "lsq_coefficients"]
 
 #: Eigenvalues of the local covariance below this fraction of the largest span no direction.
 _EIG_RTOL = 1e-10
@@ -48,3 +49,24 @@ def lsq_coefficients(Z):
     reg = _LSQ_RTOL * np.maximum(tr, 1e-300) / m
     ZtZ = ZtZ + reg[:, None, None] * np.eye(m)
     return np.linalg.solve(ZtZ, Z.transpose(0, 2, 1))
+
+
+def frame_transport(frames, unique_inverse, stencil):
+    """The averaging of tangent vectors over stencils, carried between frames.
+
+    Row block ``j`` maps the flattened field to ``sum_i T_j^T T_i X_i`` over ``i`` in
+    ``stencil[j]``: every neighbour's vector goes into ``j``'s frame through the ambient
+    space. Sparse of shape (N m, N m), ``N = len(stencil)``, ``m`` the frames' width.
+    """
+    N, k1 = stencil.shape
+    m = frames.shape[2]
+    u, s = unique_inverse, stencil
+    data = np.empty((N, m, k1, m))
+    for a in range(0, N, _CHUNK):
+        c = slice(a, min(N, a + _CHUNK))
+        Tj = frames[u[c]]  # (b, D, m)
+        Ti = frames[u[s[c]]]  # (b, k1, D, m)
+        data[c] = np.einsum("bda,bkdc->bakc", Tj, Ti, optimize=True)
+    indices = (s[:, None, :, None] * m + np.arange(m)[None, None, None, :]).repeat(m, axis=1)
+    indptr = np.arange(N * m + 1, dtype=np.int64) * (k1 * m)
+    return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(N * m, N * m))

@@ -195,9 +195,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             if self.extension_power != "auto":
                 raise ValueError(f"extension_power must be a number or 'auto', got {self.extension_power!r}")
         elif isinstance(self.extension_power, bool) or not isinstance(self.extension_power, numbers.Real):
-            raise TypeError(
-                f"extension_power must be a number or 'auto', got {type(self.extension_power).__name__}"
-            )
+            raise TypeError(f"extension_power must be a number or 'auto', got {type(self.extension_power).__name__}")
         elif not 0.0 <= self.extension_power < np.inf:
             raise ValueError(f"extension_power must be finite and >= 0, got {self.extension_power}")
         if isinstance(self.extension_neighbors, bool) or not isinstance(self.extension_neighbors, numbers.Integral):
@@ -285,9 +283,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             if target.all() or not target.any():
                 phis.append(np.full(X.shape[0], 1.0 if target.all() else 0.0))
                 continue
-            res = relax(
-                self.domain_, target, on="vertices", lam=self.lam, smoothing=self.smoothing, rtol=self.tol
-            )
+            res = relax(self.domain_, target, on="vertices", lam=self.lam, smoothing=self.smoothing, rtol=self.tol)
             phis.append(res.phi)
             self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
         self.phi_ = np.stack(phis, axis=1)

@@ -38,7 +38,7 @@ class Boundary:
 
 
 def element_boundary(domain, region1):
-    """zeta for element labels: the vertices shared by elements of both labels."""
+    """Zeta for element labels: the vertices shared by elements of both labels."""
     inc = domain.incidence
     n1 = inc @ region1.astype(np.float64)
     n0 = inc @ (~region1).astype(np.float64)
@@ -50,14 +50,12 @@ def element_boundary(domain, region1):
 
 
 def vertex_boundary(domain, region1):
-    """zeta for vertex labels: the midpoints of the edges whose ends differ."""
+    """Zeta for vertex labels: the midpoints of the edges whose ends differ."""
     e = domain.edges
     cut = e[region1[e[:, 0]] != region1[e[:, 1]]]
     sources = np.unique(cut)
     m = cut.shape[0]
-    S = sp.csr_matrix(
-        (np.full(2 * m, 0.5), (np.repeat(np.arange(m), 2), cut.ravel())), shape=(m, domain.n_vertices)
-    )
+    S = sp.csr_matrix((np.full(2 * m, 0.5), (np.repeat(np.arange(m), 2), cut.ravel())), shape=(m, domain.n_vertices))
     return Boundary(sources, S, 0.5 * (domain.points[cut[:, 0]] + domain.points[cut[:, 1]]), cut)
 
 

@@ -50,7 +50,8 @@ class IntegrationSystem:
 
 def _lam_scale(work, Kh, mh, sources):
     """The factor (at most 1) applied to ``lam``: the field term's stiffness at zeta
-    relative to the domain's reference (see the module docstring)."""
+    relative to the domain's reference (see the module docstring).
+    """
     reference = work.lam_reference()
     if reference is None or sources.size == 0:
         return 1.0

@@ -182,7 +182,7 @@ class Relaxer:
         )
 
     def _padded(self, key, region1, on, pad):
-        """zeta and the padded domain of a labelling, kept for the next call."""
+        """Zeta and the padded domain of a labelling, kept for the next call."""
         if self._labelling is not None and self._labelling[0] == key:
             return self._labelling[1:]
         self._labelling = self._heat = None
@@ -191,7 +191,7 @@ class Relaxer:
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
         padded = pad_domain(domain, region1, boundary, on, pad)
-        padded.work.K, padded.work.mass  # assembled (and timed) with the padding
+        _ = padded.work.K, padded.work.mass  # assembled (and timed) with the padding
         if self._keep:
             self._labelling = (key, boundary, padded)
         return boundary, padded
