@@ -20,7 +20,7 @@ def normalize_rows(X):
     --------
     >>> import numpy as np
     >>> from ndboundary.fields import normalize_rows
-    >>> normalize_rows(np.array([[3.0, 4.0], [0.0, 0.0]])).tolist()
+    >>> normalize_rows(np.array([[3.0, 4.0], [0.0, 0.0]])).round(12).tolist()
     [[0.6, 0.8], [0.0, 0.0]]
     """
     scale = np.sqrt(np.einsum("ij,ij->i", X, X))
