@@ -46,18 +46,22 @@ class _Progress:
         self.tick = time.perf_counter()
 
 
-def _nbytes(value):
-    """Bytes held by the arrays and sparse matrices in ``value`` (a dict, list or object)."""
+def _nbytes(value, skip):
+    """Bytes held by the arrays and sparse matrices in ``value`` (a dict, list or object),
+    not counting the objects in ``skip`` (the domain's own operators)."""
+    if value is None or id(value) in skip:
+        return 0
     if isinstance(value, np.ndarray):
         return value.nbytes
     if sp.issparse(value):
         return sum(getattr(value, a).nbytes for a in ("data", "indices", "indptr", "offsets") if hasattr(value, a))
     if isinstance(value, (list, tuple)):
-        return sum(_nbytes(v) for v in value)
+        return sum(_nbytes(v, skip) for v in value)
     if isinstance(value, dict):
-        return sum(_nbytes(v) for v in value.values())
+        return sum(_nbytes(v, skip) for v in value.values())
     if hasattr(value, "__dict__") and not isinstance(value, type):
-        return _nbytes(vars(value))
+        skip.add(id(value))  # count every object once
+        return _nbytes(vars(value), skip)
     return 0
 
 
@@ -108,7 +112,7 @@ class Relaxer:
     @property
     def nbytes(self) -> int:
         """Memory held for the next relaxation: padded operators, heat, field and factor (bytes)."""
-        return int(_nbytes([self._labelling, self._heat]) + self._factors.nbytes)
+        return int(_nbytes([self._labelling, self._heat], {id(self.domain)}) + self._factors.nbytes)
 
     def clear(self):
         """Free everything kept for the next relaxation (the domain's own operators stay)."""
