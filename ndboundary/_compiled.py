@@ -52,8 +52,8 @@ def smooth_rows_compiled(W, X, passes):
     ``W`` is a CSR matrix, ``X`` an (n, d) array (not modified). Every sweep reads the
     previous sweep's rows only (Jacobi order), so the result does not depend on the row
     order; zero rows stay zero. Summing and renormalising a row in one loop reads the
-    field once per sweep instead of four times: 3x the sparse-product loop on a
-    6M-element tetrahedral field.
+    field once per sweep instead of the four passes of a sparse product and a
+    renormalisation.
     """
     d = X.shape[1]
     # planar fields run through the 3-column loop with a zero third component

@@ -24,9 +24,9 @@ semidefinite, ``Delta = -M^{-1} K``):
   Bunge et al. 2020). ``P`` reproduces linear functions, so ``K`` stays exact on them
   and, on triangles, ``I - P = 0``: ``K`` is the cotangent Laplacian. ``K`` is then no
   longer exactly ``G^T diag(A) G``, so the stabilisation must stay moderate: measured on
-  relaxed boundaries, weights below 1 leave wiggles (hourglass modes of ``phi``); 4 (the
-  default) brings the length excess on Voronoi cells from 2.8 % (weight 2) to 1.1 % and
-  leaves quads, hexahedra and the shared polygon and hexahedral meshes as good or better.
+  relaxed boundaries (``benchmarks/meshes.py``), weights below 1 leave wiggles (hourglass
+  modes of ``phi``), and 4 (the default) gives the shortest boundaries on Voronoi cells
+  while leaving quads, hexahedra and the shared meshes as good or better.
 * ``K``, ``laplacian="combinatorial"``: the paper's uniform graph Laplacian over the
   mesh edges (weight 1 per edge), times ``h^(k-2)`` (``h`` the mean edge length,
   ``k = element_dim``) so that it scales like a stiffness matrix.
@@ -75,7 +75,9 @@ class PolygonMesh(Domain):
         its hourglass modes, or the paper's uniform graph Laplacian (module docstring).
     stabilization : float, default=4.0
         Weight of the stabilisation of the consistent stiffness, relative to the trace of
-        each element's ``A G_e^T G_e`` per vertex. 0 gives plain ``G^T diag(A) G``.
+        each element's ``A G_e^T G_e`` per vertex. 0 gives plain ``G^T diag(A) G``, whose
+        hourglass modes make the integration singular on quads; the default is the weight
+        that relaxed boundaries measured best with (module docstring).
 
     Attributes
     ----------
