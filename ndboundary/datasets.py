@@ -48,6 +48,16 @@ def kuhn_grid(n, dim=2, *, jitter=0.0, lo=-1.0, hi=1.0, random_state=None):
     Returns
     -------
     SimplicialComplex
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> kuhn_grid(10, 2)
+    SimplicialComplex(n_vertices=121, n_elements=200, simplex_dim=2, dim=2)
+    >>> kuhn_grid(3, 3).n_elements  # 6 tetrahedra per cube
+    162
+    >>> bool(kuhn_grid(4, 2, jitter=0.3, random_state=0).volumes.min() > 0)
+    True
     """
     if n < 1 or dim < 1:
         raise ValueError(f"n and dim must be positive, got n={n}, dim={dim}")
@@ -93,6 +103,14 @@ def icosphere(subdivisions=5, radius=1.0):
     """Triangulated sphere by repeated midpoint subdivision of an icosahedron.
 
     ``subdivisions=5`` gives 10 242 vertices and 20 480 triangles, outward oriented.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import icosphere
+    >>> icosphere(1)
+    SimplicialComplex(n_vertices=42, n_elements=80, simplex_dim=2, dim=3)
+    >>> round(float(icosphere(3).A.sum()), 4)  # close to 4 pi = 12.5664
+    12.5065
     """
     p = (1 + 5**0.5) / 2
     v = np.array(
@@ -198,6 +216,13 @@ def quad_grid(n, *, jitter=0.0, lo=-1.0, hi=1.0, random_state=None, **kwargs):
     -------
     PolygonMesh
         ``(n + 1)^2`` vertices, ``n^2`` counter-clockwise quads.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import quad_grid
+    >>> mesh = quad_grid(4)
+    >>> mesh.n_vertices, mesh.n_elements, float(mesh.A.sum())
+    (25, 16, 4.0)
     """
     points, origin, (sx, sy) = _grid_points(n, 2, jitter, lo, hi, random_state)
     quads = np.stack([origin, origin + sx, origin + sx + sy, origin + sy], axis=1)
@@ -223,6 +248,13 @@ def hex_grid(n, *, jitter=0.0, lo=-1.0, hi=1.0, random_state=None, **kwargs):
     -------
     PolyhedralMesh
         ``(n + 1)^3`` vertices, ``n^3`` hexahedra.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import hex_grid
+    >>> mesh = hex_grid(2)
+    >>> mesh.n_vertices, mesh.n_faces, mesh.n_elements, round(float(mesh.A.sum()), 6)
+    (27, 36, 8, 8.0)
     """
     points, o, (sx, sy, sz) = _grid_points(n, 3, jitter, lo, hi, random_state)
     bottom = [o, o + sx, o + sx + sy, o + sy]
@@ -252,6 +284,13 @@ def voronoi_polygons(n, *, jitter=0.25, lo=-1.0, hi=1.0, random_state=None, **kw
     -------
     PolygonMesh
         ``n^2`` convex polygons, counter-clockwise.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import voronoi_polygons
+    >>> mesh = voronoi_polygons(3, random_state=0)
+    >>> mesh.n_elements, round(float(mesh.A.sum()), 6)  # the cells tile [-1, 1]^2
+    (9, 4.0)
     """
     from scipy.spatial import Voronoi
 
@@ -297,35 +336,85 @@ def voronoi_polygons(n, *, jitter=0.25, lo=-1.0, hi=1.0, random_state=None, **kw
 
 
 def circle(x, r=0.6):
-    """Signed distance to the circle of radius ``r`` about the origin (first two coordinates)."""
+    """Signed distance to the circle of radius ``r`` about the origin (first two coordinates).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import circle
+    >>> circle(np.array([[0.0, 0.0], [1.0, 0.0]])).round(6).tolist()
+    [-0.6, 0.4]
+    """
     return np.linalg.norm(x[:, :2], axis=1) - r
 
 
 def flower(x, r=0.55, amplitude=0.2, lobes=5):
-    """Signed radial offset from the flower ``r (1 + amplitude cos(lobes theta))``."""
+    """Signed radial offset from the flower ``r (1 + amplitude cos(lobes theta))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import flower
+    >>> flower(np.array([[0.66, 0.0], [0.0, 0.0]])).round(6).tolist()  # on a lobe's tip; the centre
+    [0.0, -0.66]
+    """
     th = np.arctan2(x[:, 1], x[:, 0])
     return np.linalg.norm(x[:, :2], axis=1) - r * (1 + amplitude * np.cos(lobes * th))
 
 
 def flower_curve(n=20000, r=0.55, amplitude=0.2, lobes=5):
-    """Points densely sampled on the :func:`flower` curve, shape (n, 2), in order."""
+    """Points densely sampled on the :func:`flower` curve, shape (n, 2), in order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import flower, flower_curve
+    >>> curve = flower_curve(1000)
+    >>> curve.shape, bool(np.abs(flower(curve)).max() < 1e-12)
+    ((1000, 2), True)
+    """
     th = np.linspace(0, 2 * np.pi, n, endpoint=False)
     rad = r * (1 + amplitude * np.cos(lobes * th))
     return np.stack([rad * np.cos(th), rad * np.sin(th)], axis=1)
 
 
 def ball(x, r=0.6):
-    """Signed distance to the sphere of radius ``r`` about the origin, any dimension."""
+    """Signed distance to the sphere of radius ``r`` about the origin, any dimension.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import ball
+    >>> ball(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])).round(6).tolist()
+    [-0.6, 0.4]
+    """
     return np.linalg.norm(x, axis=1) - r
 
 
 def torus(x, R=0.55, r=0.25):
-    """Signed distance to the torus of radii ``R``, ``r`` around the z axis."""
+    """Signed distance to the torus of radii ``R``, ``r`` around the z axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import torus
+    >>> torus(np.array([[0.55, 0.0, 0.0], [0.0, 0.0, 0.0]])).round(6).tolist()  # core circle; centre
+    [-0.25, 0.3]
+    """
     q = np.linalg.norm(x[:, :2], axis=1) - R
     return np.hypot(q, x[:, 2]) - r
 
 
 def label_by(domain, truth, *, on="elements"):
-    """Label each element (by its centroid) or vertex: 1 inside ``truth < 0``, else 0."""
+    """Label each element (by its centroid) or vertex: 1 inside ``truth < 0``, else 0.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> mesh = kuhn_grid(10, 2)
+    >>> labels = label_by(mesh, circle)
+    >>> labels.shape, int(labels.sum()), int(label_by(mesh, circle, on="vertices").sum())
+    ((200,), 60, 25)
+    """
     x = domain.element_centroids() if on == "elements" else domain.points
     return (truth(x) < 0).astype(np.int64)

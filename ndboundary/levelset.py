@@ -37,6 +37,17 @@ class LevelSet:
         The domain edge each point lies on.
     value : float
         The level.
+
+    Examples
+    --------
+    >>> from ndboundary import marching_simplices
+    >>> from ndboundary.datasets import kuhn_grid, circle
+    >>> mesh = kuhn_grid(16, 2)
+    >>> curve = marching_simplices(mesh.points, mesh.simplices, circle(mesh.points), 0.0)
+    >>> curve
+    LevelSet(value=0.0, n_points=62, n_simplices=62)
+    >>> round(curve.measure(), 6), curve.is_closed(), curve.n_components(), curve.euler_characteristic()
+    (3.762175, True, 1, 0)
     """
 
     def __init__(self, points, simplices, edges, value):
@@ -190,6 +201,24 @@ def marching_simplices(points, simplices, values, value=0.5):
     Returns
     -------
     LevelSet
+
+    Examples
+    --------
+    A function rising from 0 at the first vertex to 1 at the others crosses 1/2 at the
+    midpoints of the two edges that leave the first vertex:
+
+    >>> from ndboundary import marching_simplices
+    >>> seg = marching_simplices([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], [0.0, 1.0, 1.0])
+    >>> seg.points.tolist(), seg.simplices.tolist(), seg.edges.tolist()
+    ([[0.5, 0.0], [0.0, 0.5]], [[1, 0]], [[0, 1], [0, 2]])
+
+    The level set of the distance to a sphere, on a tetrahedral grid, is a closed surface:
+
+    >>> from ndboundary.datasets import kuhn_grid, ball
+    >>> grid = kuhn_grid(6, 3)
+    >>> sphere = marching_simplices(grid.points, grid.simplices, ball(grid.points), 0.0)
+    >>> sphere.simplices.shape, sphere.is_closed(), sphere.euler_characteristic()
+    ((360, 3), True, 2)
     """
     points = np.asarray(points, dtype=np.float64)
     simplices = np.asarray(simplices, dtype=np.int64)
@@ -267,6 +296,14 @@ def _orientation(points, values, S, parity, owner, local, t):
 
 
 def sorting_parity(simplices):
-    """+1 where sorting a simplex's vertices is an even permutation, -1 where odd."""
+    """+1 where sorting a simplex's vertices is an even permutation, -1 where odd.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.levelset import sorting_parity
+    >>> sorting_parity(np.array([[0, 1, 2], [1, 0, 2], [2, 0, 1]])).tolist()
+    [1, -1, 1]
+    """
     order = np.argsort(simplices, axis=1)
     return 1 - 2 * _permutation_parity(order)

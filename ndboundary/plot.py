@@ -60,6 +60,18 @@ def plot_domain(
     Returns
     -------
     matplotlib Axes
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.plot import plot_domain
+    >>> mesh = kuhn_grid(8, 2)
+    >>> labels = label_by(mesh, circle)
+    >>> ax = plot_domain(mesh, labels=labels, boundary=mesh.interface_facets(labels == 1))
+    >>> len(ax.collections); plt.close(ax.figure)  # the elements and the jagged boundary
+    2
     """
     _check_drawable(domain)
     plt = _plt()
@@ -120,7 +132,20 @@ def plot_domain(
 
 
 def plot_relaxation(result, *, ax=None, value=0.5):
-    """Draw ``phi`` with the jagged boundary (black) and its relaxation ``phi = value`` (red)."""
+    """Draw ``phi`` with the jagged boundary (black) and its relaxation ``phi = value`` (red).
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from ndboundary import relax
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.plot import plot_relaxation
+    >>> mesh = kuhn_grid(8, 2)
+    >>> ax = plot_relaxation(relax(mesh, label_by(mesh, circle), on="elements"))
+    >>> len(ax.collections); plt.close(ax.figure)  # phi, the jagged and the relaxed boundary
+    3
+    """
     facets = result.boundary.facets
     return plot_domain(
         result.domain,
@@ -145,6 +170,19 @@ def figure_relaxation(result, labels, *, title=None, zoom=None):
     Returns
     -------
     matplotlib Figure
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from ndboundary import relax
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.plot import figure_relaxation
+    >>> mesh = kuhn_grid(8, 2)
+    >>> labels = label_by(mesh, circle)
+    >>> fig = figure_relaxation(relax(mesh, labels, on="elements"), labels, title="disc")
+    >>> [ax.get_title() for ax in fig.axes]; plt.close(fig)
+    ['jagged boundary', 'phi', 'relaxed boundary (phi = 1/2)']
     """
     plt = _plt()
     dom = result.domain

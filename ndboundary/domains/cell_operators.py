@@ -34,6 +34,19 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
     Returns
     -------
     scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
+
+    Examples
+    --------
+    The unit square, with the gradient coefficient of each corner (``sum_i g_i f_i`` is
+    the gradient of ``f``); the stiffness vanishes on constants:
+
+    >>> import numpy as np
+    >>> from ndboundary.domains.cell_operators import local_stiffness
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> coef = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
+    >>> K = local_stiffness(square, np.zeros(4, dtype=int), np.arange(4), coef, np.array([1.0]), 0.0, 4)
+    >>> K.toarray()[0].tolist(), bool(np.allclose(K @ np.ones(4), 0.0))
+    ([0.5, 0.0, -0.5, 0.0], True)
     """
     n_el = measures.size
     sizes = np.bincount(pair_elem, minlength=n_el)
@@ -65,7 +78,15 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
 
 
 def combinatorial_laplacian(edges, n_vertices, scale):
-    """Uniform graph Laplacian ``scale * (D - W)`` over the given edges (weight 1 each)."""
+    """Uniform graph Laplacian ``scale * (D - W)`` over the given edges (weight 1 each).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.cell_operators import combinatorial_laplacian
+    >>> combinatorial_laplacian(np.array([[0, 1], [1, 2]]), 3, 1.0).toarray().tolist()  # a path
+    [[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]]
+    """
     i, j = edges[:, 0], edges[:, 1]
     W = sp.coo_matrix((np.ones(i.size), (i, j)), shape=(n_vertices, n_vertices))
     W = (W + W.T).tocsr()
@@ -73,14 +94,36 @@ def combinatorial_laplacian(edges, n_vertices, scale):
 
 
 def check_laplacian_options(laplacian, stabilization):
-    """Validate the stiffness options of a polygon or polyhedral mesh; returns the weight."""
+    """Validate the stiffness options of a polygon or polyhedral mesh; returns the weight.
+
+    Examples
+    --------
+    >>> from ndboundary.domains.cell_operators import check_laplacian_options
+    >>> check_laplacian_options("consistent", 1.0)
+    1.0
+    >>> check_laplacian_options("cotan", 1.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: laplacian must be 'consistent' or 'combinatorial', got 'cotan'
+    """
     if laplacian not in LAPLACIANS:
         raise ValueError(f"laplacian must be 'consistent' or 'combinatorial', got {laplacian!r}")
     return check_positive(stabilization, "stabilization", allow_zero=True)
 
 
 def refinement_matrix(n_vertices, indices, offsets):
-    """Sparse (n_vertices + n_rows, n_vertices): identity, then one averaging row per ragged row."""
+    """Sparse (n_vertices + n_rows, n_vertices): identity, then one averaging row per ragged row.
+
+    Examples
+    --------
+    One quad refined at its centre: the added vertex is the mean of the four.
+
+    >>> import numpy as np
+    >>> from ndboundary.domains.cell_operators import refinement_matrix
+    >>> R = refinement_matrix(4, np.array([0, 1, 2, 3]), np.array([0, 4]))
+    >>> R.shape, R.toarray()[4].tolist()
+    ((5, 4), [0.25, 0.25, 0.25, 0.25])
+    """
     sizes = np.diff(offsets)
     owner = np.repeat(np.arange(sizes.size), sizes)
     avg = sp.csr_matrix((1.0 / sizes[owner], (owner, indices)), shape=(sizes.size, n_vertices))

@@ -147,6 +147,17 @@ class SimplexExtension:
     ----------
     power : None
         No weighting power (it belongs to the kNN extension).
+
+    Examples
+    --------
+    A linear function is reproduced inside the hull and extrapolated outside:
+
+    >>> import numpy as np
+    >>> from ndboundary import DelaunayComplex
+    >>> X = np.random.default_rng(0).uniform(size=(50, 2))
+    >>> ext = DelaunayComplex(X).extension(X.sum(axis=1))
+    >>> ext(np.array([[0.5, 0.5], [2.0, 0.0]])).round(6).tolist()
+    [[1.0], [2.0]]
     """
 
     power = None

@@ -27,6 +27,14 @@ def symmetric_inverse(gram, k):
 
     ``gram[i][j]`` holds entry (i, j) of every matrix, as arrays of one shape; returns
     ``(det, cof)`` with ``cof[i, j]`` (``i <= j``) likewise: the inverse is ``cof / det``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.simplex_geometry import symmetric_inverse
+    >>> det, cof = symmetric_inverse([[np.array(2.0), np.array(1.0)], [np.array(1.0), np.array(3.0)]], 2)
+    >>> float(det), {ij: float(c) for ij, c in cof.items()}  # inverse of [[2, 1], [1, 3]] times 5
+    (5.0, {(0, 0): 3.0, (0, 1): -1.0, (1, 1): 2.0})
     """
     g = gram
     if k == 1:
@@ -57,6 +65,14 @@ def simplex_geometry(points, simplices):
     simplices (volume below a relative tolerance) get volume NaN and zero gradients, for
     the caller to report. Simplices are taken in blocks small enough for the
     temporaries to stay in cache.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.simplex_geometry import simplex_geometry
+    >>> grads, vol = simplex_geometry(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), np.array([[0, 1, 2]]))
+    >>> grads[0].tolist(), vol.tolist()  # columns: the gradients of the three hat functions
+    ([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]], [0.5])
     """
     E, k1 = simplices.shape
     dim = points.shape[1]
@@ -140,6 +156,15 @@ def stiffness_terms(grads, vol):
     off : ndarray of shape (n, k (k + 1) / 2)
         The vertex pairs ``i < j`` in ``triu_indices`` order.
     diag : ndarray of shape (n, k + 1)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.simplex_geometry import simplex_geometry, stiffness_terms
+    >>> grads, vol = simplex_geometry(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), np.array([[0, 1, 2]]))
+    >>> off, diag = stiffness_terms(grads, vol)
+    >>> off.tolist(), diag.tolist()  # pairs (0, 1), (0, 2), (1, 2)
+    ([[-0.5, -0.5, 0.0]], [[1.0, 0.5, 0.5]])
     """
     n, _, k1 = grads.shape
     iu, ju = np.triu_indices(k1, 1)
@@ -158,6 +183,17 @@ def symmetric_csr(edges, off, diag, has_diag):
 
     ``edges`` are distinct pairs ``i < j`` in lexicographic order (the row-major order of
     the upper triangle); the lower triangle is their counting sort by ``j``.
+
+    Examples
+    --------
+    The stiffness matrix of one right triangle, from its :func:`stiffness_terms`:
+
+    >>> import numpy as np
+    >>> from ndboundary.domains.simplex_geometry import symmetric_csr
+    >>> edges = np.array([[0, 1], [0, 2], [1, 2]])
+    >>> K = symmetric_csr(edges, np.array([-0.5, -0.5, 0.0]), np.array([1.0, 0.5, 0.5]), np.ones(3, dtype=bool))
+    >>> K.toarray().tolist(), bool(K.has_canonical_format)
+    ([[1.0, -0.5, -0.5], [-0.5, 0.5, 0.0], [-0.5, 0.0, 0.5]], True)
     """
     n = diag.size
     i, j = edges[:, 0], edges[:, 1]

@@ -41,6 +41,20 @@ class SplitOperators:
     The split complex holds the kept simplices in order, then its children in ``k + 1``
     blocks of ``m``: child ``i * m + j`` replaces vertex ``i`` (in the order of
     ``parent.simplices``) of simplex ``split[j]`` by its centre, vertex ``V + j``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary import SimplicialComplex
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> mesh = kuhn_grid(4, 2)
+    >>> work, parent = mesh.split_elements(np.arange(mesh.n_elements) < 2)
+    >>> ops = work.split_from
+    >>> ops.split.tolist(), ops.n_keep, work.n_elements
+    ([0, 1], 30, 36)
+    >>> fresh = SimplicialComplex(work.points, work.simplices)
+    >>> bool(np.allclose(work.K.toarray(), fresh.K.toarray())), bool(np.allclose(work.mass, fresh.mass))
+    (True, True)
     """
 
     def __init__(self, parent, split, keep):

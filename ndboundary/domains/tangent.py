@@ -18,12 +18,32 @@ _CHUNK = 4096
 
 
 def ball_volume(m):
-    """Volume of the unit ball in R^m."""
+    """Volume of the unit ball in R^m.
+
+    Examples
+    --------
+    >>> from ndboundary.domains.tangent import ball_volume
+    >>> round(ball_volume(1), 6), round(ball_volume(2), 6), round(ball_volume(3), 6)
+    (2.0, 3.141593, 4.18879)
+    """
     return pi ** (m / 2) / gamma(m / 2 + 1)
 
 
 def local_pca(points, nbr, m):
-    """Tangent coordinates of the neighbour offsets (n, k, m) and frames (n, D, m)."""
+    """Tangent coordinates of the neighbour offsets (n, k, m) and frames (n, D, m).
+
+    Examples
+    --------
+    A point of the plane ``z = 0`` and its four neighbours: the frame is orthonormal and
+    the coordinates give back the offsets.
+
+    >>> import numpy as np
+    >>> from ndboundary.domains.tangent import local_pca
+    >>> pts = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]])
+    >>> Z, T = local_pca(pts, np.array([[1, 2, 3, 4]]), 2)
+    >>> Z.shape, T.shape, bool(np.allclose(T[0].T @ T[0], np.eye(2))), bool(np.allclose(Z[0] @ T[0].T, pts[1:]))
+    ((1, 4, 2), (1, 3, 2), True, True)
+    """
     n, k = nbr.shape
     D = points.shape[1]
     Z = np.empty((n, k, m))
@@ -42,7 +62,20 @@ def local_pca(points, nbr, m):
 
 
 def lsq_coefficients(Z):
-    """Least-squares gradient weights ``(Z^T Z)^{-1} Z^T`` per point, (n, m, k)."""
+    """Least-squares gradient weights ``(Z^T Z)^{-1} Z^T`` per point, (n, m, k).
+
+    Examples
+    --------
+    The gradient of ``x + 2 y + 3 z`` on the plane ``z = 0``, carried back to space by the frame:
+
+    >>> import numpy as np
+    >>> from ndboundary.domains.tangent import local_pca, lsq_coefficients
+    >>> pts = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]])
+    >>> Z, T = local_pca(pts, np.array([[1, 2, 3, 4]]), 2)
+    >>> f = pts @ [1.0, 2.0, 3.0]
+    >>> (T[0] @ lsq_coefficients(Z)[0] @ (f[1:] - f[0])).round(6).tolist()
+    [1.0, 2.0, 0.0]
+    """
     ZtZ = Z.transpose(0, 2, 1) @ Z
     m = Z.shape[2]
     tr = np.trace(ZtZ, axis1=1, axis2=2)
@@ -57,6 +90,18 @@ def frame_transport(frames, unique_inverse, stencil):
     Row block ``j`` maps the flattened field to ``sum_i T_j^T T_i X_i`` over ``i`` in
     ``stencil[j]``: every neighbour's vector goes into ``j``'s frame through the ambient
     space. Sparse of shape (N m, N m), ``N = len(stencil)``, ``m`` the frames' width.
+
+    Examples
+    --------
+    Three points sharing one frame, each with a stencil of two: vectors pass unchanged,
+    so a constant field sums to twice itself.
+
+    >>> import numpy as np
+    >>> from ndboundary.domains.tangent import frame_transport
+    >>> frames = np.repeat(np.eye(3)[None, :, :2], 3, axis=0)  # the xy plane, (3, 3, 2)
+    >>> M = frame_transport(frames, np.arange(3), np.array([[0, 1], [1, 2], [2, 0]]))
+    >>> M.shape, (M @ np.ones(6)).round(6).tolist()
+    ((6, 6), [2.0, 2.0, 2.0, 2.0, 2.0, 2.0])
     """
     N, k1 = stencil.shape
     m = frames.shape[2]

@@ -28,6 +28,16 @@ class Boundary:
     facets : ndarray of int of shape (n_facets, k) or None
         For element labels, the facets between elements of different labels: the
         jagged boundary as a complex over the domain's vertices.
+
+    Examples
+    --------
+    >>> from ndboundary import Boundary
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> mesh = kuhn_grid(10, 2)
+    >>> zeta = element_boundary(mesh, label_by(mesh, circle) == 1)
+    >>> isinstance(zeta, Boundary), zeta.S.shape, zeta.points.shape, zeta.facets.shape
+    (True, (20, 121), (20, 2), (20, 2))
     """
 
     sources: np.ndarray
@@ -38,7 +48,17 @@ class Boundary:
 
 
 def element_boundary(domain, region1):
-    """Zeta for element labels: the vertices shared by elements of both labels."""
+    """Zeta for element labels: the vertices shared by elements of both labels.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> mesh = kuhn_grid(10, 2)
+    >>> zeta = element_boundary(mesh, label_by(mesh, circle) == 1)
+    >>> zeta.sources.size, zeta.facets.shape  # 20 vertices, joined by 20 jagged edges
+    (20, (20, 2))
+    """
     inc = domain.incidence
     n1 = inc @ region1.astype(np.float64)
     n0 = inc @ (~region1).astype(np.float64)
@@ -50,7 +70,17 @@ def element_boundary(domain, region1):
 
 
 def vertex_boundary(domain, region1):
-    """Zeta for vertex labels: the midpoints of the edges whose ends differ."""
+    """Zeta for vertex labels: the midpoints of the edges whose ends differ.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import vertex_boundary
+    >>> mesh = kuhn_grid(10, 2)
+    >>> zeta = vertex_boundary(mesh, label_by(mesh, circle, on="vertices") == 1)
+    >>> zeta.edges.shape, zeta.sources.size, zeta.S[0].data.tolist()  # each point halfway along an edge
+    ((38, 2), 38, [0.5, 0.5])
+    """
     e = domain.edges
     cut = e[region1[e[:, 0]] != region1[e[:, 1]]]
     sources = np.unique(cut)
@@ -65,6 +95,21 @@ def pinned_rows(domain, S, vert_region1):
 
     There the field term alone leaves phi free up to a constant; pinning it keeps the
     system definite and puts the part on its own side of 1/2.
+
+    Examples
+    --------
+    Two separate triangles, zeta on the first one only: the second, in region 1, is
+    held at 3/2.
+
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> from ndboundary import SimplicialComplex
+    >>> from ndboundary.pipeline.boundary import pinned_rows
+    >>> two = SimplicialComplex([[0, 0], [1, 0], [0, 1], [3, 0], [4, 0], [3, 1]], [[0, 1, 2], [3, 4, 5]])
+    >>> S = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, 6))
+    >>> rows, targets = pinned_rows(two, S, np.array([0, 0, 0, 1, 1, 1], dtype=bool))
+    >>> rows.shape, targets.tolist()
+    ((4, 6), [0.5, 1.5, 1.5, 1.5])
     """
     targets = np.full(S.shape[0], 0.5)
     n_comp, comp = domain.vertex_components

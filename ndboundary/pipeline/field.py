@@ -27,6 +27,15 @@ def graph_distance(domain, sources):
     """Shortest-path distance along the domain's edges from the vertices ``sources``.
 
     Vertices that no path reaches get distance 0 (they get no field direction).
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.field import graph_distance
+    >>> mesh = kuhn_grid(10, 2)
+    >>> d = graph_distance(mesh, [0])  # from the corner (-1, -1), along the grid's edges
+    >>> float(d[0]), round(float(d[mesh.n_vertices - 1]), 6)  # to (1, 1) along the diagonal
+    (0.0, 2.828427)
     """
     e = domain.edges
     w = np.linalg.norm(domain.points[e[:, 0]] - domain.points[e[:, 1]], axis=1)
@@ -51,6 +60,29 @@ def initial_field(domain, padded, region1, sources, u, rtol):
         The heat.
     rtol : float
         The heat solve's tolerance.
+
+    Examples
+    --------
+    Steps 0 to 2 on a labelled disc: the field has unit length and, inside the disc,
+    points inward (against the position).
+
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.padding import pad
+    >>> from ndboundary.pipeline.heat import diffuse
+    >>> from ndboundary.pipeline.field import initial_field
+    >>> mesh = kuhn_grid(10, 2)
+    >>> region1 = label_by(mesh, circle) == 1
+    >>> zeta = element_boundary(mesh, region1)
+    >>> padded = pad(mesh, region1, zeta, "elements")
+    >>> u, _ = diffuse(padded.work, zeta.sources, mesh.mean_edge_length() ** 2, 1e-10)
+    >>> X = initial_field(mesh, padded, region1, zeta.sources, u, 1e-10)
+    >>> X.shape, bool(np.allclose(np.linalg.norm(X, axis=1), 1.0))
+    ((200, 2), True)
+    >>> inside = region1 & (np.linalg.norm(mesh.element_centroids(), axis=1) > 0.3)
+    >>> bool(np.all(np.einsum("ij,ij->i", X[inside], mesh.element_centroids()[inside]) < 0))
+    True
     """
     work = padded.work
     V = domain.n_vertices

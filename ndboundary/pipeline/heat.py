@@ -32,6 +32,17 @@ def diffuse(work, sources, t, rtol):
     -------
     u : ndarray of shape (work.n_vertices,)
     info : SolveInfo
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.heat import diffuse
+    >>> mesh = kuhn_grid(10, 2)
+    >>> zeta = element_boundary(mesh, label_by(mesh, circle) == 1)
+    >>> u, info = diffuse(mesh, zeta.sources, mesh.mean_edge_length() ** 2, 1e-10)
+    >>> u.shape, bool(u.argmax() in zeta.sources), bool(info.residual < 1e-8)
+    ((121,), True, True)
     """
     mass = work.mass
     b = np.zeros(work.n_vertices)

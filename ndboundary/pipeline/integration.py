@@ -37,6 +37,28 @@ class IntegrationSystem:
 
     ``lam`` is the weight used (the given one times ``lam_scale``); ``mass`` is the mass in
     units of ``h`` (ones for ``form="plain"``).
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.padding import pad
+    >>> from ndboundary.pipeline.heat import diffuse
+    >>> from ndboundary.pipeline.field import initial_field
+    >>> from ndboundary.pipeline.smoothing import smooth
+    >>> from ndboundary.pipeline.integration import integration_system, integrate
+    >>> mesh = kuhn_grid(10, 2)
+    >>> h = mesh.mean_edge_length()
+    >>> region1 = label_by(mesh, circle) == 1
+    >>> zeta = element_boundary(mesh, region1)
+    >>> padded = pad(mesh, region1, zeta, "elements")
+    >>> u, _ = diffuse(padded.work, zeta.sources, h**2, 1e-10)
+    >>> X = smooth(padded.work, initial_field(mesh, padded, region1, zeta.sources, u, 1e-10), 60)
+    >>> system = integration_system(padded.work, X, h, padded, zeta.sources, lam=2.0, mu=0.03, form="mass")
+    >>> system.K.shape, system.rhs.shape, system.S.shape, system.mu
+    ((121, 121), (121,), (20, 121), 0.03)
+    >>> bool(0 < system.lam_scale <= 1), bool(abs(system.lam - 2.0 * system.lam_scale) < 1e-12)
+    (True, True)
     """
 
     K: sp.csr_matrix
@@ -61,7 +83,30 @@ def _lam_scale(work, Kh, mh, sources):
 
 
 def integration_system(work, Xs, h, padded, sources, *, lam, mu, form):
-    """Assemble step 4 for the smoothed field ``Xs`` on the padded domain ``work``."""
+    """Assemble step 4 for the smoothed field ``Xs`` on the padded domain ``work``.
+
+    Examples
+    --------
+    Steps 0 to 4 by hand, as :func:`~ndboundary.relax` runs them:
+
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.padding import pad
+    >>> from ndboundary.pipeline.heat import diffuse
+    >>> from ndboundary.pipeline.field import initial_field
+    >>> from ndboundary.pipeline.smoothing import smooth
+    >>> from ndboundary.pipeline.integration import integration_system, integrate
+    >>> mesh = kuhn_grid(10, 2)
+    >>> h = mesh.mean_edge_length()
+    >>> region1 = label_by(mesh, circle) == 1
+    >>> zeta = element_boundary(mesh, region1)
+    >>> padded = pad(mesh, region1, zeta, "elements")
+    >>> u, _ = diffuse(padded.work, zeta.sources, h**2, 1e-10)
+    >>> X = smooth(padded.work, initial_field(mesh, padded, region1, zeta.sources, u, 1e-10), 60)
+    >>> system = integration_system(padded.work, X, h, padded, zeta.sources, lam=2.0, mu=0.03, form="mass")
+    >>> system.K.shape, system.rhs.shape
+    ((121, 121), (121,))
+    """
     k = work.element_dim
     Kh = work.K * h ** (2 - k)
     mh = work.mass / h**k
@@ -74,7 +119,33 @@ def integration_system(work, Xs, h, padded, sources, *, lam, mu, form):
 
 
 def integrate(system, *, rtol, solver, cache=None):
-    """Solve the integration system: ``(phi, SolveInfo)`` on the padded vertices."""
+    """Solve the integration system: ``(phi, SolveInfo)`` on the padded vertices.
+
+    Examples
+    --------
+    Steps 0 to 4 by hand; phi's level set 1/2 is the relaxed boundary:
+
+    >>> from ndboundary import marching_simplices
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.padding import pad
+    >>> from ndboundary.pipeline.heat import diffuse
+    >>> from ndboundary.pipeline.field import initial_field
+    >>> from ndboundary.pipeline.smoothing import smooth
+    >>> from ndboundary.pipeline.integration import integration_system, integrate
+    >>> mesh = kuhn_grid(10, 2)
+    >>> h = mesh.mean_edge_length()
+    >>> region1 = label_by(mesh, circle) == 1
+    >>> zeta = element_boundary(mesh, region1)
+    >>> padded = pad(mesh, region1, zeta, "elements")
+    >>> u, _ = diffuse(padded.work, zeta.sources, h**2, 1e-10)
+    >>> X = smooth(padded.work, initial_field(mesh, padded, region1, zeta.sources, u, 1e-10), 60)
+    >>> system = integration_system(padded.work, X, h, padded, zeta.sources, lam=2.0, mu=0.03, form="mass")
+    >>> phi, info = integrate(system, rtol=1e-10, solver="auto")
+    >>> curve = marching_simplices(mesh.points, mesh.simplices, phi[: mesh.n_vertices])
+    >>> phi.shape, curve.is_closed(), curve.n_components()
+    ((121,), True, 1)
+    """
     return solve_integration(
         system.K, system.mass, system.S, system.lam, system.rhs, mu=system.mu, rtol=rtol, method=solver, cache=cache
     )

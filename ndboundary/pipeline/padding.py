@@ -37,6 +37,17 @@ class Padded:
         a domain component that zeta does not reach.
     targets : ndarray of shape (n_rows,)
         Their values: 1/2 on zeta, 1/2 -/+ 1 on the components without boundary.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.padding import pad
+    >>> mesh = kuhn_grid(10, 2)
+    >>> region1 = label_by(mesh, circle) == 1
+    >>> padded = pad(mesh, region1, element_boundary(mesh, region1), "elements")
+    >>> padded.work is mesh, padded.split.size, padded.S.shape  # nothing to split here
+    (True, 0, (20, 121))
     """
 
     work: object
@@ -63,6 +74,20 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     Returns
     -------
     Padded
+
+    Examples
+    --------
+    A single labelled triangle has all its vertices on zeta: it is split at its barycentre.
+
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.boundary import element_boundary
+    >>> from ndboundary.pipeline.padding import pad
+    >>> mesh = kuhn_grid(10, 2)
+    >>> region1 = np.arange(mesh.n_elements) == 0
+    >>> padded = pad(mesh, region1, element_boundary(mesh, region1), "elements")
+    >>> padded.split.tolist(), padded.work.n_vertices, padded.work.n_elements
+    ([0], 122, 202)
     """
     inc = domain.incidence
     if on == "elements":

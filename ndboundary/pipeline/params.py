@@ -22,7 +22,19 @@ PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain", "mu": 0.0}
 
 
 def check_params(*, on, lam, smoothing, mu, t, form, rtol, solver):
-    """Validate the parameters of :func:`~ndboundary.relax`; returns them normalised as a dict."""
+    """Validate the parameters of :func:`~ndboundary.relax`; returns them normalised as a dict.
+
+    Examples
+    --------
+    >>> from ndboundary.pipeline.params import check_params
+    >>> p = check_params(on="elements", lam=2.0, smoothing=60, mu=0.03, t=None, form="mass", rtol=1e-10, solver="auto")
+    >>> p["t"], p["smoothing"]  # t defaults to 1 (in units of h^2)
+    (1.0, 60)
+    >>> check_params(on="edges", lam=2.0, smoothing=60, mu=0.03, t=None, form="mass", rtol=1e-10, solver="auto")
+    Traceback (most recent call last):
+    ...
+    ValueError: on must be 'elements' or 'vertices', got 'edges'
+    """
     if on not in ("elements", "vertices"):
         raise ValueError(f"on must be 'elements' or 'vertices', got {on!r}")
     if form not in ("mass", "plain"):

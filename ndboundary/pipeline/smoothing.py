@@ -13,5 +13,17 @@ __all__ = ["smooth"]
 
 
 def smooth(work, X, passes):
-    """``passes`` smoothing passes of the field ``X`` (not modified) on the padded domain."""
+    """``passes`` smoothing passes of the field ``X`` (not modified) on the padded domain.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.smoothing import smooth
+    >>> mesh = kuhn_grid(10, 2)
+    >>> X = np.random.default_rng(0).normal(size=(mesh.n_elements, 2))
+    >>> Xs = smooth(mesh, X, 10)
+    >>> Xs.shape, bool(np.allclose(np.linalg.norm(Xs, axis=1), 1.0)), smooth(mesh, X, 0) is X
+    ((200, 2), True, True)
+    """
     return work.smooth_field(X, passes) if passes else X
