@@ -10,6 +10,9 @@ import numpy as np
 
 __all__ = ["main"]
 
+#: Where ``ndboundary demo`` writes its files without ``--out``, relative to the current directory.
+DEMO_DIR = "ndboundary-demo"
+
 
 class _CLIError(Exception):
     """An error reported as one line on stderr, with a non-zero exit status."""
@@ -62,9 +65,8 @@ def cmd_demo(args):
     from .metrics import as_complex, fidelity
     from .pipeline import relax
 
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+    out = Path(args.out) if args.out else Path(DEMO_DIR)
+    out.mkdir(parents=True, exist_ok=True)
     pictures = []
     print(f"{'case':<38s} {'':>9s} {'mean/h':>7s} {'max/h':>7s} {'excess':>8s} {'time':>7s}")
     for name, dom, truth, s in _demo_cases():
@@ -80,17 +82,16 @@ def cmd_demo(args):
             f = fidelity(cx, dist, s)
             excess = 100 * (cx.measure() / true_measure - 1)
             t = f"{res.timings['total']:6.2f}s" if tag == "relaxed" else ""
-            print(f"{name if tag == 'jagged' else '':<38s} {tag:>9s} {f['mean']:7.3f} {f['max']:7.3f} {excess:+7.2f}% {t:>7s}")
-        if out is not None:
-            stem = "flower2d" if dom.dim == 2 else "ball3d"
-            _write_files(out, stem, res, labels, ls, jag)
-            if dom.dim == 2:
-                pictures.append((res, labels, out / f"{stem}.png"))
+            print(f"{name if tag == 'jagged' else '':<38s} {tag:>9s} {f['mean']:7.3f} {f['max']:7.3f} "
+                  f"{excess:+7.2f}% {t:>7s}")
+        stem = "flower2d" if dom.dim == 2 else "ball3d"
+        _write_files(out, stem, res, labels, ls, jag)
+        if dom.dim == 2:
+            pictures.append((res, labels, out / f"{stem}.png"))
     print("h = grid cell size; excess = length (2-D) or area (3-D) over the true boundary's")
-    if out is not None:
-        print(f"wrote phi (VTU) and the jagged and relaxed boundaries (OBJ) to {out}/")
-        for job in pictures:
-            _save_picture(*job)
+    print(f"wrote phi (VTU) and the jagged and relaxed boundaries (OBJ) to {out}/")
+    for job in pictures:
+        _save_picture(*job)
     return 0
 
 
@@ -148,7 +149,11 @@ def build_parser():
         description="Relax built-in jagged segmentations (2-D flower, 3-D ball) with default "
         "parameters and print their distance to the known smooth truth.",
     )
-    demo.add_argument("--out", metavar="DIR", help="write the jagged and relaxed boundaries here")
+    demo.add_argument(
+        "--out", metavar="DIR",
+        help="folder for phi (VTU), the jagged and relaxed boundaries (OBJ) and the picture "
+        f"(default: ./{DEMO_DIR}, created if missing)",
+    )
     demo.add_argument("--verbose", action="store_true", help="print per-step times")
     demo.set_defaults(func=cmd_demo)
 

@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -18,6 +19,19 @@ def test_demo_writes_boundaries_and_reports_fidelity(tmp_path, capsys):
     lines = (tmp_path / "flower2d_relaxed.obj").read_text().splitlines()
     assert any(line.startswith("l ") for line in lines) and any(line.startswith("v ") for line in lines)
     assert any(line.startswith("f ") for line in (tmp_path / "ball3d_relaxed.obj").read_text().splitlines())
+
+
+def test_demo_without_out_writes_to_ndboundary_demo(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    folder = tmp_path / "ndboundary-demo"
+    for name in ("flower2d_relaxed.obj", "flower2d_jagged.obj", "ball3d_relaxed.obj", "ball3d_jagged.obj",
+                 "flower2d.png", "flower2d_phi.vtu", "ball3d_phi.vtu"):
+        assert (folder / name).stat().st_size > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ndboundary-demo"]  # nothing beside the folder
+    assert f"to {Path('ndboundary-demo')}/" in out
+    assert str(Path("ndboundary-demo") / "flower2d.png") in out
 
 
 def test_no_command_prints_help(capsys):

@@ -5,25 +5,27 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ndboundary import SimplicialComplex, marching_simplices, relax
+from ndboundary import (
+    PolygonMesh,
+    PolyhedralMesh,
+    SimplicialComplex,
+    marching_simplices,
+    read_labels,
+    read_mesh,
+    relax,
+    write_labels,
+    write_level_set,
+    write_mesh,
+    write_phi,
+)
 from ndboundary import datasets as ds
-from ndboundary._polydata import hex_grid, quad_grid, voronoi_polygons
-from ndboundary.io import read_labels, read_mesh, write_labels, write_level_set, write_mesh, write_phi
+from ndboundary.datasets import hex_grid, quad_grid, voronoi_polygons
 from ndboundary.metrics import fidelity
-from ndboundary.polygon import PolygonMesh
-from ndboundary.polyhedral import PolyhedralMesh
 
 pytest.importorskip("meshio")
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 MESHES = DATA / "meshes"
-
-
-def level_set(result):
-    hook = getattr(result.domain, "_level_set_complex", None)
-    if hook is None:
-        return result.level_set()
-    return marching_simplices(*hook(result.phi), 0.5)
 
 
 def same_cells(a, b):
@@ -34,7 +36,7 @@ def same_cells(a, b):
         elif isinstance(d, PolygonMesh):
             rows = d.polygons
         else:
-            cell, vert = d._cell_vertices
+            cell, vert = d.cell_vertices
             rows = np.split(vert, np.flatnonzero(np.diff(cell)) + 1)
         return sorted(tuple(sorted(int(i) for i in r)) for r in rows)
 
@@ -47,7 +49,7 @@ QUAD = quad_grid(3, jitter=0.2, random_state=0)
 POLY = voronoi_polygons(3, random_state=0)
 HEX = hex_grid(2, jitter=0.2, random_state=0)
 TET = ds.kuhn_grid(2, 3, jitter=0.1, random_state=0)
-VOROCELLS = HEX._split_elements(np.r_[True, np.zeros(7, dtype=bool)])[0]  # pyramids: general polyhedra
+VOROCELLS = HEX.split_elements(np.r_[True, np.zeros(7, dtype=bool)])[0]  # pyramids: general polyhedra
 
 CASES = [
     (TRI2, ".obj"), (TRI2, ".off"), (TRI2, ".ply"), (TRI2, ".vtk"), (TRI2, ".vtu"), (TRI2, ".msh"), (TRI2, ".mesh"),
@@ -132,7 +134,7 @@ def test_phi_level_set_and_labels_writers(tmp_path):
     np.testing.assert_allclose(m.point_data["u"], res.u)
     np.testing.assert_array_equal(m.cell_data["labels"][0], lab)
 
-    curve = level_set(res)
+    curve = res.level_set()
     for ext in (".obj", ".ply", ".vtk", ".vtu"):
         write_level_set(tmp_path / f"ls{ext}", curve)
     back = read_mesh(tmp_path / "ls.obj")
@@ -141,14 +143,26 @@ def test_phi_level_set_and_labels_writers(tmp_path):
     assert meshio.read(tmp_path / "ls.vtk").cells[0].data.shape == (curve.n_simplices, 2)
     assert "element edge" in (tmp_path / "ls.ply").read_text()
 
+
+def test_surface_level_set_and_unlabelled_phi_writers(tmp_path):
+    import meshio
+
     ball = (HEX.element_centroids()[:, 0] > 0).astype(int)
     res3 = relax(HEX, ball, on="elements")
-    surf = level_set(res3)
-    write_level_set(tmp_path / "s.obj", surf)
-    write_level_set(tmp_path / "s.ply", surf)
-    s = read_mesh(tmp_path / "s.ply")
-    assert s.simplex_dim == 2 and np.isclose(s.A.sum(), surf.measure())
+    surf = res3.level_set()
+    for ext in (".obj", ".ply"):
+        write_level_set(tmp_path / f"s{ext}", surf)
+        s = read_mesh(tmp_path / f"s{ext}")
+        assert s.simplex_dim == 2 and s.n_elements == surf.n_simplices
+        assert np.isclose(s.A.sum(), surf.measure())
     write_phi(tmp_path / "phi3.vtu", res3)
+    m = meshio.read(tmp_path / "phi3.vtu")
+    np.testing.assert_allclose(m.points, HEX.points)
+    np.testing.assert_allclose(m.point_data["phi"], res3.phi)
+    np.testing.assert_allclose(m.point_data["u"], res3.u)
+    assert "labels" not in m.point_data and "labels" not in m.cell_data  # none given
+    np.testing.assert_allclose(m.cell_data["field"][0], res3.field)
+    np.testing.assert_allclose(m.cell_data["smoothed_field"][0], res3.smoothed_field)
 
 
 @pytest.mark.parametrize("ext", [".txt", ".seg", ".npy"])
@@ -169,62 +183,76 @@ def test_labels_floats_and_strings(tmp_path):
     assert read_labels(p).tolist() == ["g", "b"]
 
 
-def test_errors(tmp_path):
-    with pytest.raises(FileNotFoundError, match="nope.obj"):
-        read_mesh(tmp_path / "nope.obj")
-    with pytest.raises(FileNotFoundError, match="nope.txt"):
-        read_labels(tmp_path / "nope.txt")
-    (tmp_path / "x.xyz").write_text("1 2 3\n")
-    with pytest.raises(ValueError, match=r"x\.xyz.*unknown mesh format '\.xyz'"):
-        read_mesh(tmp_path / "x.xyz")
-    with pytest.raises(ValueError, match="unknown mesh format"):
-        write_mesh(tmp_path / "x.xyz", QUAD)
-    (tmp_path / "bad.off").write_text("NOT OFF\n")
-    with pytest.raises(ValueError, match=r"bad\.off.*not an OFF file"):
-        read_mesh(tmp_path / "bad.off")
-    (tmp_path / "short.off").write_text("OFF\n4 1 0\n0 0 0\n1 0 0\n")
-    with pytest.raises(ValueError, match=r"short\.off.*shorter"):
-        read_mesh(tmp_path / "short.off")
-    (tmp_path / "bad.obj").write_text("v 0 0 zero\n")
-    with pytest.raises(ValueError, match=r"bad\.obj: line 1 is not valid OBJ"):
-        read_mesh(tmp_path / "bad.obj")
-    (tmp_path / "empty.obj").write_text("v 0 0 0\n")
-    with pytest.raises(ValueError, match="no cells"):
-        read_mesh(tmp_path / "empty.obj")
-    (tmp_path / "degenerate.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
-    with pytest.raises(ValueError, match=r"degenerate\.obj: simplex 0 .* zero area"):
-        read_mesh(tmp_path / "degenerate.obj")
-    (tmp_path / "bad.hedra").write_text("8 6 1\n0 0 0\n")
-    with pytest.raises(ValueError, match=r"bad\.hedra.*malformed HEDRA"):
-        read_mesh(tmp_path / "bad.hedra")
-    (tmp_path / "bad.vtu").write_text("<not xml")
-    with pytest.raises(ValueError, match=r"bad\.vtu: could not read"):
-        read_mesh(tmp_path / "bad.vtu")
-    with pytest.raises(ValueError, match="cannot hold polygon"):
-        write_mesh(tmp_path / "p.mesh", POLY)
-    with pytest.raises(ValueError, match="surfaces only"):
-        write_mesh(tmp_path / "h.obj", HEX)
-    with pytest.raises(ValueError, match="HEDRA holds polyhedra"):
-        write_mesh(tmp_path / "q.hedra", QUAD)
-    with pytest.raises(ValueError, match="carries no data"):
-        write_mesh(tmp_path / "q.obj", QUAD, point_data={"f": np.zeros(QUAD.n_vertices)})
-    with pytest.raises(ValueError, match="'f' has shape"):
-        write_mesh(tmp_path / "q.vtu", QUAD, point_data={"f": np.zeros(3)})
-    with pytest.raises(TypeError, match="cannot write a str"):
-        write_mesh(tmp_path / "q.vtu", "mesh")
-    (tmp_path / "h.txt").write_text("SCALAR_FIELD 3\n0\n1\n")
-    with pytest.raises(ValueError, match="announces 3 labels but the file holds 2"):
-        read_labels(tmp_path / "h.txt")
-    (tmp_path / "e.txt").write_text("\n")
-    with pytest.raises(ValueError, match="no labels"):
-        read_labels(tmp_path / "e.txt")
+#: Bad input files, written by the ``bad_files`` fixture for every error case.
+BAD_FILES = {
+    "x.xyz": "1 2 3\n",
+    "bad.off": "NOT OFF\n",
+    "short.off": "OFF\n4 1 0\n0 0 0\n1 0 0\n",
+    "counts.off": "OFF\n",
+    "bad.obj": "v 0 0 zero\n",
+    "empty.obj": "v 0 0 0\n",
+    "degenerate.obj": "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+    "bad.hedra": "8 6 1\n0 0 0\n",
+    "bad.vtu": "<not xml",
+    "h.txt": "SCALAR_FIELD 3\n0\n1\n",
+    "e.txt": "\n",
+}
+
+
+@pytest.fixture
+def bad_files(tmp_path):
+    for name, text in BAD_FILES.items():
+        (tmp_path / name).write_text(text)
     np.save(tmp_path / "two.npy", np.zeros((2, 2)))
-    with pytest.raises(ValueError, match="one-dimensional"):
-        read_labels(tmp_path / "two.npy")
-    with pytest.raises(ValueError, match="one-dimensional"):
-        write_labels(tmp_path / "w.txt", np.zeros((2, 2)))
-    with pytest.raises(ValueError, match="unknown level set format"):
-        write_level_set(tmp_path / "l.stl", marching_simplices(TRI2.points, TRI2.simplices, TRI2.points[:, 0], 0.0))
+    return tmp_path
+
+
+def level_set_of_x():
+    return marching_simplices(TRI2.points, TRI2.simplices, TRI2.points[:, 0], 0.0)
+
+
+ERRORS = [
+    pytest.param(lambda d: read_mesh(d / "nope.obj"), FileNotFoundError, "nope.obj", id="read_mesh-missing"),
+    pytest.param(lambda d: read_labels(d / "nope.txt"), FileNotFoundError, "nope.txt", id="read_labels-missing"),
+    pytest.param(lambda d: read_mesh(d / "x.xyz"), ValueError, r"x\.xyz.*unknown mesh format '\.xyz'",
+                 id="read_mesh-unknown-extension"),
+    pytest.param(lambda d: write_mesh(d / "x.xyz", QUAD), ValueError, "unknown mesh format",
+                 id="write_mesh-unknown-extension"),
+    pytest.param(lambda d: read_mesh(d / "bad.off"), ValueError, r"bad\.off.*not an OFF file", id="off-no-header"),
+    pytest.param(lambda d: read_mesh(d / "short.off"), ValueError, r"short\.off.*shorter", id="off-short"),
+    pytest.param(lambda d: read_mesh(d / "counts.off"), ValueError, r"counts\.off: malformed OFF", id="off-no-counts"),
+    pytest.param(lambda d: read_mesh(d / "bad.obj"), ValueError, r"bad\.obj: line 1 is not valid OBJ",
+                 id="obj-bad-number"),
+    pytest.param(lambda d: read_mesh(d / "empty.obj"), ValueError, "no cells", id="obj-no-cells"),
+    pytest.param(lambda d: read_mesh(d / "degenerate.obj"), ValueError, r"degenerate\.obj: simplex 0 .* zero area",
+                 id="obj-degenerate-triangle"),
+    pytest.param(lambda d: read_mesh(d / "bad.hedra"), ValueError, r"bad\.hedra.*malformed HEDRA", id="hedra-short"),
+    pytest.param(lambda d: read_mesh(d / "bad.vtu"), ValueError, r"bad\.vtu: could not read", id="vtu-not-xml"),
+    pytest.param(lambda d: write_mesh(d / "p.mesh", POLY), ValueError, "cannot hold polygon",
+                 id="write-polygons-to-medit"),
+    pytest.param(lambda d: write_mesh(d / "h.obj", HEX), ValueError, "surfaces only", id="write-solid-to-obj"),
+    pytest.param(lambda d: write_mesh(d / "q.hedra", QUAD), ValueError, "HEDRA holds polyhedra",
+                 id="write-quads-to-hedra"),
+    pytest.param(lambda d: write_mesh(d / "q.obj", QUAD, point_data={"f": np.zeros(QUAD.n_vertices)}), ValueError,
+                 "carries no data", id="write-data-to-obj"),
+    pytest.param(lambda d: write_mesh(d / "q.vtu", QUAD, point_data={"f": np.zeros(3)}), ValueError,
+                 "'f' has shape", id="write-data-wrong-length"),
+    pytest.param(lambda d: write_mesh(d / "q.vtu", "mesh"), TypeError, "cannot write a str", id="write-not-a-domain"),
+    pytest.param(lambda d: read_labels(d / "h.txt"), ValueError, "announces 3 labels but the file holds 2",
+                 id="labels-header-count"),
+    pytest.param(lambda d: read_labels(d / "e.txt"), ValueError, "no labels", id="labels-empty"),
+    pytest.param(lambda d: read_labels(d / "two.npy"), ValueError, "one-dimensional", id="labels-npy-2d"),
+    pytest.param(lambda d: write_labels(d / "w.txt", np.zeros((2, 2))), ValueError, "one-dimensional",
+                 id="write-labels-2d"),
+    pytest.param(lambda d: write_level_set(d / "l.stl", level_set_of_x()), ValueError, "unknown level set format",
+                 id="level-set-to-stl"),
+]
+
+
+@pytest.mark.parametrize(("case", "error", "message"), ERRORS)
+def test_errors(bad_files, case, error, message):
+    with pytest.raises(error, match=message):
+        case(bad_files)
 
 
 # -- the shared meshes --------------------------------------------------------------------------
@@ -246,7 +274,7 @@ def test_shared_mesh_reads_and_relaxes(name):
 
     labels = (plane(domain.element_centroids()) > 0).astype(int)
     res = relax(domain, labels, on="elements")
-    curve = level_set(res)
+    curve = res.level_set()
     assert curve.n_simplices > 0
     assert fidelity(curve, plane, domain.mean_edge_length())["mean"] < 0.25
 

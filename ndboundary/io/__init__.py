@@ -1,0 +1,52 @@
+"""Reading and writing meshes, relaxed functions, level sets and labels.
+
+Formats, chosen by the file extension (case-insensitive):
+
+========================  ==============================  ==============================
+extension                 read                            write
+========================  ==============================  ==============================
+``.obj``, ``.off``        triangles, polygons, segments   triangles, polygons, segments
+``.hedra``                polyhedra (CinoLib)             polyhedra, tetrahedra
+``.ply``                  triangles, polygons (meshio)    triangles, polygons
+``.stl``                  triangles (meshio)              triangles
+``.mesh`` (MEDIT),        triangles, quads, tetrahedra,   the same
+``.msh`` (Gmsh)           hexahedra, wedges, pyramids
+``.vtk``, ``.vtu``        any of the above; ``.vtu``      any (``.vtu`` also general
+                          also general polyhedra          polyhedra)
+========================  ==============================  ==============================
+
+meshio (optional dependency, ``meshio>=5.3``) is imported only for the formats it
+handles; OBJ, OFF and HEDRA are read and written here (meshio's OFF is triangles
+only, and its OBJ ignores segments).
+
+:func:`read_mesh` returns the matching domain: a :class:`~ndboundary.SimplicialComplex`
+for segments, triangles or tetrahedra alone, a :class:`~ndboundary.PolygonMesh` for
+quads and polygons, a :class:`~ndboundary.PolyhedralMesh` for other solids. When a
+file holds cells of several dimensions (a MEDIT file listing the boundary triangles
+of a tetrahedral solid), the highest-dimensional cells are kept; vertex indices are
+kept as in the file, except that vertices no kept cell uses are dropped (see
+:func:`read_mesh`). A curve or surface mesh whose third coordinate is zero everywhere is
+read with 2-D points.
+
+Modules:
+
+==============================  ===========================================================
+module                          holds
+==============================  ===========================================================
+:mod:`.meshes`                  :func:`read_mesh`, :func:`write_mesh`: dispatch by extension
+:mod:`.results`                 :func:`write_phi`, :func:`write_level_set`
+:mod:`.labels`                  :func:`read_labels`, :func:`write_labels`
+:mod:`.cell_blocks`             cell blocks (the form between files and domains) to domains
+                                and back
+:mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, the
+:mod:`.hedra`, :mod:`.ply`      ASCII PLY level-set writer
+:mod:`.meshio_formats`          PLY, STL, MEDIT, Gmsh, VTK and VTU through meshio
+:mod:`.common`                  file and extension checks, 3-D points
+==============================  ===========================================================
+"""
+
+from .labels import read_labels, write_labels
+from .meshes import read_mesh, write_mesh
+from .results import write_level_set, write_phi
+
+__all__ = ["read_mesh", "write_mesh", "write_phi", "write_level_set", "read_labels", "write_labels"]

@@ -1,0 +1,156 @@
+"""The formats read and written through meshio: PLY, STL, MEDIT, Gmsh, VTK and VTU.
+
+meshio (``meshio>=5.3``, the ``io`` extra) is imported on the first use of one of
+these formats, so that OBJ, OFF and HEDRA work without it.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .cell_blocks import CELL_DIMENSIONS
+from .common import points_3d
+
+__all__ = ["MESHIO_EXTENSIONS", "WRITABLE_KINDS", "read_with_meshio", "write_with_meshio"]
+
+#: The block kinds every meshio format can hold (``"polyhedron"`` for any ``"polyhedron<n>"``).
+WRITABLE_KINDS = {
+    ".stl": {"triangle"},
+    ".ply": {"triangle", "quad", "polygon", "line"},
+    ".mesh": {"line", "triangle", "quad", "tetra", "hexahedron"},
+    ".msh": {"line", "triangle", "quad", "tetra", "hexahedron"},
+    ".vtk": {"line", "triangle", "quad", "polygon", "tetra", "hexahedron"},
+    ".vtu": {"line", "triangle", "quad", "polygon", "tetra", "hexahedron", "polyhedron"},
+}
+#: The extensions of the formats read and written through meshio.
+MESHIO_EXTENSIONS = set(WRITABLE_KINDS)
+
+
+def _import_meshio():
+    try:
+        import meshio
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise ImportError("reading and writing this format needs meshio: pip install 'meshio>=5.3'") from None
+    return meshio
+
+
+def read_with_meshio(path):
+    """Read a file with meshio, as points and cell blocks.
+
+    Cells of types the domains do not use (vertices, quadratic cells) are left out.
+
+    Parameters
+    ----------
+    path : path-like
+        Any format meshio reads; the extension picks it.
+
+    Returns
+    -------
+    points : ndarray of shape (n_vertices, 3)
+    blocks : list of (kind, data)
+        meshio's cell types, polygons of any size as ``"polygon"`` blocks and general
+        polyhedra as ``"polyhedron"`` blocks (see :mod:`ndboundary.io.cell_blocks`).
+
+    Raises
+    ------
+    ValueError
+        When meshio cannot read the file (its error is quoted).
+    ImportError
+        When meshio is not installed.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import meshio
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "t.vtu")
+    ...     meshio.write(path, meshio.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [("triangle", [[0, 1, 2]])]))
+    ...     points, blocks = read_with_meshio(path)
+    >>> points.shape, [(kind, data.tolist()) for kind, data in blocks]
+    ((3, 3), [('triangle', [[0, 1, 2]])])
+    """
+    meshio = _import_meshio()
+    try:
+        with warnings.catch_warnings():
+            # meshio tells ASCII from binary STL by a size test that overflows on ASCII files
+            warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
+            m = meshio.read(os.fspath(path))
+    except (Exception, SystemExit) as exc:  # meshio exits on some unreadable files
+        raise ValueError(f"{path}: could not read the file: {type(exc).__name__}: {exc}") from None
+    blocks = []
+    for c in m.cells:
+        t = c.type
+        if t.startswith("polyhedron"):
+            blocks.append(("polyhedron", c.data))
+        elif t.startswith("polygon"):
+            blocks.append(("polygon", [list(r) for r in np.asarray(c.data)]))
+        elif t in CELL_DIMENSIONS:
+            blocks.append((t, np.asarray(c.data)))
+    return np.asarray(m.points, dtype=np.float64), blocks
+
+
+def write_with_meshio(path, points, blocks, *, order=None, point_data=None, cell_data=None):
+    """Write points, cell blocks and data arrays with meshio.
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.ply``, ``.stl``, ``.mesh``, ``.msh``, ``.vtk`` or ``.vtu`` file. Gmsh files
+        are written in the ASCII format 2.2 (meshio's ``gmsh22``), the others in
+        meshio's default encoding for the format.
+    points : array-like of shape (n_vertices, d), d <= 3
+        Written with three coordinates (zeros appended), as every one of these formats
+        wants.
+    blocks : list of (kind, data)
+        As :func:`~ndboundary.io.cell_blocks.blocks_from_domain` gives them.
+    order : list of array-like of int, optional
+        Per block, the elements it holds, to split ``cell_data`` by block; needed only
+        with ``cell_data``.
+    point_data : dict of str to array-like, optional
+        Per-vertex arrays; none by default.
+    cell_data : dict of str to array-like, optional
+        Per-element arrays, in element order; none by default.
+
+    Raises
+    ------
+    ValueError
+        When the format cannot hold a block's cells (the message suggests one that can),
+        or meshio fails to write (its error is quoted).
+    ImportError
+        When meshio is not installed.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import meshio
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "t.vtu")
+    ...     write_with_meshio(path, [[0, 0], [1, 0], [0, 1]], [("triangle", [[0, 1, 2]])],
+    ...                       order=[[0]], cell_data={"label": [7]})
+    ...     back = meshio.read(path)
+    >>> back.points.tolist(), back.cell_data["label"][0].tolist()
+    ([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [7])
+    """
+    meshio = _import_meshio()
+    ext = Path(os.fspath(path)).suffix.lower()
+    kinds = {"polyhedron" if k.startswith("polyhedron") else k for k, _ in blocks}
+    bad = kinds - WRITABLE_KINDS[ext]
+    if bad:
+        raise ValueError(
+            f"{path}: the {ext} format cannot hold {', '.join(sorted(bad))} cells; "
+            f"use one of {', '.join(sorted(e for e, k in WRITABLE_KINDS.items() if bad <= k) or ['.vtu'])}"
+        )
+    cells = [(k, np.asarray(d, dtype=np.int32) if not k.startswith("polyhedron") else d) for k, d in blocks]
+    cd = {name: [np.asarray(v)[o] for o in order] for name, v in (cell_data or {}).items()}
+    mesh = meshio.Mesh(points_3d(points), cells, point_data=point_data or {}, cell_data=cd)
+    try:
+        if ext == ".msh":
+            meshio.write(os.fspath(path), mesh, file_format="gmsh22", binary=False)
+        else:
+            meshio.write(os.fspath(path), mesh)
+    except Exception as exc:
+        raise ValueError(f"{path}: could not write: {type(exc).__name__}: {exc}") from None
