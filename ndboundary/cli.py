@@ -28,10 +28,10 @@ def _demo_cases():
 def _flower_truth():
     """Distance to the flower curve and the curve's length."""
     from .datasets import flower_curve
-    from .metrics import curve_distance
+    from .metrics import closed_curve_length, curve_distance
 
     c = flower_curve()
-    return curve_distance(c), float(np.linalg.norm(np.roll(c, 1, axis=0) - c, axis=1).sum())
+    return curve_distance(c), closed_curve_length(c)
 
 
 def _write_files(out, stem, result, labels, relaxed, jagged):
@@ -82,8 +82,10 @@ def cmd_demo(args):
             f = fidelity(cx, dist, s)
             excess = 100 * (cx.measure() / true_measure - 1)
             t = f"{res.timings['total']:6.2f}s" if tag == "relaxed" else ""
-            print(f"{name if tag == 'jagged' else '':<38s} {tag:>9s} {f['mean']:7.3f} {f['max']:7.3f} "
-                  f"{excess:+7.2f}% {t:>7s}")
+            print(
+                f"{name if tag == 'jagged' else '':<38s} {tag:>9s} {f['mean']:7.3f} {f['max']:7.3f} "
+                f"{excess:+7.2f}% {t:>7s}"
+            )
         stem = "flower2d" if dom.dim == 2 else "ball3d"
         _write_files(out, stem, res, labels, ls, jag)
         if dom.dim == 2:
@@ -150,7 +152,8 @@ def build_parser():
         "parameters and print their distance to the known smooth truth.",
     )
     demo.add_argument(
-        "--out", metavar="DIR",
+        "--out",
+        metavar="DIR",
         help="folder for phi (VTU), the jagged and relaxed boundaries (OBJ) and the picture "
         f"(default: ./{DEMO_DIR}, created if missing)",
     )
@@ -169,14 +172,29 @@ def build_parser():
     rel.add_argument("--boundary", metavar="OUT.obj", help="where to write the relaxed boundary (OBJ, PLY or VTK)")
     rel.add_argument("--lam", type=float, help="weight of the boundary term (default 2.0)")
     rel.add_argument("--smoothing", type=int, help="field smoothing passes (default 60)")
-    rel.add_argument("--on", choices=("auto", "elements", "vertices"), default="auto",
-                     help="what the labels are given on (default: by their count)")
+    rel.add_argument(
+        "--on",
+        choices=("auto", "elements", "vertices"),
+        default="auto",
+        help="what the labels are given on (default: by their count)",
+    )
     rel.add_argument("--quiet", action="store_true", help="no progress display")
     rel.set_defaults(func=cmd_relax)
     return parser
 
 
 def main(argv=None):
+    """Run the ``ndboundary`` command with the arguments ``argv`` (default: the command line).
+
+    Returns the exit status: 0 on success, 1 on an error (reported as one line on stderr),
+    2 when no command is given.
+
+    Examples
+    --------
+    >>> from ndboundary.cli import main
+    >>> main(["relax", "no-such-mesh.obj", "labels.txt", "-o", "out.vtu"])
+    1
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -29,7 +29,14 @@ __all__ = ["CELL_DIMENSIONS", "MESH_DOMAINS", "blocks_from_domain", "check_mesh_
 
 #: Dimension of the cells of every block kind with vertex rows (meshio's cell type names).
 CELL_DIMENSIONS = {
-    "line": 1, "triangle": 2, "quad": 2, "polygon": 2, "tetra": 3, "hexahedron": 3, "wedge": 3, "pyramid": 3,
+    "line": 1,
+    "triangle": 2,
+    "quad": 2,
+    "polygon": 2,
+    "tetra": 3,
+    "hexahedron": 3,
+    "wedge": 3,
+    "pyramid": 3,
 }
 #: The domains a mesh file can hold.
 MESH_DOMAINS = (SimplicialComplex, PolygonMesh, PolyhedralMesh)
@@ -62,6 +69,7 @@ def check_mesh_domain(domain):
 
 # -- blocks to a domain -------------------------------------------------------------------------
 
+
 def _block_dim(kind):
     return 3 if kind in ("hedra", "polyhedron") else CELL_DIMENSIONS[kind]
 
@@ -82,7 +90,7 @@ def _drop_unused(points, blocks):
                 for f in cell:
                     used[np.asarray(f)] = True
         else:
-            for r in (data if not isinstance(data, np.ndarray) else [data.ravel()]):
+            for r in data if not isinstance(data, np.ndarray) else [data.ravel()]:
                 used[np.asarray(r, dtype=np.int64)] = True
     if used.all():
         return points, blocks
@@ -121,7 +129,7 @@ def _polyhedra_from_blocks(blocks):
     width = max(len(f) for f in faces)
     pad = np.full((len(faces), width), -1, dtype=np.int64)
     for i, f in enumerate(faces):
-        pad[i, :len(f)] = np.sort(f)
+        pad[i, : len(f)] = np.sort(f)
     ids, n = group_rows(pad)
     first = first_of_groups(ids, n)
     return [faces[i] for i in first], [ids[c] for c in cells]
@@ -191,12 +199,13 @@ def domain_from_blocks(points, blocks, *, drop_unused=True) -> Domain:
 
 # -- a domain to blocks -------------------------------------------------------------------------
 
+
 def _oriented_loops(mesh, c):
     """The face vertex loops of cell ``c`` of a PolyhedralMesh, each turning outwards."""
     loops = []
     for k in range(mesh.cell_offsets[c], mesh.cell_offsets[c + 1]):
         f = mesh.cell_faces[k]
-        loop = mesh.face_indices[mesh.face_offsets[f]:mesh.face_offsets[f + 1]]
+        loop = mesh.face_indices[mesh.face_offsets[f] : mesh.face_offsets[f + 1]]
         loops.append(loop if mesh.cell_face_signs[k] > 0 else loop[::-1])
     return loops
 

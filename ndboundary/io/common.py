@@ -75,7 +75,7 @@ def format_suffix(path, allowed, what) -> str:
 
 
 def uncommented_lines(path) -> list:
-    """The lines of a text file, each cut at its first ``#`` (a comment runs to the line's end).
+    r"""The lines of a text file, each cut at its first ``#`` (a comment runs to the line's end).
 
     Parameters
     ----------

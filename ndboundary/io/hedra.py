@@ -56,21 +56,23 @@ def read_hedra(path):
     try:
         nv, nf, nc = (int(t) for t in toks[:3])
         pos = 3
-        points = np.array(toks[pos:pos + 3 * nv], dtype=np.float64).reshape(nv, 3)
+        points = np.array(toks[pos : pos + 3 * nv], dtype=np.float64).reshape(nv, 3)
         pos += 3 * nv
         faces = []
         for _ in range(nf):
             k = int(toks[pos])
-            faces.append([int(t) - 1 for t in toks[pos + 1:pos + 1 + k]])
+            faces.append([int(t) - 1 for t in toks[pos + 1 : pos + 1 + k]])
             pos += 1 + k
         cells = []
         for _ in range(nc):
             k = int(toks[pos])
-            cells.append([abs(int(t)) - 1 for t in toks[pos + 1:pos + 1 + k]])
+            cells.append([abs(int(t)) - 1 for t in toks[pos + 1 : pos + 1 + k]])
             pos += 1 + k
     except (ValueError, IndexError) as exc:
-        raise ValueError(f"{path}: malformed HEDRA content (expected 'n_vertices n_faces n_cells', "
-                         f"then vertices, faces and cells): {exc}") from None
+        raise ValueError(
+            f"{path}: malformed HEDRA content (expected 'n_vertices n_faces n_cells', "
+            f"then vertices, faces and cells): {exc}"
+        ) from None
     if len(cells) != nc or any(len(c) == 0 for c in cells[-1:]):
         raise ValueError(f"{path}: HEDRA file is shorter than its header announces")
     return points, [("hedra", (faces, cells))]

@@ -13,7 +13,7 @@ __all__ = ["read_labels", "write_labels"]
 
 
 def read_labels(path):
-    """Read labels: one per line, optionally after a ``SCALAR_FIELD n`` header; or a ``.npy`` array.
+    r"""Read labels: one per line, optionally after a ``SCALAR_FIELD n`` header; or a ``.npy`` array.
 
     Blank lines and lines starting with ``#`` are skipped.
 

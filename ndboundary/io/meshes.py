@@ -22,7 +22,7 @@ DATA_EXTENSIONS = (".vtu", ".vtk", ".msh", ".ply")
 
 
 def read_mesh(path, *, drop_unused=True) -> Domain:
-    """Read a mesh file into the matching domain.
+    r"""Read a mesh file into the matching domain.
 
     Parameters
     ----------

@@ -21,7 +21,7 @@ def _vertex_indices(tokens, n_points):
 
 
 def read_obj(path):
-    """Read the vertices and the faces (else the polylines) of an OBJ file as cell blocks.
+    r"""Read the vertices and the faces (else the polylines) of an OBJ file as cell blocks.
 
     Texture coordinates, normals, groups and materials are ignored. Faces come as one
     ``"polygon"`` block; a file without faces gives its polylines as a ``"line"`` block

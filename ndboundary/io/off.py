@@ -13,7 +13,7 @@ __all__ = ["read_off", "write_off"]
 
 
 def read_off(path):
-    """Read the vertices and polygons of an OFF file as cell blocks.
+    r"""Read the vertices and polygons of an OFF file as cell blocks.
 
     The first line is ``OFF`` (or a variant ending in it, such as ``COFF``), followed,
     on the same line or the next, by ``n_vertices n_faces n_edges``; then the vertices
@@ -59,9 +59,9 @@ def read_off(path):
         nv, nf = int(head[0]), int(head[1])
         points = np.array([[float(t) for t in ln[:3]] for ln in rest[:nv]])
         faces = []
-        for ln in rest[nv:nv + nf]:
+        for ln in rest[nv : nv + nf]:
             k = int(ln[0])
-            faces.append([int(t) for t in ln[1:1 + k]])
+            faces.append([int(t) for t in ln[1 : 1 + k]])
             if len(faces[-1]) != k:
                 raise ValueError(f"face line {ln} lists fewer than {k} vertices")
     except (ValueError, IndexError) as exc:
