@@ -39,7 +39,8 @@ Candidates (each skipped when its package is missing; the first eight are the de
 - ``auto-blasthreads``: ``auto`` without limiting BLAS to one thread;
 - ``auto-repeat`` / ``pardiso-direct-repeat``: the second solve on one mesh (after an
   untimed one with another ``lam``: same sparsity pattern, other values), where PARDISO
-  reuses its ordering.
+  reuses its ordering (kept by a ``FactorCache`` the two solves share; every other run
+  passes ``cache=None`` and starts cold).
 
 A method whose first run takes longer than ``--slow`` seconds is run once and not
 tried on bigger sizes of the same kind of mesh.
@@ -123,7 +124,8 @@ def build(spec, outdir):
     ``spec`` is "2d:160", "3d:24", "ico:6" or "sphere:158"; ``relax`` runs with its
     defaults up to the integration solve, whose arguments are saved.
     """
-    from ndboundary import pipeline, relax
+    import ndboundary.pipeline.integration as step
+    from ndboundary import relax
 
     dom, lab = _domain(spec)
     captured = {}
@@ -132,14 +134,14 @@ def build(spec, outdir):
         captured.update(K=sp.csr_matrix(K), S=sp.csr_matrix(S), mass=mass, lam=lam, rhs=rhs, mu=mu)
         raise _Captured
 
-    real = pipeline.solve_integration
-    pipeline.solve_integration = capture
+    real = step.solve_integration  # the solver the integration step calls
+    step.solve_integration = capture
     try:
         relax(dom, lab, on="elements")
     except _Captured:
         pass
     finally:
-        pipeline.solve_integration = real
+        step.solve_integration = real
     K, S = captured["K"], captured["S"]
     path = os.path.join(outdir, spec.replace(":", "_") + ".npz")
     np.savez(
@@ -167,8 +169,10 @@ def _load_system(path):
     return K, z["mass"], S, z["rhs"], float(z["mu"]), float(z["lam"])
 
 
-def _patch_cholmod(solvers, which):
+def _patch_cholmod(which):
     """Make backend="cholmod" use cholespy's or scikit-sparse's CHOLMOD instead."""
+    from ndboundary.solvers import cholesky as backends
+
     if which == "cholespy":
         import cholespy
 
@@ -194,9 +198,9 @@ def _patch_cholmod(solvers, which):
         def factor(A):
             return cholesky(sp.csc_matrix(A))
 
-    real_load = solvers._load
-    solvers._FACTORISE["cholmod"] = factor
-    solvers._load = lambda name: object() if name == "sksparse_minimal" else real_load(name)
+    # the backend's module: the package actually used, in place of sksparse_minimal
+    backends.BACKENDS["cholmod"] = NEEDS[which]
+    backends.FACTORISERS["cholmod"] = factor
 
 
 def _status_mb(field):
@@ -234,6 +238,7 @@ def _peak_mb():
 def worker(path, method, repeats, factor_threads=None):
     """Run ``method`` on the system in ``path`` ``repeats`` times; print one JSON line each."""
     from ndboundary import solvers
+    from ndboundary.solvers import cholesky, common
 
     if factor_threads is not None:
         solvers.FACTOR_THREADS = factor_threads
@@ -242,7 +247,7 @@ def worker(path, method, repeats, factor_threads=None):
     base = method.split("-")[0]
     kw = {}
     if base in ("cholespy", "sksparse"):
-        _patch_cholmod(solvers, base)
+        _patch_cholmod(base)
         base = "cholmod"
     if method.startswith("auto"):
         pass
@@ -253,9 +258,7 @@ def worker(path, method, repeats, factor_threads=None):
     else:
         kw = {"method": "pcg", "preconditioner": "cholesky", "backend": base}
     if method == "auto-blasthreads":
-        import contextlib
-
-        solvers._one_blas_thread = contextlib.nullcontext
+        common.SOLVE_THREADS = None  # BLAS's own number of threads during the solves
     perm = None
     if method == "superlu-rcm-direct":
         from scipy.sparse.csgraph import reverse_cuthill_mckee
@@ -279,16 +282,20 @@ def worker(path, method, repeats, factor_threads=None):
 
             return solve
 
-        solvers._FACTORISE["superlu"] = rcm_superlu
+        cholesky.FACTORISERS["superlu"] = rcm_superlu
     for rep in range(repeats):
-        solvers.clear_cache()
+        cache = None  # a cold solve: nothing kept from an earlier one
         if method.endswith("-repeat"):
-            solvers.solve_integration(K, mass, S, 2 * lam, rhs, mu=mu, cache=False, **kw)
+            # an untimed solve of another lam (the same pattern) leaves PARDISO's ordering
+            # in the cache, not its factor: the timed solve reuses the ordering only
+            cache = solvers.FactorCache()
+            solvers.solve_integration(K, mass, S, 2 * lam, rhs, mu=mu, cache=cache, **kw)
+            cache.clear(orderings=False)
         rss0 = _status_mb("VmRSS")
         _reset_peak()
         t = time.perf_counter()
         c = time.process_time()
-        phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, cache=False, **kw)
+        phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, cache=cache, **kw)
         wall = time.perf_counter() - t
         cpu = time.process_time() - c
         row = {

@@ -1,7 +1,9 @@
 """Solvers of the heat and integration systems: every method against a dense solve,
 the pure-scipy fallback when the optional packages are missing, non-convergence."""
 
+import re
 import sys
+import types
 import warnings
 
 import numpy as np
@@ -9,6 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 from ndboundary import solvers
+from ndboundary.solvers import amg, cholesky, common
 from ndboundary.datasets import ball, circle, kuhn_grid, label_by
 
 
@@ -40,12 +43,26 @@ def system(request):
 
 @pytest.fixture(autouse=True)
 def _fresh():
-    solvers.clear_cache()
-    saved = set(solvers._warned)
+    """Each test sees the once-per-process fallback warnings afresh, and leaves them as they were."""
+    saved = set(common._warned)
     yield
-    solvers.clear_cache()
-    solvers._warned.clear()
-    solvers._warned.update(saved)
+    common._warned.clear()
+    common._warned.update(saved)
+
+
+class CountingCache(solvers.FactorCache):
+    """A FactorCache that counts the factorisations / preconditioners it builds."""
+
+    def __init__(self):
+        super().__init__()
+        self.builds = 0
+
+    def get(self, kind, A, build):
+        def counted(M):
+            self.builds += 1
+            return build(M)
+
+        return super().get(kind, A, counted)
 
 
 def _rel(a, b):
@@ -126,7 +143,7 @@ def test_amg_hierarchy_is_csr_and_smoothing_follows_row_density(case, monkeypatc
         return built["ml"]
 
     monkeypatch.setattr(pyamg, "smoothed_aggregation_solver", spy)
-    apply = solvers._amg(A)
+    apply = amg.amg_preconditioner(A)
     dense = A.nnz / A.shape[0] > solvers.AMG_DENSE_ROWS
     assert dense == (case == "graph")
     assert built["kwargs"]["smooth"] == ("jacobi" if dense else "energy")
@@ -154,7 +171,7 @@ def test_fallback_without_optional_packages(system, monkeypatch):
     for mod in ("pypardiso", "cvxopt", "cvxopt.cholmod", "sksparse_minimal", "pyamg"):
         monkeypatch.setitem(sys.modules, mod, None)
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
-    solvers._warned.clear()
+    common._warned.clear()
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
         phi, _info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu)
@@ -180,7 +197,7 @@ def test_small_systems_do_not_warn_without_fast_packages(monkeypatch):
     K, mass, S = _system(12, 2)  # 169 unknowns, below SMALL_SYSTEM
     for mod in ("pypardiso", "cvxopt", "cvxopt.cholmod", "sksparse_minimal"):
         monkeypatch.setitem(sys.modules, mod, None)
-    solvers._warned.clear()
+    common._warned.clear()
     with warnings.catch_warnings():
         warnings.simplefilter("error", solvers.SolverFallbackWarning)
         solvers.solve_integration(K, mass, S, 2.0, np.ones(K.shape[0]), mu=0.03)
@@ -208,16 +225,26 @@ def test_auto_falls_back_to_direct_when_pcg_stalls(system, monkeypatch):
 
 def test_cache_reuses_and_is_correct(system):
     K, mass, S, lam, mu, rhs, exact = system
-    _phi1, _ = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, method="direct")
-    assert "entry" in solvers._cache
-    phi2, _info = solvers.solve_integration(K, mass, S, lam, 2 * rhs, mu=mu, method="direct")
+    cache = CountingCache()
+    _phi1, _ = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, method="direct", cache=cache)
+    assert len(cache) == 1 and cache.builds == 1
+    phi2, _info = solvers.solve_integration(K, mass, S, lam, 2 * rhs, mu=mu, method="direct", cache=cache)
     assert _rel(phi2, 2 * exact) < 1e-8
+    assert cache.builds == 1  # the same matrix: its factor is reused
     # a different matrix must not hit the cache
-    phi3, _ = solvers.solve_integration(K, mass, S, 2 * lam, rhs, mu=mu, method="direct")
+    phi3, _ = solvers.solve_integration(K, mass, S, 2 * lam, rhs, mu=mu, method="direct", cache=cache)
     Q3 = (K @ sp.diags(1 / mass) @ K + mu * K + 2 * lam * (S.T @ S)).toarray()
     assert _rel(phi3, np.linalg.solve(Q3, rhs)) < 1e-8
-    solvers.clear_cache()
-    assert not solvers._cache
+    assert cache.builds == 2 and len(cache) == 1  # one entry: the new factor replaced the old
+    cache.clear()
+    assert len(cache) == 0 and cache.nbytes == 0 and not cache.orderings
+
+
+def test_no_cache_keeps_nothing(system):
+    K, mass, S, lam, mu, rhs, exact = system
+    for _ in range(2):  # cache=None, the default: every solve factorises afresh, and is right
+        phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, method="direct")
+        assert info.method == "cholesky" and _rel(phi, exact) < 1e-8
 
 
 def test_heat_matches_dense(system):
@@ -258,14 +285,54 @@ def test_factorize_spd_rejects_unknown_backend():
         solvers.factorize_spd(_spd(), backend="nope")
 
 
-def test_auto_order_is_the_measured_one():
-    assert list(solvers.BACKENDS) == ["cvxopt", "pardiso", "cholmod", "superlu"]
-    assert solvers._auto_order(1000) == ["cvxopt", "pardiso", "cholmod", "superlu"]
-    large = solvers._auto_order(solvers.LARGE_SYSTEM)
-    assert large == ["pardiso", "cvxopt", "cholmod", "superlu"]
+BACKEND_MODULES = ("cvxopt", "cvxopt.cholmod", "pypardiso", "sksparse_minimal")
+
+
+def _fake_installed(monkeypatch):
+    """Make every optional backend's package importable (an empty module where it is missing)."""
+    for mod in BACKEND_MODULES:
+        if common.load_optional(mod) is None:
+            monkeypatch.setitem(sys.modules, mod, types.ModuleType(mod))
+
+
+def test_available_backends_follow_the_auto_order():
     names = [b for b in solvers.available_backends() if b != "amg"]
     assert names == [b for b in solvers.BACKENDS if b in names]
-    assert names[-1] == "superlu"
+    assert names[-1] == "superlu"  # scipy's, always there and always the last resort
+
+
+@pytest.mark.parametrize("large", [False, True], ids=["small", "large"])
+def test_auto_tries_the_backends_in_the_measured_order(monkeypatch, large):
+    A = _spd()
+    b = np.arange(A.shape[0], dtype=np.float64)
+    if large:
+        monkeypatch.setattr(solvers, "LARGE_SYSTEM", A.shape[0])
+    calls = []
+
+    def broken(name):
+        def factor(M, **kwargs):
+            calls.append(name)
+            raise RuntimeError(f"{name} failed")
+
+        return factor
+
+    # every optional backend "installed" and failing: auto tries each once, in the
+    # documented order, then SuperLU, the last resort, solves
+    _fake_installed(monkeypatch)
+    for name in ("pardiso", "cvxopt", "cholmod"):
+        monkeypatch.setitem(cholesky.FACTORISERS, name, broken(name))
+    x = solvers.factorize_spd(A)(b)
+    assert _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-10
+    order = cholesky.auto_order(A.shape[0])
+    assert sorted(order) == sorted(solvers.BACKENDS) and order[-1] == "superlu"
+    assert calls == order[:-1]
+    if large:  # from LARGE_SYSTEM unknowns PARDISO first
+        assert calls[0] == "pardiso"
+    else:  # below, cvxopt before PARDISO
+        assert calls.index("cvxopt") < calls.index("pardiso")
+    # a backend named explicitly raises its own error
+    with pytest.raises(RuntimeError, match="pardiso failed"):
+        solvers.factorize_spd(A, backend="pardiso")
 
 
 @pytest.mark.parametrize("large", [False, True], ids=["small", "large"])
@@ -274,44 +341,21 @@ def test_auto_uses_the_first_available_backend(monkeypatch, large):
     if large:
         monkeypatch.setattr(solvers, "LARGE_SYSTEM", A.shape[0])
     calls = []
+    real_superlu = cholesky.FACTORISERS["superlu"]
 
     def recorder(name):
-        def factor(M):
+        def factor(M, **kwargs):
             calls.append(name)
-            return solvers._superlu(M)
+            return real_superlu(M)
 
         return factor
 
     for name in solvers.BACKENDS:
-        monkeypatch.setitem(solvers._FACTORISE, name, recorder(name))
+        monkeypatch.setitem(cholesky.FACTORISERS, name, recorder(name))
     solvers.factorize_spd(A)
     available = solvers.available_backends()
-    expected = [b for b in solvers._auto_order(A.shape[0]) if b in available]
+    expected = [b for b in cholesky.auto_order(A.shape[0]) if b in available]
     assert calls == expected[:1]
-
-
-def test_auto_falls_back_when_a_backend_raises(monkeypatch):
-    A = _spd()
-    b = np.arange(A.shape[0], dtype=np.float64)
-    calls = []
-
-    def broken(name):
-        def factor(M):
-            calls.append(name)
-            raise RuntimeError(f"{name} failed")
-
-        return factor
-
-    # every optional backend "installed" and failing: auto ends on SuperLU
-    monkeypatch.setattr(solvers, "_load", lambda name: object())
-    for name in ("pardiso", "cvxopt", "cholmod"):
-        monkeypatch.setitem(solvers._FACTORISE, name, broken(name))
-    x = solvers.factorize_spd(A)(b)
-    assert calls == ["cvxopt", "pardiso", "cholmod"]
-    assert _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-10
-    # a backend named explicitly raises its own error
-    with pytest.raises(RuntimeError, match="pardiso failed"):
-        solvers.factorize_spd(A, backend="pardiso")
 
 
 @pytest.mark.parametrize("backend", ["pardiso", "cvxopt"])
@@ -356,18 +400,20 @@ def test_pardiso_reuses_the_ordering_of_the_same_pattern():
     _skip_unless_available("pardiso")
     A = _spd()
     b = np.arange(A.shape[0], dtype=np.float64)
-    solvers.clear_cache()
-    first = solvers.factorize_spd(A, backend="pardiso")
+    cache = solvers.FactorCache()
+    first = solvers.factorize_spd(A, backend="pardiso", orderings=cache.orderings)
     assert not first.__self__.reused_ordering
     B = (A + sp.diags(np.linspace(1.0, 2.0, A.shape[0]))).tocsr()  # same pattern
-    second = solvers.factorize_spd(B, backend="pardiso")
+    second = solvers.factorize_spd(B, backend="pardiso", orderings=cache.orderings)
     assert second.__self__.reused_ordering
     assert _rel(second(b), np.linalg.solve(B.toarray(), b)) < 1e-12
     assert _rel(first(b), np.linalg.solve(A.toarray(), b)) < 1e-12  # independent factors
     C = _spd(seed=1)  # another pattern: a new ordering
-    assert not solvers.factorize_spd(C, backend="pardiso").__self__.reused_ordering
-    solvers.clear_cache()
-    assert not solvers.factorize_spd(A, backend="pardiso").__self__.reused_ordering
+    assert not solvers.factorize_spd(C, backend="pardiso", orderings=cache.orderings).__self__.reused_ordering
+    cache.clear()
+    assert not solvers.factorize_spd(A, backend="pardiso", orderings=cache.orderings).__self__.reused_ordering
+    # without a place to keep it, nothing is reused
+    assert not solvers.factorize_spd(B, backend="pardiso").__self__.reused_ordering
 
 
 def test_auto_iterates_on_instead_of_factorising_a_large_3d_system(system, monkeypatch):
@@ -375,19 +421,22 @@ def test_auto_iterates_on_instead_of_factorising_a_large_3d_system(system, monke
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
     monkeypatch.setattr(solvers, "DENSE_ROW_THRESHOLD", 0.0)  # force the pcg path
     monkeypatch.setattr(solvers, "DIRECT_FALLBACK_MAX", 0)  # "too large to factorise"
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("a direct factorisation was attempted")
-
-    monkeypatch.setattr(solvers, "_direct", refuse)
-    # a few iterations more than the first round allows are enough here
-    phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, maxiter=10)
+    # a few iterations more than the first round allows are enough here: no factorisation
+    # (which would report method "cholesky"), the iteration goes on to rtol
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, maxiter=10)
     assert info.method.startswith("pcg") and info.iterations > 10
     assert info.residual <= 1e-9 and _rel(phi, exact) < 1e-5
-    # not enough even then: a warning with the residual reached, no factorisation
-    with pytest.warns(RuntimeWarning, match=r"did not converge in 5 iterations .* too many to factorise"):
-        _phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, maxiter=1)
-    assert info.iterations == 5 and info.residual > 1e-9
+    # a tolerance no number of iterations reaches: a warning with the iterations run and
+    # the residual reached, still no factorisation
+    with pytest.warns(RuntimeWarning, match="too many to factorise") as rec:
+        _phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-20, maxiter=1)
+    assert info.method.startswith("pcg") and info.iterations > 1 and info.residual > 1e-19
+    message = str(rec[0].message)
+    found = re.search(r"did not converge in (\d+) iterations \(relative residual (\S+), target 1e-20\)", message)
+    assert found is not None, message
+    assert int(found[1]) == info.iterations and found[2] == f"{info.residual:.2e}"
 
 
 def test_large_direct_solves_refine_a_single_precision_factor(monkeypatch):
@@ -398,13 +447,15 @@ def test_large_direct_solves_refine_a_single_precision_factor(monkeypatch):
     rhs = np.random.default_rng(1).standard_normal(K.shape[0])
     exact = np.linalg.solve(Q, rhs)
     monkeypatch.setattr(solvers, "SINGLE_PRECISION_MIN", 0)
-    phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10)
+    cache = CountingCache()
+    phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10, cache=cache)
     assert info.method == "cholesky-single+cg"
     assert 1 <= info.iterations <= solvers.SINGLE_REFINE_MAXITER
     assert info.residual <= 1e-9 and _rel(phi, exact) < 1e-7
     # the same system again reuses the single-precision factor
-    again, info2 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10)
+    again, info2 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10, cache=cache)
     assert info2.method == "cholesky-single+cg" and np.allclose(again, phi, rtol=0, atol=1e-12)
+    assert cache.builds == 1
     # another backend, or a refinement that cannot converge, factorises in double precision
     other = "cvxopt" if "cvxopt" in solvers.available_backends() else "superlu"
     _, info3 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, backend=other)
@@ -412,3 +463,24 @@ def test_large_direct_solves_refine_a_single_precision_factor(monkeypatch):
     monkeypatch.setattr(solvers, "SINGLE_REFINE_MAXITER", 0)
     phi4, info4 = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, rtol=1e-10)
     assert info4.method == "cholesky" and _rel(phi4, exact) < 1e-8
+
+
+def test_tuning_constants_set_on_the_package_reach_the_solvers(monkeypatch):
+    for name in ("DENSE_ROW_THRESHOLD", "SMALL_SYSTEM", "FACTOR_THREADS", "LARGE_SYSTEM",
+                 "SINGLE_PRECISION_MIN", "SINGLE_REFINE_MAXITER", "DIRECT_FALLBACK_MAX",
+                 "AMG_DENSE_ROWS", "BACKENDS"):  # fmt: skip
+        assert hasattr(solvers, name), name
+    monkeypatch.setattr(solvers, "FACTOR_THREADS", 2)
+    assert solvers.FACTOR_THREADS == 2 and common.FACTOR_THREADS == 2
+    # the factorisation reads it at call time
+    seen = []
+    real = cholesky.blas_threads
+
+    def spy(n):
+        seen.append(n)
+        return real(n)
+
+    monkeypatch.setattr(cholesky, "blas_threads", spy)
+    _skip_unless_available("cvxopt")
+    solvers.factorize_spd(_spd(), backend="cvxopt")
+    assert seen == [2]

@@ -89,9 +89,9 @@ def uncommented_lines(path) -> list:
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     path = os.path.join(tmp, "c.off")
     ...     with open(path, "w") as fh:
-    ...         _ = fh.write("OFF # header\\n3 1 0\\n")
+    ...         _ = fh.write("OFF # header\n3 1 0\n")
     ...     uncommented_lines(path)
-    ['OFF ', '3 1 0\\n']
+    ['OFF ', '3 1 0\n']
     """
     with open(path, encoding="utf-8", errors="replace") as fh:
         return [line.split("#", 1)[0] for line in fh]

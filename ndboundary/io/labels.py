@@ -42,7 +42,7 @@ def read_labels(path):
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     path = os.path.join(tmp, "labels.txt")
     ...     with open(path, "w") as fh:
-    ...         _ = fh.write("SCALAR_FIELD 3\\n0\\n1\\n1\\n")
+    ...         _ = fh.write("SCALAR_FIELD 3\n0\n1\n1\n")
     ...     read_labels(path).tolist()
     [0, 1, 1]
     """

@@ -56,7 +56,7 @@ def read_mesh(path, *, drop_unused=True) -> Domain:
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     path = os.path.join(tmp, "square.obj")
     ...     with open(path, "w") as fh:
-    ...         _ = fh.write("v 0 0 0\\nv 1 0 0\\nv 1 1 0\\nv 0 1 0\\nf 1 2 3 4\\n")
+    ...         _ = fh.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
     ...     square = read_mesh(path)
     >>> square
     PolygonMesh(n_vertices=4, n_elements=1, dim=2, laplacian='consistent')

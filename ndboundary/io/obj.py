@@ -48,7 +48,7 @@ def read_obj(path):
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     path = os.path.join(tmp, "l.obj")
     ...     with open(path, "w") as fh:
-    ...         _ = fh.write("v 0 0 0\\nv 1 0 0\\nv 1 1 0\\nl 1 2 3\\n")
+    ...         _ = fh.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nl 1 2 3\n")
     ...     points, blocks = read_obj(path)
     >>> points.shape, blocks
     ((3, 3), [('line', [(0, 1), (1, 2)])])

@@ -42,7 +42,7 @@ def read_off(path):
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     path = os.path.join(tmp, "t.off")
     ...     with open(path, "w") as fh:
-    ...         _ = fh.write("OFF\\n3 1 0\\n0 0 0\\n1 0 0\\n0 1 0\\n3 0 1 2\\n")
+    ...         _ = fh.write("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
     ...     points, blocks = read_off(path)
     >>> points.shape, blocks
     ((3, 3), [('polygon', [[0, 1, 2]])])

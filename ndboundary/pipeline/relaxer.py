@@ -48,7 +48,8 @@ class _Progress:
 
 def _nbytes(value, skip):
     """Bytes held by the arrays and sparse matrices in ``value`` (a dict, list or object),
-    not counting the objects in ``skip`` (the domain's own operators)."""
+    not counting the objects in ``skip`` (the domain's own operators).
+    """
     if value is None or id(value) in skip:
         return 0
     if isinstance(value, np.ndarray):

@@ -1,0 +1,95 @@
+"""The smoothed-aggregation AMG V-cycle (package pyamg) that preconditions the
+integration solve on meshes and graphs with dense rows: :func:`amg_preconditioner`.
+"""
+
+from __future__ import annotations
+
+import scipy.sparse as sp
+
+from .common import load_optional
+
+__all__ = ["AMG_DENSE_ROWS", "amg_preconditioner"]
+
+#: Rows of the AMG operator ``K + D`` with more entries than this on average (neighbour
+#: graphs) get a Jacobi-smoothed prolongator, sparser ones (meshes) an energy-minimising
+#: one (see :func:`amg_preconditioner`). Tetrahedral meshes have about 14 entries per
+#: row, the neighbour graphs of the classifier about 90: the threshold sits between.
+AMG_DENSE_ROWS = 40.0
+
+
+def amg_preconditioner(A):
+    """One smoothed-aggregation V-cycle approximating ``A^{-1}`` (package pyamg).
+
+    The settings were chosen by the wall time (setup plus conjugate gradients) of
+    :func:`~ndboundary.solvers.solve_integration` on two cores, on tetrahedral Kuhn grids
+    (rtol 1e-10) and on the neighbour graph of random points (rtol 1e-6), against
+    pyamg's defaults and other variants; ``benchmarks/solvers.py`` measures them
+    (figures in the README).
+
+    * Symmetric Gauss-Seidel, two sweeps before and after, on every level. One sweep
+      needed more iterations and more time on meshes for hardly any gain on graphs;
+      Chebyshev smoothing needed more than twice the iterations (close to the default
+      limit of ``maxiter`` on large meshes); a W-cycle took longer for the same
+      iterations.
+    * Every level in CSR format. pyamg builds the coarse operators in BSR format with
+      1x1 blocks, where Gauss-Seidel is far slower than on the finer CSR level several
+      times their size: the conversion makes a V-cycle on meshes much cheaper.
+    * No improvement of the constant candidate vector (the null space of ``K``) by
+      block Gauss-Seidel: without it, fewer iterations and a shorter setup.
+    * The tentative prolongator smoothed by energy minimisation when the rows of ``A``
+      have at most :data:`AMG_DENSE_ROWS` entries on average (meshes: fewer iterations
+      and less time than one Jacobi step), by one Jacobi step on denser rows (neighbour
+      graphs: there the energy minimisation's setup costs more than the iterations it
+      saves). Plain aggregation (no smoothing) needed many more iterations, which its
+      cheaper setup did not make up for.
+    * Strength of connection with ``theta = 0`` and ``max_coarse = 500``. A positive
+      threshold (0.05-0.1) built deeper and denser hierarchies whose setup cost more
+      than the iterations they saved; 0.25 left two levels and several times the
+      iterations. The coarsest level is solved by a dense pseudo-inverse, which is why
+      it is kept small: ``max_coarse = 5000`` made the solve an order of magnitude
+      slower.
+
+    Parameters
+    ----------
+    A : sparse matrix of shape (n, n)
+        Symmetric positive definite, with the constants close to its null space.
+
+    Returns
+    -------
+    apply : callable
+        ``apply(r)`` returns the V-cycle applied to ``r``: a symmetric positive definite
+        operator (the smoothers are symmetric).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> n = 50  # a path graph's Laplacian plus a small diagonal
+    >>> A = sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]) + 0.01 * sp.identity(n)
+    >>> apply = amg_preconditioner(A)
+    >>> u, v = np.random.default_rng(0).standard_normal((2, n))
+    >>> bool(np.isclose(u @ apply(v), v @ apply(u))), bool(u @ apply(u) > 0)
+    (True, True)
+    >>> bool(np.allclose(A @ apply(v), v))  # one level: the coarse solve is exact
+    True
+    """
+    pyamg = load_optional("pyamg")
+    A = sp.csr_matrix(A)
+    dense = A.nnz / max(A.shape[0], 1) > AMG_DENSE_ROWS
+    smoother = ("gauss_seidel", {"sweep": "symmetric", "iterations": 2})
+    ml = pyamg.smoothed_aggregation_solver(
+        A,
+        symmetry="symmetric",
+        strength="symmetric",
+        smooth="jacobi" if dense else "energy",
+        improve_candidates=None,
+        presmoother=smoother,
+        postsmoother=smoother,
+        max_coarse=500,
+    )
+    for level in ml.levels:
+        for name in ("A", "P", "R"):
+            M = getattr(level, name, None)
+            if M is not None and sp.issparse(M) and M.format != "csr":
+                setattr(level, name, M.tocsr())
+    return ml.aspreconditioner(cycle="V").matvec

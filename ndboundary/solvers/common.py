@@ -1,0 +1,225 @@
+"""What every solver shares: the report of a solve, the fallback warning, optional
+modules, BLAS thread limits, conjugate gradients and the relative residual.
+
+Solves run with :data:`SOLVE_THREADS` BLAS threads (threadpoolctl): OpenBLAS's threads
+spin on the short vector operations of conjugate gradients and multiply the wall time
+on a machine with any other load. A sparse factorisation runs with
+:data:`FACTOR_THREADS` threads: a second thread speeds PARDISO up while the other cores
+are idle and slows it down while another process uses them, and does not change
+cvxopt's factor time (measured by ``benchmarks/solvers.py --factor-threads``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+__all__ = [
+    "FACTOR_THREADS",
+    "SOLVE_THREADS",
+    "SolveInfo",
+    "SolverFallbackWarning",
+    "blas_threads",
+    "cg",
+    "fallback_warning",
+    "load_optional",
+    "one_blas_thread",
+    "relres",
+]
+
+#: Threads given to a sparse factorisation (MKL's for PARDISO, set for that call only;
+#: OpenBLAS's for cvxopt's CHOLMOD). One, because a second thread only pays on a machine
+#: with idle cores. Read at each factorisation: set it here or, equivalently, as
+#: ``ndboundary.solvers.FACTOR_THREADS``.
+FACTOR_THREADS = 1
+#: BLAS threads while conjugate gradients and triangular solves run; None leaves BLAS's
+#: own setting. One, because these memory-bound vector operations gain nothing from
+#: more threads and lose much when the cores are shared. Read at each solve.
+SOLVE_THREADS = 1
+
+#: Speed cost of the fallback when an optional package that "auto" relies on is missing,
+#: as measured by ``benchmarks/solvers.py``.
+_FALLBACK_COST = {
+    "cholesky": (
+        "neither cvxopt nor pypardiso is installed: the integration solve on triangle meshes "
+        "falls back to scipy's SuperLU, about 5x slower at 250K vertices and 7x at 1M "
+        "(pip install cvxopt pypardiso)"
+    ),
+    "pyamg": (
+        "pyamg is not installed: the integration solve on tetrahedral (3-D) meshes falls back "
+        "to a sparse factorisation, about 5x slower at 36K vertices and 10-20x at 120K "
+        "(pip install pyamg)"
+    ),
+}
+#: Names of the fallbacks already warned about in this process.
+_warned: set = set()
+
+
+class SolverFallbackWarning(UserWarning):
+    """An optional fast solver package is missing; a slower pure-scipy path is used.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warnings.warn("pyamg is missing", SolverFallbackWarning)
+    >>> issubclass(caught[0].category, UserWarning)
+    True
+    """
+
+
+@dataclass
+class SolveInfo:
+    """What a solve did: its method, iteration count and the relative residual reached.
+
+    ``setup_time`` and ``solve_time`` (seconds) split the wall time between building
+    the factorisation or preconditioner and applying it; they do not take part in
+    comparisons, which are about what was computed.
+
+    Examples
+    --------
+    >>> info = SolveInfo("cg-jacobi", 12, 3e-11, setup_time=0.5)
+    >>> info.method, info.iterations
+    ('cg-jacobi', 12)
+    >>> info == SolveInfo("cg-jacobi", 12, 3e-11)
+    True
+    """
+
+    method: str
+    iterations: int
+    residual: float
+    setup_time: float = field(default=0.0, compare=False)
+    solve_time: float = field(default=0.0, compare=False)
+
+
+def load_optional(name):
+    """The optional module ``name``, or None when it cannot be imported.
+
+    Any error counts as missing (an ImportError, or a broken binary wheel), so that a
+    faulty optional package makes the solvers fall back instead of failing.
+
+    Examples
+    --------
+    >>> load_optional("math").sqrt(4.0)
+    2.0
+    >>> load_optional("no_such_module_here") is None
+    True
+    """
+    try:
+        return importlib.import_module(name)
+    except Exception:  # noqa: BLE001 - ImportError, or a broken binary wheel
+        return None
+
+
+def fallback_warning(name, stacklevel):
+    """Warn, once per process, that a pure-scipy path replaces the missing package ``name``.
+
+    ``name`` is ``"cholesky"`` (no fast sparse Cholesky) or ``"pyamg"``; ``stacklevel``
+    counts frames as :func:`warnings.warn` does from this function, so that the warning
+    points at the user's call whatever the depth of the solver that found the package
+    missing.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> saved = set(_warned)
+    >>> _warned.clear()
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     fallback_warning("pyamg", stacklevel=2)
+    ...     fallback_warning("pyamg", stacklevel=2)  # once per process
+    >>> len(caught), caught[0].category.__name__
+    (1, 'SolverFallbackWarning')
+    >>> _warned.clear()
+    >>> _warned.update(saved)
+    """
+    if name in _warned:
+        return
+    _warned.add(name)
+    warnings.warn(_FALLBACK_COST[name], SolverFallbackWarning, stacklevel=stacklevel)
+
+
+def blas_threads(n):
+    """A context limiting BLAS to ``n`` threads (threadpoolctl); None sets no limit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> with blas_threads(1):
+    ...     float(np.ones(3) @ np.ones(3))
+    3.0
+    """
+    if n is None:
+        return contextlib.nullcontext()
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=n, user_api="blas")
+
+
+def one_blas_thread():
+    """A context limiting BLAS to :data:`SOLVE_THREADS` threads (one by default).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> with one_blas_thread():
+    ...     float(np.ones(3) @ np.ones(3))
+    3.0
+    """
+    return blas_threads(SOLVE_THREADS)
+
+
+def relres(A, x, b):
+    """Relative residual ``|A x - b| / |b|`` (0 for ``b = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A = np.array([[2.0, 0.0], [0.0, 4.0]])
+    >>> relres(A, np.array([0.5, 0.25]), np.array([1.0, 1.0]))
+    0.0
+    >>> relres(A, np.zeros(2), np.zeros(2))
+    0.0
+    """
+    nb = np.linalg.norm(b)
+    return float(np.linalg.norm(A @ x - b) / nb) if nb > 0 else 0.0
+
+
+def cg(A, b, M, rtol, maxiter, x0=None):
+    """Conjugate gradients on ``A x = b`` preconditioned by ``M``, with one BLAS thread.
+
+    ``rtol`` is relative to ``|b|`` (no absolute tolerance, so that the tolerance means
+    the same at any scale of the system).
+
+    Returns
+    -------
+    x : ndarray
+    iterations : int
+        Iterations run.
+    info : int
+        scipy's convergence flag: 0 when ``rtol`` was reached.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A = np.array([[4.0, 1.0], [1.0, 3.0]])
+    >>> x, iterations, info = cg(A, np.array([1.0, 2.0]), None, 1e-12, 10)
+    >>> bool(np.allclose(A @ x, [1.0, 2.0])), iterations <= 2, info
+    (True, True, 0)
+    """
+    it = [0]
+
+    def count(_):
+        it[0] += 1
+
+    with one_blas_thread():
+        x, info = spla.cg(A, b, x0=x0, rtol=rtol, atol=0.0, maxiter=maxiter, M=M, callback=count)
+    return x, it[0], info

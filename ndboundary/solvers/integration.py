@@ -1,0 +1,387 @@
+"""The integration system ``Q phi = r``, ``Q = K M^{-1} K + mu K + lam S^T S`` (a
+squared Laplacian): :func:`solve_integration`.
+
+Two ways, chosen by the shape of ``K`` (``method="auto"``):
+
+- sparse rows (triangle meshes, surfaces: about 7 entries per row of ``K``) or small
+  systems: a sparse Cholesky factorisation of ``Q`` itself by the fastest installed
+  backend (:func:`~ndboundary.solvers.factorize_spd`). From
+  :data:`SINGLE_PRECISION_MIN` unknowns with PARDISO, the factor is computed in single
+  precision and conjugate gradients preconditioned by it refine the solution to
+  ``rtol``: half the factor's memory and a faster factorisation. Without a fast
+  backend scipy's SuperLU factorises, several times slower, with one
+  :class:`~ndboundary.solvers.SolverFallbackWarning` per process naming the cost.
+- denser rows (tetrahedra, higher dimensions, neighbour graphs): conjugate gradients
+  preconditioned by ``(K + D) M^{-1} (K + D)``, ``D`` diagonal, ``(K + D)^{-1}``
+  applied by one smoothed-aggregation AMG V-cycle (:mod:`.amg`, package pyamg: linear
+  cost, where any factorisation of a 3-D mesh fills in as n^2), else by a Cholesky
+  factor, with one :class:`~ndboundary.solvers.SolverFallbackWarning` per process
+  naming the cost.
+
+Every solve reports its relative residual; an iteration that does not reach its
+tolerance warns with the residual it reached (``method="pcg"``) or finishes with a
+direct factorisation (``method="auto"``). The timings behind these choices are
+measured by ``benchmarks/solvers.py`` (figures in the README).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .amg import amg_preconditioner
+from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
+from .common import SolveInfo, cg, fallback_warning, load_optional, one_blas_thread, relres
+from .pardiso import PardisoFactor
+
+__all__ = [
+    "DENSE_ROW_THRESHOLD",
+    "DIRECT_FALLBACK_MAX",
+    "SINGLE_PRECISION_MIN",
+    "SINGLE_REFINE_MAXITER",
+    "SMALL_SYSTEM",
+    "solve_integration",
+]
+
+#: Rows of ``K`` with more entries than this on average count as "3-D like": the
+#: integration then iterates instead of factorising ``Q`` (whose fill grows as n^2).
+#: Triangle meshes and surfaces have about 7 entries per row, tetrahedral meshes 14.
+DENSE_ROW_THRESHOLD = 10.0
+#: Below this many unknowns the integration system is always factorised: the
+#: factorisation of a small system is cheap whatever its fill.
+SMALL_SYSTEM = 3000
+#: From this many unknowns, ``method="auto"`` factorises the integration matrix of a
+#: triangle mesh with PARDISO in single precision (half the factor's memory, a faster
+#: factorisation) and refines the solution by conjugate gradients preconditioned with
+#: that factor to ``rtol``; if that takes more than :data:`SINGLE_REFINE_MAXITER`
+#: iterations, a double-precision factor solves it instead. The same size as
+#: :data:`~ndboundary.solvers.cholesky.LARGE_SYSTEM`, from where PARDISO is the backend
+#: tried first.
+SINGLE_PRECISION_MIN = LARGE_SYSTEM
+#: Iterations allowed to the refinement of a single-precision factor: it converges in
+#: a handful, so needing many means the factor is too inaccurate for this system.
+SINGLE_REFINE_MAXITER = 30
+#: Above this many unknowns, a system with denser rows whose iteration stalls is not
+#: factorised (its factor fills in as n^2: minutes of factorisation, and more memory
+#: than a workstation has at a million vertices); conjugate gradients go on for
+#: ``4 maxiter`` more iterations instead, then warn with the residual reached.
+DIRECT_FALLBACK_MAX = 120_000
+
+
+class _System(NamedTuple):
+    """The arguments of :func:`solve_integration` that define the system, converted."""
+
+    K: sp.csr_matrix
+    mass: np.ndarray
+    S: sp.csr_matrix
+    lam: float
+    mu: float
+    rhs: np.ndarray
+
+
+def solve_integration(
+    K,
+    mass,
+    S,
+    lam,
+    rhs,
+    *,
+    mu=0.0,
+    rtol=1e-10,
+    maxiter=200,
+    method="auto",
+    backend="auto",
+    preconditioner="auto",
+    cache=None,
+):
+    """Solve ``(K M^{-1} K + mu K + lam S^T S) phi = rhs``.
+
+    Parameters
+    ----------
+    K : sparse matrix of shape (n, n)
+        Stiffness matrix, symmetric positive semidefinite.
+    mass : ndarray of shape (n,)
+        Diagonal of the (lumped) mass matrix ``M``, positive.
+    S : sparse matrix of shape (m, n)
+        Constraint rows: ``S phi`` is held close to the data by the weight ``lam``.
+    lam : float
+        Weight of the constraint ``lam S^T S``.
+    rhs : ndarray of shape (n,)
+        Right-hand side.
+    mu : float, default=0
+        Weight of the ``mu K`` term (membrane energy next to the bending energy of the
+        squared Laplacian); 0 solves the squared Laplacian alone.
+    rtol : float, default=1e-10
+        Relative residual to reach: tight, so that the level set of ``phi`` does not
+        move with the solver's error.
+    maxiter : int, default=200
+        Iterations allowed to conjugate gradients: headroom over what the
+        AMG-preconditioned iteration needs on meshes of a million vertices, while a
+        stalled iteration still hands over to a factorisation soon.
+    method : {"auto", "pcg", "direct"}, default="auto"
+        ``"direct"``: Cholesky factorisation of the whole matrix. ``"pcg"``: conjugate
+        gradients preconditioned by ``(K + D) M^{-1} (K + D)``; warns if it does not
+        converge in ``maxiter`` iterations. ``"auto"``: direct on meshes with sparse rows
+        (about 7 entries per row of ``K``: triangles, surfaces) or small systems (from
+        :data:`SINGLE_PRECISION_MIN` unknowns with PARDISO, a single-precision factor
+        refined by conjugate gradients to ``rtol``: method ``"cholesky-single+cg"``), pcg
+        elsewhere (tetrahedra, higher dimensions, graphs), falling back to direct when
+        pcg does not converge (up to :data:`DIRECT_FALLBACK_MAX` unknowns; beyond, pcg
+        goes on for ``4 maxiter`` more iterations and warns if that is not enough). The
+        default picks the fastest way for the shape of ``K``.
+    backend : {"auto", "pardiso", "cvxopt", "cholmod", "superlu"}, default="auto"
+        Sparse Cholesky used by the direct solve and the factorised preconditioner
+        (see :func:`~ndboundary.solvers.factorize_spd`; ``"auto"``: the fastest
+        installed). With ``"auto"`` and none of the optional backends installed, a
+        direct solve of more than :data:`SMALL_SYSTEM` unknowns warns once per process
+        (:class:`~ndboundary.solvers.SolverFallbackWarning`).
+    preconditioner : {"auto", "amg", "cholesky"}, default="auto"
+        How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) or a
+        sparse Cholesky factor. ``"auto"``: amg on meshes with denser rows when pyamg
+        is installed (its cost grows linearly, where the factor fills in), cholesky
+        otherwise.
+    cache : FactorCache, optional
+        Where to keep the factorisation / AMG hierarchy for the next solve of the same
+        matrix (compared by content) and PARDISO's ordering for the same pattern. None,
+        the default, keeps nothing: a one-shot solve holds no memory once it returns.
+
+    Returns
+    -------
+    phi : ndarray of shape (n,)
+    info : SolveInfo
+        ``method`` is ``"cholesky"``, ``"cholesky-single+cg"`` or ``"pcg-amg"`` /
+        ``"pcg-cholesky"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> K = sp.csr_matrix([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+    >>> mass = np.ones(3)
+    >>> S = sp.csr_matrix([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # hold both ends
+    >>> rhs = np.array([1.0, 0.0, -1.0])
+    >>> phi, info = solve_integration(K, mass, S, 2.0, rhs, mu=0.1)
+    >>> Q = (K @ K + 0.1 * K + 2.0 * (S.T @ S)).toarray()
+    >>> bool(np.allclose(phi, np.linalg.solve(Q, rhs))), info.method, info.residual < 1e-10
+    (True, 'cholesky', True)
+    >>> phi2, info2 = solve_integration(K, mass, S, 2.0, rhs, mu=0.1, method="pcg", preconditioner="cholesky")
+    >>> bool(np.allclose(phi2, phi)), info2.method
+    (True, 'pcg-cholesky')
+    """
+    if method not in ("auto", "pcg", "direct"):
+        raise ValueError(f"method must be 'auto', 'pcg' or 'direct', got {method!r}")
+    if preconditioner not in ("auto", "amg", "cholesky"):
+        raise ValueError(f"preconditioner must be 'auto', 'amg' or 'cholesky', got {preconditioner!r}")
+    K = sp.csr_matrix(K)
+    mass = np.asarray(mass, dtype=np.float64)
+    S = sp.csr_matrix(S)
+    rhs = np.asarray(rhs, dtype=np.float64)
+    system = _System(K, mass, S, lam, mu, rhs)
+    sparse_rows = _is_sparse_rows(K)
+    if method == "direct" or (method == "auto" and sparse_rows):
+        return _solve_direct(system, rtol, refine_single=method == "auto", backend=backend, cache=cache)
+    return _solve_pcg(
+        system, rtol, maxiter, fall_back=method == "auto", sparse_rows=sparse_rows,
+        backend=backend, preconditioner=preconditioner, cache=cache,
+    )  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- direct
+
+
+def _solve_direct(system, rtol, *, refine_single, backend, cache):
+    """The direct path: factorise ``Q`` (in single precision refined by conjugate
+    gradients when ``refine_single`` and the system is large enough for PARDISO's).
+    """
+    if backend == "auto" and system.K.shape[0] > SMALL_SYSTEM and not fast_cholesky_available():
+        # stacklevel 5: past this function and solve_integration, at the pipeline's caller
+        fallback_warning("cholesky", stacklevel=5)
+    t0 = time.perf_counter()
+    Q = _assemble(system)
+    single = None
+    if (
+        refine_single
+        and backend in ("auto", "pardiso")
+        and Q.shape[0] >= SINGLE_PRECISION_MIN
+        and load_optional("pypardiso") is not None
+    ):
+        single = _refined_single(Q, system.rhs, rtol, cache)
+    phi, info = single if single is not None else _factor_solve(Q, system.rhs, backend, cache)
+    info.setup_time = time.perf_counter() - t0 - info.solve_time  # with the assembly
+    return phi, info
+
+
+def _assemble(system):
+    """``Q`` as a CSR matrix, symmetrised against rounding."""
+    K, mass, S, lam, mu, _rhs = system
+    Q = (K @ sp.diags(1.0 / mass) @ K + mu * K + lam * (S.T @ S)).tocsr()
+    return ((Q + Q.T) * 0.5).tocsr()
+
+
+def _refined_single(Q, rhs, rtol, cache):
+    """Solve ``Q phi = rhs`` by conjugate gradients preconditioned with a single-precision
+    PARDISO factor of ``Q``; None when that factorisation fails or the iteration does not
+    reach ``rtol`` within :data:`SINGLE_REFINE_MAXITER` iterations.
+    """
+    t0 = time.perf_counter()
+    try:
+        with one_blas_thread():
+            solve = _cached(
+                ("direct", "pardiso-single"), Q,
+                lambda A: PardisoFactor(A, single=True, orderings=_orderings_of(cache)).solve, cache,
+            )  # fmt: skip
+    except Exception:  # noqa: BLE001 - any failure of the optional path: factorise in double
+        return None
+    t1 = time.perf_counter()
+    n = Q.shape[0]
+    P = spla.LinearOperator((n, n), matvec=solve, dtype=np.float64)
+    phi, iters, _ = cg(Q, rhs, P, rtol, SINGLE_REFINE_MAXITER)
+    res = relres(Q, phi, rhs)
+    if not res <= 10 * rtol:
+        return None
+    return phi, SolveInfo("cholesky-single+cg", iters, res, t1 - t0, time.perf_counter() - t1)
+
+
+def _factor_solve(Q, rhs, backend, cache, iters=0):
+    """Solve ``Q phi = rhs`` by a double-precision Cholesky factor of ``Q`` (reported
+    with the ``iters`` iterations that came before it).
+    """
+    t0 = time.perf_counter()
+    with one_blas_thread():
+        solve = _cached(
+            ("direct", backend), Q, lambda A: factorize_spd(A, backend=backend, orderings=_orderings_of(cache)), cache
+        )
+        t1 = time.perf_counter()
+        phi = solve(rhs)
+    t2 = time.perf_counter()
+    return phi, SolveInfo("cholesky", iters, relres(Q, phi, rhs), t1 - t0, t2 - t1)
+
+
+# ----------------------------------------------------------------------------- pcg
+
+
+def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, preconditioner, cache):
+    """The iterative path: conjugate gradients preconditioned by ``(K + D) M^{-1} (K + D)``.
+
+    When the iteration stalls, ``fall_back`` (``method="auto"``) factorises ``Q``, or
+    iterates on for systems too large to factorise; otherwise it warns.
+    """
+    K, mass, S, lam, mu, rhs = system
+    # (K + D) M^{-1} (K + D), D = mu/2 M + C, C M^{-1} C = lam diag(S^T S): mu K and the
+    # constraint's diagonal are matched exactly, the squared Laplacian exactly off it.
+    t0 = time.perf_counter()
+    sts = np.asarray(abs(S).T @ abs(S) @ np.ones(S.shape[1])).ravel()
+    d = 0.5 * mu * mass + np.sqrt(lam * sts * mass)
+    A = (K + sp.diags(d)).tocsr()
+    use_amg = _use_amg(preconditioner, sparse_rows)
+    name = "pcg-amg" if use_amg else "pcg-cholesky"
+    with one_blas_thread():
+        if use_amg:
+            solve = _cached("amg", A, amg_preconditioner, cache)
+        else:
+            solve = _cached(
+                ("factor", backend), A,
+                lambda B: factorize_spd(B, backend=backend, orderings=_orderings_of(cache)), cache,
+            )  # fmt: skip
+
+    def apply(r):
+        return solve(mass * solve(r))
+
+    n = K.shape[0]
+    Q = _q_operator(system)
+    P = spla.LinearOperator((n, n), matvec=apply, dtype=np.float64)
+    t1 = time.perf_counter()
+    phi, iters, info = cg(Q, rhs, P, rtol, maxiter)
+    res = relres(Q, phi, rhs)
+    t2 = time.perf_counter()
+    if info != 0 and res > 10 * rtol:
+        if not fall_back:
+            warnings.warn(
+                f"integration solve did not converge in {iters} iterations "
+                f"(relative residual {res:.2e}, target {rtol:.0e})",
+                RuntimeWarning,
+                stacklevel=3,  # the caller of solve_integration
+            )
+            return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
+        if sparse_rows or n <= DIRECT_FALLBACK_MAX:
+            phi, info2 = _factor_solve(_assemble(system), rhs, backend, cache, iters)
+            info2.setup_time += t2 - t0
+            return phi, info2
+        phi, iters, res = _iterate_on(Q, P, system, phi, iters, rtol, maxiter)
+        t2 = time.perf_counter()
+    return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
+
+
+def _use_amg(preconditioner, sparse_rows):
+    """Whether pcg's preconditioner is an AMG V-cycle (else a Cholesky factor)."""
+    if preconditioner == "auto":
+        use_amg = not sparse_rows
+        if use_amg and load_optional("pyamg") is None:
+            # stacklevel 6: past this function, _solve_pcg and solve_integration
+            fallback_warning("pyamg", stacklevel=6)
+            use_amg = False
+        return use_amg
+    if preconditioner == "amg":
+        if load_optional("pyamg") is None:
+            raise ImportError("preconditioner='amg' needs the package pyamg")
+        return True
+    return False
+
+
+def _q_operator(system):
+    """``Q`` applied as ``K M^{-1} K + mu K + lam S^T S``, never assembled: two products
+    with ``K`` cost less than one with ``Q`` (2-ring stencil), and the sparse product
+    ``K M^{-1} K`` is never formed.
+    """
+    K, mass, S, lam, mu, _rhs = system
+    minv = 1.0 / mass
+    St = S.T.tocsr()
+
+    def qmul(x):
+        Kx = K @ x
+        return K @ (minv * Kx) + mu * Kx + lam * (St @ (S @ x))
+
+    n = K.shape[0]
+    return spla.LinearOperator((n, n), matvec=qmul, dtype=np.float64)
+
+
+def _iterate_on(Q, P, system, phi, iters, rtol, maxiter):
+    """Conjugate gradients on from ``phi`` for a system too large to factorise, for
+    ``4 maxiter`` more iterations; warns with the residual reached if that is not enough.
+    Returns ``phi``, the iterations in all and the relative residual.
+    """
+    K, rhs = system.K, system.rhs
+    phi, more, _ = cg(Q, rhs, P, rtol, 4 * maxiter, x0=phi)
+    iters += more
+    res = relres(Q, phi, rhs)
+    if res > 10 * rtol:
+        n = K.shape[0]
+        warnings.warn(
+            f"integration solve did not converge in {iters} iterations (relative residual "
+            f"{res:.2e}, target {rtol:.0e}); {n} unknowns with {K.nnz / n:.0f} entries per "
+            "row are too many to factorise instead",
+            RuntimeWarning,
+            stacklevel=4,  # the caller of solve_integration
+        )
+    return phi, iters, res
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def _is_sparse_rows(K):
+    n = K.shape[0]
+    return n <= SMALL_SYSTEM or K.nnz / max(n, 1) <= DENSE_ROW_THRESHOLD
+
+
+def _cached(kind, A, build, cache):
+    return build(A) if cache is None else cache.get(kind, A, build)
+
+
+def _orderings_of(cache):
+    return None if cache is None else cache.orderings
