@@ -229,9 +229,18 @@ class Domain:
         )
 
     def smooth_field(self, X, passes):
-        """Step 3 of the paper: ``passes`` sweeps of uniform averaging of each element's
-        vector with its neighbours' (``I + adjacency``), renormalised after each sweep, in
-        Jacobi order so that the result does not depend on the element order.
+        """Step 3 of the paper: ``passes`` sweeps of averaging each element's vector with its
+        neighbours', renormalised after each sweep, in Jacobi order so that the result does
+        not depend on the element order.
+
+        The weights are the paper's uniform ones, except that an element's weight in its
+        neighbours' averages is capped at that of an element of the usual degree,
+        ``min(1, d_90 / degree)`` with ``d_90`` the degree that 90 % of the elements do not
+        exceed: on meshes whose elements have the usual number of neighbours (simplicial,
+        quad and hexahedral grids) this is uniform averaging, while a cell with many more
+        neighbours than the rest (a large polygon inside a ring of small cells) can no
+        longer steer all of them with its one vector, which renormalisation would
+        otherwise reinforce sweep after sweep.
 
         On surfaces the averages are not projected back onto each element's plane: the
         integration sees the field only through the divergence, and the projection
@@ -249,7 +258,12 @@ class Domain:
         """
         if passes == 0:
             return X
-        W = (self.adjacency + sp.identity(self.n_elements, format="csr")).tocsr()
+        adjacency = self.adjacency
+        degree = np.diff(adjacency.indptr)
+        cap = np.minimum(1.0, np.percentile(degree, 90) / np.maximum(degree, 1))
+        if (cap < 1.0).any():
+            adjacency = (adjacency @ sp.diags(cap)).tocsr()
+        W = (adjacency + sp.identity(self.n_elements, format="csr")).tocsr()
         return smooth_rows(W, X, passes)
 
     def lam_reference(self):
