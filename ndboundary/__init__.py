@@ -14,6 +14,7 @@ from . import datasets, io
 from .domains import (
     DelaunayComplex,
     Domain,
+    MeshQualityWarning,
     PointCloud,
     PolygonMesh,
     PolyhedralMesh,
@@ -37,6 +38,7 @@ __all__ = [
     "Domain",
     "LevelSet",
     "LevelSetClassifier",
+    "MeshQualityWarning",
     "PointCloud",
     "PolygonMesh",
     "PolyhedralMesh",

@@ -12,7 +12,7 @@ module                     domain
 =========================  ===================================================
 """
 
-from .base import Domain, kuhn_grid_stiffness
+from .base import Domain, MeshQualityWarning, kuhn_grid_stiffness
 from .delaunay import DelaunayComplex, delaunay_complex
 from .pointcloud import PointCloud
 from .polygon import PolygonMesh
@@ -22,6 +22,7 @@ from .simplicial import SimplicialComplex
 __all__ = [
     "DelaunayComplex",
     "Domain",
+    "MeshQualityWarning",
     "PointCloud",
     "PolygonMesh",
     "PolyhedralMesh",

@@ -50,7 +50,16 @@ from scipy.sparse.csgraph import connected_components
 
 from ..fields import smooth_rows
 
-__all__ = ["Domain", "kuhn_grid_stiffness"]
+__all__ = ["Domain", "MeshQualityWarning", "kuhn_grid_stiffness"]
+
+
+class MeshQualityWarning(UserWarning):
+    """The domain's elements are too thin for the relaxation to be trusted.
+
+    The heat, the field smoothing and the time step ``t = h^2`` are isotropic in space,
+    measured by the mean edge length ``h``: on elements much longer than wide they blur
+    what lies across them, and on nearly flat ones the linear solves lose their accuracy.
+    """
 
 
 def kuhn_grid_stiffness(k):
@@ -299,6 +308,12 @@ class Domain:
         points, simplices, R = self._refinement
         f = np.asarray(f, dtype=np.float64)
         return points, simplices, f if R is None else R @ f
+
+    def aspect_ratios(self):
+        """Per element, how far it is from a well-shaped one (1 for a regular simplex, growing
+        as it flattens), or None when the domain does not measure it.
+        """
+        return None
 
     def propagation_edges(self, max_neighbors):
         """The vertex pairs along which labels propagate to unlabelled vertices, shape (n, 2).

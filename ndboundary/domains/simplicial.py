@@ -18,6 +18,7 @@ Incidences (edges, facets, adjacency) are built by the linear-time sorts of
 from __future__ import annotations
 
 from functools import cached_property
+from math import factorial
 
 import numpy as np
 import scipy.sparse as sp
@@ -131,6 +132,28 @@ class SimplicialComplex(Domain):
                 f"{'' if bad.sum() == 1 else f' ({int(bad.sum())} degenerate simplices in all)'}"
             )
         return grads, vol
+
+    @cached_property
+    def _aspect_ratios(self):
+        X = self.points[self.simplices]
+        k = self.simplex_dim
+        iu, ju = np.triu_indices(k + 1, 1)
+        longest = np.linalg.norm(X[:, iu] - X[:, ju], axis=2).max(axis=1)
+        return longest**k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * self.volumes)
+
+    def aspect_ratios(self):
+        """``L^k / (k! V)`` per simplex, ``L`` its longest edge and ``V`` its volume, divided
+        by the regular simplex's value: 1 for a regular simplex, about ``L / w`` for a
+        triangle of width ``w``.
+
+        Examples
+        --------
+        >>> from ndboundary import SimplicialComplex
+        >>> flat = SimplicialComplex([[0, 0], [1, 0], [0, 0.01]], [[0, 1, 2]])
+        >>> round(float(flat.aspect_ratios()[0]), 1)
+        86.6
+        """
+        return self._aspect_ratios
 
     def element_centroids(self) -> np.ndarray:
         """Element centroids, shape (n_elements, dim)."""

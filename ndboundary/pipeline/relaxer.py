@@ -11,12 +11,13 @@ from __future__ import annotations
 import hashlib
 import sys
 import time
+import warnings
 
 import numpy as np
 import scipy.sparse as sp
 
 from .._validation import check_labels
-from ..domains.base import Domain
+from ..domains.base import Domain, MeshQualityWarning
 from ..solvers import FactorCache
 from .boundary import element_boundary, vertex_boundary
 from .field import initial_field
@@ -28,6 +29,53 @@ from .result import RelaxResult
 from .smoothing import smooth
 
 __all__ = ["Relaxer", "relax"]
+
+#: A domain whose median element has an aspect ratio above this is too anisotropic for
+#: the isotropic heat and smoothing (:class:`~ndboundary.domains.MeshQualityWarning`).
+ANISOTROPIC_MEDIAN = 10.0
+#: Elements with an aspect ratio above this are nearly flat: the solves lose accuracy.
+FLAT_ASPECT = 1e4
+
+
+def check_element_shapes(domain, stacklevel=3):
+    """Warn (:class:`~ndboundary.domains.MeshQualityWarning`) when the domain's elements are
+    too thin to trust the relaxation, naming the worst elements and their aspect ratios.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.relaxer import check_element_shapes
+    >>> grid = kuhn_grid(10, 2)
+    >>> squashed = type(grid)(grid.points * [1, 1e-2], grid.simplices)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_element_shapes(grid)
+    ...     check_element_shapes(squashed)
+    >>> len(caught), "aspect ratio" in str(caught[0].message)
+    (1, True)
+    """
+    ratios = domain.aspect_ratios()
+    if ratios is None or ratios.size == 0:
+        return
+    median = float(np.median(ratios))
+    worst = np.argsort(ratios)[::-1][:3]
+    if median <= ANISOTROPIC_MEDIAN and ratios[worst[0]] <= FLAT_ASPECT:
+        return
+    named = ", ".join(f"{int(e)} ({ratios[e]:.3g})" for e in worst)
+    why = (
+        f"the median element has an aspect ratio of {median:.3g}: the heat and the field "
+        "smoothing are isotropic, so they blur what lies across such thin elements"
+        if median > ANISOTROPIC_MEDIAN
+        else f"{int((ratios > FLAT_ASPECT).sum())} element(s) are nearly flat, and the linear solves lose accuracy on them"
+    )
+    warnings.warn(
+        f"ill-shaped elements: {why}; the relaxed boundary may not follow the labels. Worst "
+        f"elements (aspect ratio): {named}. Remesh, or scale the coordinates to make the "
+        "elements well shaped.",
+        MeshQualityWarning,
+        stacklevel=stacklevel,
+    )
 
 
 class _Progress:
@@ -195,6 +243,7 @@ class Relaxer:
         boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
+        check_element_shapes(domain, stacklevel=5)
         padded = pad_domain(domain, region1, boundary, on, pad)
         _ = padded.work.K, padded.work.mass  # assembled (and timed) with the padding
         if self._keep:

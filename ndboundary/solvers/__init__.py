@@ -37,13 +37,14 @@ import types
 from . import amg, cholesky, common, integration
 from .cache import FactorCache
 from .cholesky import available_backends, factorize_spd
-from .common import SolveInfo, SolverFallbackWarning
+from .common import ConvergenceWarning, SolveInfo, SolverFallbackWarning
 from .heat import solve_heat
 from .integration import solve_integration
 
 __all__ = [
     "SolveInfo",
     "SolverFallbackWarning",
+    "ConvergenceWarning",
     "available_backends",
     "FactorCache",
     "factorize_spd",

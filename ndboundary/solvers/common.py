@@ -20,6 +20,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 __all__ = [
+    "ConvergenceWarning",
     "FACTOR_THREADS",
     "SOLVE_THREADS",
     "SolveInfo",
@@ -30,6 +31,7 @@ __all__ = [
     "load_optional",
     "one_blas_thread",
     "relres",
+    "warn_unconverged",
 ]
 
 #: Threads given to a sparse factorisation (MKL's for PARDISO, set for that call only;
@@ -223,3 +225,32 @@ def cg(A, b, M, rtol, maxiter, x0=None):
     with one_blas_thread():
         x, info = spla.cg(A, b, x0=x0, rtol=rtol, atol=0.0, maxiter=maxiter, M=M, callback=count)
     return x, it[0], info
+
+
+class ConvergenceWarning(RuntimeWarning):
+    """A linear solve of the relaxation ended above its tolerance: the result may be wrong.
+
+    The message names the step (heat or integration), the relative residual reached and the
+    tolerance asked for.
+    """
+
+
+def warn_unconverged(step, info, rtol, hint="", stacklevel=3):
+    """Warn that the solve of ``step`` reached only ``info.residual`` against ``rtol``.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from ndboundary.solvers.common import SolveInfo, warn_unconverged
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warn_unconverged("heat (step 1)", SolveInfo("cg-jacobi", 2000, 3e-5), 1e-10)
+    >>> print(caught[0].message)
+    heat (step 1) solve did not converge: relative residual 3.00e-05 after 2000 iterations of cg-jacobi, target 1e-10
+    """
+    warnings.warn(
+        f"{step} solve did not converge: relative residual {info.residual:.2e} after "
+        f"{info.iterations} iterations of {info.method}, target {rtol:.0e}{hint}",
+        ConvergenceWarning,
+        stacklevel=stacklevel,
+    )

@@ -36,7 +36,16 @@ import scipy.sparse.linalg as spla
 
 from .amg import amg_preconditioner
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
-from .common import SolveInfo, cg, fallback_warning, load_optional, one_blas_thread, relres
+from .common import (
+    ConvergenceWarning,
+    SolveInfo,
+    cg,
+    fallback_warning,
+    load_optional,
+    one_blas_thread,
+    relres,
+    warn_unconverged,
+)
 from .pardiso import PardisoFactor
 
 __all__ = [
@@ -213,6 +222,9 @@ def _solve_direct(system, rtol, *, refine_single, backend, cache):
         single = _refined_single(Q, system.rhs, rtol, cache)
     phi, info = single if single is not None else _factor_solve(Q, system.rhs, backend, cache)
     info.setup_time = time.perf_counter() - t0 - info.solve_time  # with the assembly
+    if not info.residual <= 10 * rtol:
+        # stacklevel 4: past this function and solve_integration, at the pipeline's caller
+        warn_unconverged("integration (step 4)", info, rtol, " (the factorisation lost its accuracy)", stacklevel=4)
     return phi, info
 
 
@@ -304,7 +316,7 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
             warnings.warn(
                 f"integration solve did not converge in {iters} iterations "
                 f"(relative residual {res:.2e}, target {rtol:.0e})",
-                RuntimeWarning,
+                ConvergenceWarning,
                 stacklevel=3,  # the caller of solve_integration
             )
             return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
@@ -365,7 +377,7 @@ def _iterate_on(Q, P, system, phi, iters, rtol, maxiter):
             f"integration solve did not converge in {iters} iterations (relative residual "
             f"{res:.2e}, target {rtol:.0e}); {n} unknowns with {K.nnz / n:.0f} entries per "
             "row are too many to factorise instead",
-            RuntimeWarning,
+            ConvergenceWarning,
             stacklevel=4,  # the caller of solve_integration
         )
     return phi, iters, res
