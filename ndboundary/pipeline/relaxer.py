@@ -67,7 +67,8 @@ def check_element_shapes(domain, stacklevel=3):
         f"the median element has an aspect ratio of {median:.3g}: the heat and the field "
         "smoothing are isotropic, so they blur what lies across such thin elements"
         if median > ANISOTROPIC_MEDIAN
-        else f"{int((ratios > FLAT_ASPECT).sum())} element(s) are nearly flat, and the linear solves lose accuracy on them"
+        else f"{int((ratios > FLAT_ASPECT).sum())} element(s) are nearly flat, and the linear solves "
+        "lose accuracy on them"
     )
     warnings.warn(
         f"ill-shaped elements: {why}; the relaxed boundary may not follow the labels. Worst "
