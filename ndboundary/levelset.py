@@ -266,7 +266,27 @@ def marching_simplices(points, simplices, values, value=0.5):
     if k >= 2:
         flip = _orientation(points, values, S, parity, owner, local, t[tris]) < 0
         tris[flip, 0], tris[flip, 1] = tris[flip, 1].copy(), tris[flip, 0].copy()
+    at_vertex = f1 == value
+    if at_vertex.any():
+        pts, tris, ue = _merge_vertex_crossings(pts, tris, ue, at_vertex)
     return LevelSet(pts, tris, ue, value)
+
+
+def _merge_vertex_crossings(pts, tris, ue, at_vertex):
+    """One point for the crossings of all the edges that end at a vertex whose value is
+    exactly the level (they all sit on it), and no output simplex that this flattens."""
+    key = np.where(at_vertex, -1 - ue[:, 1], np.arange(ue.shape[0]))
+    _, first, remap = np.unique(key, return_index=True, return_inverse=True)
+    tris = remap.reshape(-1)[tris]
+    k = tris.shape[1]
+    distinct = np.ones(tris.shape[0], dtype=bool)
+    for i in range(k):
+        for j in range(i + 1, k):
+            distinct &= tris[:, i] != tris[:, j]
+    tris = tris[distinct]
+    used, tris = np.unique(tris, return_inverse=True)
+    keep = first[used]
+    return pts[keep], tris.reshape(-1, k), ue[keep]
 
 
 def _orientation(points, values, S, parity, owner, local, t):

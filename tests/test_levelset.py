@@ -97,3 +97,13 @@ def test_segments_give_points():
     dom = SimplicialComplex([[0.0], [1.0], [2.0]], [[0, 1], [1, 2]])
     ls = marching_simplices(dom.points, dom.simplices, np.array([0.0, 1.0, 0.0]), 0.5)
     np.testing.assert_allclose(np.sort(ls.points[:, 0]), [0.5, 1.5])
+
+
+@pytest.mark.parametrize(("dim", "n", "radius", "chi"), [(2, 10, 0.6, 0), (3, 10, 0.6, 2), (4, 4, 0.5, 0)])
+def test_level_set_through_vertices_is_closed(dim, n, radius, chi):
+    # the sphere passes exactly through grid vertices: their crossings are one point each
+    grid = kuhn_grid(n, dim)
+    values = np.linalg.norm(grid.points, axis=1) - radius
+    assert (values == 0).any()
+    ls = marching_simplices(grid.points, grid.simplices, values, 0.0)
+    assert ls.is_closed() and ls.n_components() == 1 and ls.euler_characteristic() == chi
