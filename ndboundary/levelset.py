@@ -274,7 +274,8 @@ def marching_simplices(points, simplices, values, value=0.5):
 
 def _merge_vertex_crossings(pts, tris, ue, at_vertex):
     """One point for the crossings of all the edges that end at a vertex whose value is
-    exactly the level (they all sit on it), and no output simplex that this flattens."""
+    exactly the level (they all sit on it), and no output simplex that this flattens.
+    """
     key = np.where(at_vertex, -1 - ue[:, 1], np.arange(ue.shape[0]))
     _, first, remap = np.unique(key, return_index=True, return_inverse=True)
     tris = remap.reshape(-1)[tris]
