@@ -3,19 +3,76 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from .cli_files import (
+    BOUNDARY_EXTENSIONS,
+    PHI_EXTENSIONS,
+    CLIError,
+    atomic_outputs,
+    check_input,
+    check_outputs,
+    one_line,
+    reading,
+    writable_labels,
+)
+
 __all__ = ["main"]
 
 #: Where ``ndboundary demo`` writes its files without ``--out``, relative to the current directory.
 DEMO_DIR = "ndboundary-demo"
+#: The largest ``--smoothing`` accepted (passes of the field smoothing).
+MAX_SMOOTHING = 10_000
+#: The largest ``--lam`` accepted (weight of the boundary term), as the messages write it.
+MAX_LAM = "1e6"
+#: Meshes with at least this many vertices show per-step progress on a terminal (unless ``--quiet``).
+PROGRESS_VERTICES = 50_000
 
 
-class _CLIError(Exception):
-    """An error reported as one line on stderr, with a non-zero exit status."""
+def _smoothing_passes(text):
+    """``--smoothing``: an integer in [0, MAX_SMOOTHING].
+
+    Examples
+    --------
+    >>> _smoothing_passes("20")
+    20
+    >>> _smoothing_passes("99999999999999999999999")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be an integer in [0, 10000], got '99999999999999999999999'
+    """
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= MAX_SMOOTHING:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, {MAX_SMOOTHING}], got {text!r}")
+    return value
+
+
+def _lam_weight(text):
+    """``--lam``: a finite float in (0, MAX_LAM].
+
+    Examples
+    --------
+    >>> _lam_weight("0.5")
+    0.5
+    >>> _lam_weight("nan")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be a finite number in (0, 1e6], got 'nan'
+    """
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0 < value <= float(MAX_LAM)):
+        raise argparse.ArgumentTypeError(f"must be a finite number in (0, {MAX_LAM}], got {text!r}")
+    return value
 
 
 def _demo_cases():
@@ -97,26 +154,40 @@ def cmd_demo(args):
     return 0
 
 
+def _labels_on(args, domain, n):
+    """Whether the ``n`` labels are on elements or vertices: by ``--on``, else by their count."""
+    counts = {"elements": domain.n_elements, "vertices": domain.n_vertices}
+    fits = [on for on, count in counts.items() if count == n and args.on in ("auto", on)]
+    if not fits:
+        given = "" if args.on == "auto" else f" (--on {args.on})"
+        raise CLIError(
+            f"{args.labels} holds {n} labels but {args.mesh} has {domain.n_elements} elements and "
+            f"{domain.n_vertices} vertices{given}"
+        )
+    if len(fits) > 1:
+        raise CLIError(f"{args.mesh} has as many vertices as elements ({n}): say --on elements or --on vertices")
+    return fits[0]
+
+
 def cmd_relax(args):
     from . import io
     from .pipeline import relax
 
-    for path in (args.mesh, args.labels):
-        if not Path(path).exists():
-            raise _CLIError(f"no such file: {path}")
-    domain = io.read_mesh(args.mesh)
-    labels = io.read_labels(args.labels)
-    n = len(labels)
-    if n == domain.n_elements and args.on in ("auto", "elements"):
-        on = "elements"
-    elif n == domain.n_vertices and args.on in ("auto", "vertices"):
-        on = "vertices"
-    else:
-        raise _CLIError(
-            f"{args.labels} holds {n} labels but {args.mesh} has {domain.n_elements} elements and "
-            f"{domain.n_vertices} vertices"
-        )
-    show = not args.quiet and sys.stderr.isatty() and domain.n_vertices >= 50_000
+    check_input(args.mesh, "mesh")
+    check_input(args.labels, "labels")
+    wanted = [("-o", args.output, PHI_EXTENSIONS)]
+    if args.boundary:
+        wanted.append(("--boundary", args.boundary, BOUNDARY_EXTENSIONS))
+    outputs = check_outputs(wanted, [("the mesh", args.mesh), ("the labels", args.labels)])
+    with reading(args.labels):
+        labels = io.read_labels(args.labels)
+    data = writable_labels(labels)  # what the VTK writers store: booleans and strings become 0/1
+    with reading(args.mesh):
+        domain = io.read_mesh(args.mesh)
+    on = _labels_on(args, domain, len(labels))
+    if args.boundary and domain.element_dim < 2:
+        raise CLIError(f"--boundary {args.boundary}: the boundary on a curve is points, which no format holds")
+    show = not args.quiet and sys.stderr.isatty() and domain.n_vertices >= PROGRESS_VERTICES
     kwargs = {}
     if args.lam is not None:
         kwargs["lam"] = args.lam
@@ -124,9 +195,10 @@ def cmd_relax(args):
         kwargs["smoothing"] = args.smoothing
     res = relax(domain, labels, on=on, verbose=show, **kwargs)
     ls = res.level_set()
-    io.write_phi(args.output, res, labels=labels if on == "elements" else None)
-    if args.boundary:
-        io.write_level_set(args.boundary, ls)
+    with atomic_outputs(outputs) as temporary:  # both outputs written, or neither
+        io.write_phi(temporary[0], res, labels=data if on == "elements" else None)
+        if args.boundary:
+            io.write_level_set(temporary[1], ls)
     t = res.timings
     print(
         f"{args.mesh}: {domain.n_vertices} vertices, {domain.n_elements} elements, labels on {on}\n"
@@ -164,19 +236,28 @@ def build_parser():
         "relax",
         help="relax the boundary of a labelled mesh read from files",
         description="Read a mesh and one label per element (or per vertex), relax the boundary "
-        "between the two labels, write phi and the labels (VTU for ParaView) and the smooth boundary.",
+        "between the two labels, write phi and the labels (VTU for ParaView) and the smooth boundary. "
+        "No output may be an input; each is written whole or not at all.",
+        usage="%(prog)s MESH LABELS -o OUT.vtu [--boundary OUT.obj] [options]",
     )
     rel.add_argument("mesh", help="OBJ, OFF, PLY, STL, MEDIT .mesh, VTK/VTU, Gmsh .msh or .hedra file")
     rel.add_argument("labels", help="one label per line (optionally after 'SCALAR_FIELD n'), or .npy")
-    rel.add_argument("-o", "--output", required=True, metavar="OUT.vtu", help="where to write phi and the labels")
-    rel.add_argument("--boundary", metavar="OUT.obj", help="where to write the relaxed boundary (OBJ, PLY or VTK)")
-    rel.add_argument("--lam", type=float, help="weight of the boundary term (default 2.0)")
-    rel.add_argument("--smoothing", type=int, help="field smoothing passes (default 60)")
+    rel.add_argument(
+        "-o", "--output", required=True, metavar="OUT.vtu", help="where to write phi and the labels (.vtu or .vtk)"
+    )
+    rel.add_argument(
+        "--boundary", metavar="OUT.obj", help="where to write the relaxed boundary (.obj, .ply, .vtk or .vtu)"
+    )
+    rel.add_argument("--lam", type=_lam_weight, help=f"weight of the boundary term, in (0, {MAX_LAM}] (default 2.0)")
+    rel.add_argument(
+        "--smoothing", type=_smoothing_passes, help=f"field smoothing passes, 0 to {MAX_SMOOTHING} (default 60)"
+    )
     rel.add_argument(
         "--on",
         choices=("auto", "elements", "vertices"),
         default="auto",
-        help="what the labels are given on (default: by their count)",
+        help="what the labels are given on (default: by their count; required when the mesh has as many "
+        "vertices as elements)",
     )
     rel.add_argument("--quiet", action="store_true", help="no progress display")
     rel.set_defaults(func=cmd_relax)
@@ -186,8 +267,11 @@ def build_parser():
 def main(argv=None):
     """Run the ``ndboundary`` command with the arguments ``argv`` (default: the command line).
 
-    Returns the exit status: 0 on success, 1 on an error (reported as one line on stderr),
-    2 when no command is given.
+    Returns the exit status: 0 on success, 1 on an error (reported as one line on stderr,
+    ``ndboundary: error: ...``), 2 when no command is given, 130 when interrupted (Ctrl-C;
+    ``relax`` then leaves every file as it was). Arguments argparse refuses (an unknown
+    option, ``--smoothing`` or ``--lam`` out of range) raise ``SystemExit(2)`` after a
+    usage line and an error line.
 
     Examples
     --------
@@ -202,8 +286,11 @@ def main(argv=None):
         return 2
     try:
         return args.func(args)
-    except (_CLIError, ValueError, TypeError, OSError, ImportError) as exc:
-        print(f"ndboundary: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print("ndboundary: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # anything a user can cause is reported as one line, never a traceback
+        print(f"ndboundary: error: {one_line(exc)}", file=sys.stderr)
         return 1
 
 
