@@ -30,6 +30,7 @@ __all__ = [
     "row_groups",
     "shared_facet_adjacency",
     "sort_rows",
+    "used_vertices",
 ]
 
 #: An element is degenerate when its measure is below this fraction of the measure of a
@@ -220,6 +221,26 @@ def expand_ranges(starts, lengths):
     first = np.zeros(lengths.size, dtype=np.int64)
     np.cumsum(lengths[:-1], out=first[1:])
     return np.repeat(starts - first, lengths) + np.arange(total)
+
+
+def used_vertices(cells, n_vertices):
+    """The vertices that ``cells`` (an index array of any shape) use, increasing, and the
+    renumbering of all ``n_vertices`` onto them (-1 for the unused ones).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._arrays import used_vertices
+    >>> used, remap = used_vertices(np.array([[4, 1], [1, 2]]), 6)
+    >>> used.tolist(), remap.tolist()
+    ([1, 2, 4], [-1, 0, 1, -1, 2, -1])
+    """
+    used = np.zeros(n_vertices, dtype=bool)
+    used[np.asarray(cells).ravel()] = True
+    vertices = np.flatnonzero(used)
+    remap = np.full(n_vertices, -1, dtype=np.int64)
+    remap[vertices] = np.arange(vertices.size)
+    return vertices, remap
 
 
 def fill_unused_mass(mass, shares, unused=None):

@@ -237,6 +237,18 @@ class Domain:
             f"{type(self).__name__} cannot split elements; relax it with pad=False or give it split_elements"
         )
 
+    def subdomain(self, mask):
+        """The domain of the elements selected by ``mask`` alone (the relaxation's band).
+
+        Returns
+        -------
+        domain : Domain
+            Over the vertices those elements use, in increasing order.
+        vertices : ndarray of int
+            Those vertices' indices in this domain.
+        """
+        raise NotImplementedError(f"{type(self).__name__} cannot be cut to a band; relax it with band=None")
+
     def smooth_field(self, X, passes):
         """Step 3 of the paper: ``passes`` sweeps of averaging each element's vector with its
         neighbours', renormalised after each sweep, in Jacobi order so that the result does

@@ -51,6 +51,7 @@ from .._arrays import (
     ragged_next,
     ragged_rows,
     shared_facet_adjacency,
+    used_vertices,
 )
 from .._validation import check_points, check_ragged
 from .base import Domain
@@ -286,6 +287,17 @@ class PolygonMesh(Domain):
             np.concatenate([self.points, centres]), indices, offsets, self.laplacian, self.stabilization
         )
         return out, parent
+
+    def subdomain(self, mask):
+        """The mesh of the polygons selected by ``mask`` (see :meth:`Domain.subdomain`)."""
+        mask = np.asarray(mask, dtype=bool)
+        corners = mask[self._corners[0]]
+        vertices, remap = used_vertices(self.indices[corners], self.n_vertices)
+        offsets = np.zeros(int(mask.sum()) + 1, dtype=np.int64)
+        np.cumsum(self.sizes[mask], out=offsets[1:])
+        indices = remap[self.indices[corners]]
+        sub = PolygonMesh._from_flat(self.points[vertices], indices, offsets, self.laplacian, self.stabilization)
+        return sub, vertices
 
     def simplicial_refinement(self):
         """Points, triangles and the (n_refined, n_vertices) interpolation matrix of the

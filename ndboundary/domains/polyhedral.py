@@ -44,6 +44,7 @@ from .._arrays import (
     ragged_rows,
     row_groups,
     shared_facet_adjacency,
+    used_vertices,
 )
 from .._validation import check_cells, check_points, check_ragged
 from .base import Domain
@@ -368,6 +369,25 @@ class PolyhedralMesh(Domain):
             return self, np.arange(self.n_elements)
         points, fi, fo, ci, co, parent = pyramid_split(self, mask)
         return PolyhedralMesh._from_flat(points, fi, fo, ci, co, self.laplacian, self.stabilization), parent
+
+    def subdomain(self, mask):
+        """The mesh of the cells selected by ``mask`` (see :meth:`Domain.subdomain`)."""
+        mask = np.asarray(mask, dtype=bool)
+        cells = np.flatnonzero(mask)
+        lens = np.diff(self.cell_offsets)[cells]
+        entries = self.cell_faces[expand_ranges(self.cell_offsets[cells], lens)]
+        faces, face_remap = used_vertices(entries, self.n_faces)
+        flens = np.diff(self.face_offsets)[faces]
+        corners = self.face_indices[expand_ranges(self.face_offsets[faces], flens)]
+        vertices, remap = used_vertices(corners, self.n_vertices)
+        fo = np.zeros(faces.size + 1, dtype=np.int64)
+        np.cumsum(flens, out=fo[1:])
+        co = np.zeros(cells.size + 1, dtype=np.int64)
+        np.cumsum(lens, out=co[1:])
+        sub = PolyhedralMesh._from_flat(
+            self.points[vertices], remap[corners], fo, face_remap[entries], co, self.laplacian, self.stabilization
+        )
+        return sub, vertices
 
     def simplicial_refinement(self):
         """Points, tetrahedra and the (n_refined, n_vertices) interpolation matrix of the

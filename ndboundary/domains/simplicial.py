@@ -33,6 +33,7 @@ from .._arrays import (
     pair_groups,
     shared_facet_adjacency,
     sort_rows,
+    used_vertices,
 )
 from .._validation import check_cells, check_points
 from .base import Domain
@@ -380,6 +381,20 @@ class SimplicialComplex(Domain):
         out.volumes = kept_then(self.volumes, keep, vols)
         out.split_from = SplitOperators(self, idx, keep)
         return out, parent
+
+    def subdomain(self, mask):
+        """The complex of the simplices selected by ``mask``, its geometry taken from this one
+        (see :meth:`Domain.subdomain`).
+        """
+        el = np.flatnonzero(mask)
+        vertices, remap = used_vertices(self.simplices[el], self.n_vertices)
+        out = SimplicialComplex.__new__(SimplicialComplex)
+        out.points = self.points[vertices]
+        out.simplices = remap[self.simplices[el]]
+        out.sorted_simplices = remap[self.sorted_simplices[el]]  # the renumbering keeps the order
+        out.barycentric_gradients = self.barycentric_gradients[el]
+        out.volumes = self.volumes[el]
+        return out, vertices
 
     def simplicial_refinement(self):
         """The complex itself: ``(points, simplices, None)``."""

@@ -21,7 +21,7 @@ DEFAULT_MU = 0.03
 PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain", "mu": 0.0}
 
 
-def check_params(*, on, lam, smoothing, mu, t, form, rtol, solver):
+def check_params(*, on, lam, smoothing, mu, t, form, rtol, solver, band=None):
     """Validate the parameters of :func:`~ndboundary.relax`; returns them normalised as a dict.
 
     Examples
@@ -41,7 +41,12 @@ def check_params(*, on, lam, smoothing, mu, t, form, rtol, solver):
         raise ValueError(f"form must be 'mass' or 'plain', got {form!r}")
     if solver not in ("auto", "pcg", "direct"):
         raise ValueError(f"solver must be 'auto', 'pcg' or 'direct', got {solver!r}")
+    if band is not None and not (isinstance(band, str) and band == "auto"):
+        if isinstance(band, str):
+            raise ValueError(f"band must be None, 'auto' or a width in units of h, got {band!r}")
+        band = check_positive(band, "band")
     return {
+        "band": band,
         "on": on,
         "lam": check_positive(lam, "lam"),
         "smoothing": check_nonnegative_int(smoothing, "smoothing"),
