@@ -11,16 +11,16 @@ from __future__ import annotations
 import hashlib
 import sys
 import time
-import warnings
 
 import numpy as np
 import scipy.sparse as sp
 
 from .._validation import check_labels
-from ..domains.base import Domain, MeshQualityWarning
+from ..domains.base import Domain
 from ..solvers import FactorCache
-from .band import band_elements, extend_outside
+from .band import band_elements, band_width, extend_outside
 from .boundary import element_boundary, vertex_boundary
+from .checks import check_element_shapes
 from .field import initial_field
 from .heat import diffuse
 from .integration import integrate, integration_system
@@ -29,75 +29,7 @@ from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, check_params
 from .result import RelaxResult
 from .smoothing import smooth
 
-__all__ = ["Relaxer", "band_width", "relax"]
-
-#: ``band="auto"``: the band's half-width in units of ``h``. The first-order term of the
-#: integration (``mu > 0``) screens phi from what lies farther from zeta; at this width the
-#: level set matches the whole-domain solve within 0.01 h on average and 0.05 h at worst
-#: with the default parameters, few smoothing passes and a weaker ``lam`` alike
-#: (``benchmarks/band.py``).
-AUTO_BAND_WIDTH = 30.0
-#: A domain whose median element has an aspect ratio above this is too anisotropic for
-#: the isotropic heat and smoothing (:class:`~ndboundary.domains.MeshQualityWarning`).
-ANISOTROPIC_MEDIAN = 10.0
-#: Elements with an aspect ratio above this are nearly flat: the solves lose accuracy.
-FLAT_ASPECT = 1e4
-
-
-def band_width(params):
-    """The band's half-width in units of ``h`` for ``band="auto"``, or None for the whole
-    domain: without the first-order term (``mu = 0``, the paper's energy) nothing screens
-    phi, and the level set depends on the whole domain.
-
-    Examples
-    --------
-    >>> from ndboundary.pipeline.relaxer import band_width
-    >>> band_width({"mu": 0.03}), band_width({"mu": 0.0})
-    (30.0, None)
-    """
-    return AUTO_BAND_WIDTH if params["mu"] > 0 else None
-
-
-def check_element_shapes(domain, stacklevel=3):
-    """Warn (:class:`~ndboundary.domains.MeshQualityWarning`) when the domain's elements are
-    too thin to trust the relaxation, naming the worst elements and their aspect ratios.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.relaxer import check_element_shapes
-    >>> grid = kuhn_grid(10, 2)
-    >>> squashed = type(grid)(grid.points * [1, 1e-2], grid.simplices)
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     check_element_shapes(grid)
-    ...     check_element_shapes(squashed)
-    >>> len(caught), "aspect ratio" in str(caught[0].message)
-    (1, True)
-    """
-    ratios = domain.aspect_ratios()
-    if ratios is None or ratios.size == 0:
-        return
-    median = float(np.median(ratios))
-    worst = np.argsort(ratios)[::-1][:3]
-    if median <= ANISOTROPIC_MEDIAN and ratios[worst[0]] <= FLAT_ASPECT:
-        return
-    named = ", ".join(f"{int(e)} ({ratios[e]:.3g})" for e in worst)
-    why = (
-        f"the median element has an aspect ratio of {median:.3g}: the heat and the field "
-        "smoothing are isotropic, so they blur what lies across such thin elements"
-        if median > ANISOTROPIC_MEDIAN
-        else f"{int((ratios > FLAT_ASPECT).sum())} element(s) are nearly flat, and the linear solves "
-        "lose accuracy on them"
-    )
-    warnings.warn(
-        f"ill-shaped elements: {why}; the relaxed boundary may not follow the labels. Worst "
-        f"elements (aspect ratio): {named}. Remesh, or scale the coordinates to make the "
-        "elements well shaped.",
-        MeshQualityWarning,
-        stacklevel=stacklevel,
-    )
+__all__ = ["Relaxer", "relax"]
 
 
 class _Progress:
@@ -402,7 +334,7 @@ def relax(
         How to solve the integration system (see :func:`ndboundary.solvers.solve_integration`).
     band : None, "auto" or float, default=None
         Relax only the elements within this graph distance of zeta, in units of ``h``
-        (``"auto"``: :func:`band_width`, 30 unless ``mu = 0``), and fill
+        (``"auto"``: :func:`~ndboundary.pipeline.band.band_width`, 30 unless ``mu = 0``), and fill
         phi outside them with the band-edge value plus the signed graph distance in units
         of ``h`` (:mod:`ndboundary.pipeline.band`). None relaxes the whole domain. Domains
         that cannot be cut (:meth:`~ndboundary.Domain.subdomain`) need None.
