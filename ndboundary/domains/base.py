@@ -198,10 +198,15 @@ class Domain:
         return np.maximum.reduceat(np.asarray(f)[by_element.indices], by_element.indptr[:-1])
 
     # -- geometry -------------------------------------------------------------
+    @cached_property
+    def edge_lengths(self) -> np.ndarray:
+        """Length of every edge, in the order of :attr:`edges`."""
+        e = self.edges
+        return np.linalg.norm(self.points[e[:, 0]] - self.points[e[:, 1]], axis=1)
+
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method."""
-        e = self.edges
-        return float(np.linalg.norm(self.points[e[:, 0]] - self.points[e[:, 1]], axis=1).mean())
+        return float(self.edge_lengths.mean())
 
     def element_centroids(self) -> np.ndarray:
         """Element centroids, shape (n_elements, dim)."""

@@ -386,6 +386,6 @@ class PointCloud(Domain):
 
     def __getstate__(self):
         state = self.__dict__.copy()
-        for name in ("G", "K", "A", "mass", "adjacency", "incidence", "edges", "vertex_components"):
+        for name in ("G", "K", "A", "mass", "adjacency", "incidence", "edges", "vertex_components", "edge_lengths"):
             state.pop(name, None)
         return state

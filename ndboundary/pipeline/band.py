@@ -31,11 +31,6 @@ __all__ = ["AUTO_BAND_WIDTH", "band_elements", "band_width", "extend_outside"]
 AUTO_BAND_WIDTH = 30.0
 
 
-def _edge_lengths(domain):
-    e = domain.edges
-    return np.linalg.norm(domain.points[e[:, 0]] - domain.points[e[:, 1]], axis=1)
-
-
 def band_elements(domain, sources, h, width):
     """The elements with a vertex within graph distance ``width * h`` of the ``sources``.
 
@@ -50,7 +45,7 @@ def band_elements(domain, sources, h, width):
     >>> bool(0 < band.sum() < grid.n_elements)
     True
     """
-    graph = domain.edge_graph(_edge_lengths(domain))
+    graph = domain.edge_graph(domain.edge_lengths)
     dist = dijkstra(graph, directed=False, indices=sources, min_only=True, limit=width * h)
     near = np.isfinite(dist)
     return (domain.incidence.T @ near.astype(np.float64)) > 0
@@ -73,7 +68,7 @@ def extend_outside(domain, vertices, phi_band, vert_region1, h):
     V = domain.n_vertices
     offset = np.abs(np.asarray(phi_band, dtype=np.float64) - 0.5)
     # a virtual source joined to every band vertex by its offset: one Dijkstra pass
-    graph = domain.edge_graph(_edge_lengths(domain) / h).tocoo()
+    graph = domain.edge_graph(domain.edge_lengths / h).tocoo()
     rows = np.concatenate([graph.row, np.full(vertices.size, V)])
     cols = np.concatenate([graph.col, vertices])
     weights = np.concatenate([graph.data, offset + 1e-300])  # an explicit zero would drop the edge
