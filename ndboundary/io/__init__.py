@@ -28,6 +28,13 @@ kept as in the file, except that vertices no kept cell uses are dropped (see
 :func:`read_mesh`). A curve or surface mesh whose third coordinate is zero everywhere is
 read with 2-D points.
 
+Readers check what they read against the format's own conventions and refuse, with a
+``ValueError`` naming the file, the line (for line-based formats) and the value, vertex
+indices outside the file's vertices, header counts that disagree with the content and
+NaN or infinite coordinates; a leading UTF-8 byte-order mark is skipped. Triangle soups
+(STL files, and surfaces whose faces have their own copies of their vertices) are
+welded: see ``weld`` in :func:`read_mesh` and :class:`WeldReport`.
+
 Modules:
 
 ==============================  ===========================================================
@@ -41,12 +48,14 @@ module                          holds
 :mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, the
 :mod:`.hedra`, :mod:`.ply`      ASCII PLY level-set writer
 :mod:`.meshio_formats`          PLY, STL, MEDIT, Gmsh, VTK and VTU through meshio
-:mod:`.common`                  file and extension checks, 3-D points
+:mod:`.weld`                    merging coincident vertices, :class:`WeldReport`
+:mod:`.common`                  file and extension checks, number tokens, 3-D points
 ==============================  ===========================================================
 """
 
 from .labels import read_labels, write_labels
 from .meshes import read_mesh, write_mesh
 from .results import write_level_set, write_phi
+from .weld import WeldReport
 
-__all__ = ["read_mesh", "write_mesh", "write_phi", "write_level_set", "read_labels", "write_labels"]
+__all__ = ["read_mesh", "write_mesh", "write_phi", "write_level_set", "read_labels", "write_labels", "WeldReport"]

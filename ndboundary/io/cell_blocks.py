@@ -24,8 +24,16 @@ import numpy as np
 from .._arrays import first_of_groups, group_rows
 from ..domains import Domain, PolygonMesh, PolyhedralMesh, SimplicialComplex
 from ..domains.polyhedral_cells import HEX_FACES, TET_FACES
+from .common import flat_rows
 
-__all__ = ["CELL_DIMENSIONS", "MESH_DOMAINS", "blocks_from_domain", "check_mesh_domain", "domain_from_blocks"]
+__all__ = [
+    "CELL_DIMENSIONS",
+    "MESH_DOMAINS",
+    "blocks_from_domain",
+    "check_mesh_domain",
+    "domain_from_blocks",
+    "top_blocks",
+]
 
 #: Dimension of the cells of every block kind with vertex rows (meshio's cell type names).
 CELL_DIMENSIONS = {
@@ -78,20 +86,52 @@ def _has_cells(kind, data):
     return len(data[1]) > 0 if kind == "hedra" else len(data) > 0
 
 
+def top_blocks(blocks):
+    """The non-empty blocks of the highest cell dimension, those a domain is made of.
+
+    Raises
+    ------
+    ValueError
+        When no block holds cells.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> [k for k, _ in top_blocks([("line", np.array([[0, 1]])), ("triangle", np.array([[0, 1, 2]])), ("tetra", [])])]
+    ['triangle']
+    """
+    blocks = [(k, d) for k, d in blocks if _has_cells(k, d)]
+    if not blocks:
+        raise ValueError("the file holds no cells (segments, polygons or solids)")
+    top = max(_block_dim(k) for k, _ in blocks)
+    return [(k, d) for k, d in blocks if _block_dim(k) == top]
+
+
+def _index_rows(kind, data):
+    """The vertex index rows of a block, and (for ``"hedra"``) its face index rows, as ``flat_rows`` gives them."""
+    if kind == "hedra":
+        return flat_rows(data[0]), flat_rows(data[1])
+    if kind == "polyhedron":
+        return flat_rows([f for cell in data for f in cell]), None
+    return flat_rows(data), None
+
+
+def _check_indices(n_points, blocks):
+    """Refuse indices outside ``0..n_points - 1`` (for the faces of ``"hedra"`` blocks: ``0..n_faces - 1``)."""
+    for kind, data in blocks:
+        (vertices, sizes), faces = _index_rows(kind, data)
+        checks = [(vertices, n_points, "vertex")] + ([(faces[0], sizes.size, "face")] if faces else [])
+        for idx, n, what in checks:
+            bad = (idx < 0) | (idx >= n)
+            if bad.any():
+                raise ValueError(f"{kind} cells list {what} {int(idx[bad][0])}, outside 0..{n - 1}")
+
+
 def _drop_unused(points, blocks):
     """Remove the vertices no cell uses, renumbering the cells."""
     used = np.zeros(points.shape[0], dtype=bool)
     for kind, data in blocks:
-        if kind == "hedra":
-            for f in data[0]:
-                used[f] = True
-        elif kind == "polyhedron":
-            for cell in data:
-                for f in cell:
-                    used[np.asarray(f)] = True
-        else:
-            for r in data if not isinstance(data, np.ndarray) else [data.ravel()]:
-                used[np.asarray(r, dtype=np.int64)] = True
+        used[_index_rows(kind, data)[0][0]] = True
     if used.all():
         return points, blocks
     new = np.cumsum(used) - 1
@@ -159,7 +199,8 @@ def domain_from_blocks(points, blocks, *, drop_unused=True) -> Domain:
     Raises
     ------
     ValueError
-        When no block holds cells, or the cells are invalid for the domain.
+        When no block holds cells, a cell indexes a vertex (or face) that is not there,
+        or the cells are invalid for the domain.
 
     Examples
     --------
@@ -169,11 +210,9 @@ def domain_from_blocks(points, blocks, *, drop_unused=True) -> Domain:
     >>> type(square).__name__, square.n_vertices, square.dim
     ('PolygonMesh', 4, 2)
     """
-    blocks = [(k, d) for k, d in blocks if _has_cells(k, d)]
-    if not blocks:
-        raise ValueError("the file holds no cells (segments, polygons or solids)")
-    top = max(_block_dim(k) for k, _ in blocks)
-    blocks = [(k, d) for k, d in blocks if _block_dim(k) == top]
+    blocks = top_blocks(blocks)
+    top = _block_dim(blocks[0][0])
+    _check_indices(points.shape[0], blocks)
     if drop_unused:
         points, blocks = _drop_unused(points, blocks)
     kinds = {k for k, _ in blocks}

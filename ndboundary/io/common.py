@@ -2,12 +2,26 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["existing_file", "format_suffix", "points_3d", "uncommented_lines"]
+__all__ = [
+    "existing_file",
+    "float_tokens",
+    "flat_rows",
+    "format_suffix",
+    "int_tokens",
+    "non_finite_error",
+    "plural",
+    "points_3d",
+    "uncommented_lines",
+]
+
+#: The largest magnitude :func:`int_tokens` keeps; larger integers are clipped to it (they index no mesh).
+INT_CLIP = 2**62
 
 
 def existing_file(path) -> Path:
@@ -20,7 +34,9 @@ def existing_file(path) -> Path:
     Raises
     ------
     FileNotFoundError
-        When ``path`` is not an existing file; the message quotes it.
+        When ``path`` does not exist; the message quotes it.
+    IsADirectoryError
+        When ``path`` is a directory.
 
     Examples
     --------
@@ -33,8 +49,14 @@ def existing_file(path) -> Path:
     Traceback (most recent call last):
     ...
     FileNotFoundError: no such file: 'no/such/file.obj'
+    >>> existing_file(tempfile.gettempdir())  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    IsADirectoryError: '...' is a directory, not a file
     """
     path = Path(os.fspath(path))
+    if path.is_dir():
+        raise IsADirectoryError(f"'{path}' is a directory, not a file")
     if not path.is_file():
         raise FileNotFoundError(f"no such file: '{path}'")
     return path
@@ -80,8 +102,9 @@ def uncommented_lines(path) -> list:
     Parameters
     ----------
     path : str or path-like
-        Read as UTF-8; undecodable bytes are replaced, since they can only sit in comments
-        of the number-only formats that use this.
+        Read as UTF-8 (a leading byte-order mark is dropped); undecodable bytes are
+        replaced, since they can only sit in comments of the number-only formats that
+        use this.
 
     Examples
     --------
@@ -93,8 +116,160 @@ def uncommented_lines(path) -> list:
     ...     uncommented_lines(path)
     ['OFF ', '3 1 0\n']
     """
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    with open(path, encoding="utf-8-sig", errors="replace") as fh:
         return [line.split("#", 1)[0] for line in fh]
+
+
+def flat_rows(rows):
+    """Index rows (a 2-D array or a list of sequences) as one flat int64 array and the row sizes.
+
+    Raises
+    ------
+    ValueError
+        When an entry is not an integer.
+
+    Examples
+    --------
+    >>> flat, sizes = flat_rows([[0, 1, 2], [2, 1, 3, 4]])
+    >>> flat.tolist(), sizes.tolist()
+    ([0, 1, 2, 2, 1, 3, 4], [3, 4])
+    """
+    if isinstance(rows, np.ndarray) and rows.ndim == 2:
+        if rows.size and rows.dtype.kind not in "iu":
+            raise ValueError(f"cells hold {rows.dtype} values, not indices")
+        return rows.astype(np.int64).ravel(), np.full(rows.shape[0], rows.shape[1], dtype=np.int64)
+    rows = list(rows)
+    sizes = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+    try:
+        flat = np.fromiter(itertools.chain.from_iterable(rows), dtype=np.int64, count=int(sizes.sum()))
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError("cells hold values that are not vertex indices") from None
+    return flat, sizes
+
+
+def plural(n, noun) -> str:
+    """``n`` and the noun, in the plural unless ``n`` is 1 (``vertex``: ``vertices``).
+
+    Examples
+    --------
+    >>> plural(1, "face"), plural(4, "vertex"), plural(0, "cell")
+    ('1 face', '4 vertices', '0 cells')
+    """
+    if n == 1:
+        return f"{n} {noun}"
+    return f"{n} {noun[:-2] + 'ices' if noun.endswith('ex') else noun + 's'}"
+
+
+def _first_bad(tokens, lines, convert):
+    """The index of the first token ``convert`` refuses (ValueError), with its line number."""
+    for i, tok in enumerate(tokens):
+        try:
+            convert(tok)
+        except ValueError:
+            return i, int(lines[i])
+    raise AssertionError("unreachable: every token converts")  # pragma: no cover
+
+
+def int_tokens(tokens, lines, path, what) -> np.ndarray:
+    """Integer tokens of a text file as an int64 array, integers beyond int64 clipped to +-``INT_CLIP``.
+
+    Parameters
+    ----------
+    tokens : list of str
+    lines : array-like of int
+        The line number of every token, for the error message.
+    path : path-like
+        Named in the error message.
+    what : str
+        What the tokens are (``"vertex index"``), for the error message.
+
+    Raises
+    ------
+    ValueError
+        On a token that is not an integer; the message names the file, the line and the token.
+
+    Examples
+    --------
+    >>> int_tokens(["1", "-2", "100000000000000000000000"], [1, 1, 2], "a.off", "vertex index").tolist()
+    [1, -2, 4611686018427387904]
+    >>> int_tokens(["1", "2.5"], [3, 4], "a.off", "vertex index")
+    Traceback (most recent call last):
+    ...
+    ValueError: a.off: line 4: vertex index '2.5' is not an integer
+    """
+    try:
+        return np.array(tokens, dtype=np.int64).reshape(-1)
+    except OverflowError:
+        pass
+    except ValueError:
+        i, line = _first_bad(tokens, lines, int)
+        raise ValueError(f"{path}: line {line}: {what} {tokens[i][:40]!r} is not an integer") from None
+    try:
+        return np.array([max(-INT_CLIP, min(INT_CLIP, int(t))) for t in tokens], dtype=np.int64).reshape(-1)
+    except ValueError:
+        i, line = _first_bad(tokens, lines, int)
+        raise ValueError(f"{path}: line {line}: {what} {tokens[i][:40]!r} is not an integer") from None
+
+
+def float_tokens(tokens, lines, path, what) -> np.ndarray:
+    """Number tokens of a text file as a float64 array.
+
+    Parameters
+    ----------
+    tokens : list of str
+    lines : array-like of int
+        The line number of every token, for the error message.
+    path : path-like
+        Named in the error message.
+    what : str
+        What the tokens are (``"coordinate"``), for the error message.
+
+    Raises
+    ------
+    ValueError
+        On a token that is not a number; the message names the file, the line and the token.
+
+    Examples
+    --------
+    >>> float_tokens(["1", "2.5e1"], [1, 1], "a.off", "coordinate").tolist()
+    [1.0, 25.0]
+    >>> float_tokens(["1", "x"], [1, 2], "a.off", "coordinate")
+    Traceback (most recent call last):
+    ...
+    ValueError: a.off: line 2: coordinate 'x' is not a number
+    """
+    try:
+        return np.array(tokens, dtype=np.float64).reshape(-1)
+    except ValueError:
+        i, line = _first_bad(tokens, lines, float)
+        raise ValueError(f"{path}: line {line}: {what} {tokens[i][:40]!r} is not a number") from None
+
+
+def non_finite_error(path, points, name, where=None):
+    """A ValueError naming the first vertex with a NaN or infinite coordinate, or None when all are finite.
+
+    Parameters
+    ----------
+    path : path-like
+        Named in the message.
+    points : ndarray of shape (n, d)
+    name : callable
+        ``name(i)`` says which vertex row ``i`` is in the file's own terms (``"vertex 3"``).
+    where : callable, optional
+        ``where(i)`` gives the line number of row ``i``, when the format is line based.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> print(non_finite_error("a.obj", np.array([[0.0, 1.0], [np.nan, 2.0]]), lambda i: f"vertex {i + 1}"))
+    a.obj: vertex 2 has a non-finite coordinate: [nan, 2.0]
+    """
+    bad = ~np.isfinite(points)
+    if not bad.any():
+        return None
+    i = int(np.argwhere(bad)[0, 0])
+    at = f"line {where(i)}: " if where is not None else ""
+    return ValueError(f"{path}: {at}{name(i)} has a non-finite coordinate: {points[i].tolist()}")
 
 
 def points_3d(points) -> np.ndarray:

@@ -15,7 +15,8 @@ __all__ = ["read_labels", "write_labels"]
 def read_labels(path):
     r"""Read labels: one per line, optionally after a ``SCALAR_FIELD n`` header; or a ``.npy`` array.
 
-    Blank lines and lines starting with ``#`` are skipped.
+    Blank lines and lines starting with ``#`` are skipped; text is read as UTF-8, a
+    leading byte-order mark dropped.
 
     Parameters
     ----------
@@ -26,7 +27,8 @@ def read_labels(path):
     Returns
     -------
     ndarray of shape (n,)
-        Integers when every label is an integer, else floats, else strings.
+        Booleans when every label is ``True`` or ``False`` (as :func:`write_labels` writes
+        booleans), else integers when every label is an integer, else floats, else strings.
 
     Raises
     ------
@@ -56,7 +58,7 @@ def read_labels(path):
             raise ValueError(f"{path}: labels must be one-dimensional, got an array of shape {arr.shape}")
         return arr
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:
             tokens = [ln.strip() for ln in fh if ln.strip() and not ln.lstrip().startswith("#")]
     except UnicodeDecodeError as exc:
         raise ValueError(f"{path}: not a text file of labels: {exc}") from None
@@ -71,6 +73,8 @@ def read_labels(path):
         raise ValueError(f"{path}: no labels in the file")
     if expected is not None and expected != len(tokens):
         raise ValueError(f"{path}: the header announces {expected} labels but the file holds {len(tokens)}")
+    if all(t in ("True", "False") for t in tokens):
+        return np.array([t == "True" for t in tokens])
     for conv in (int, float):
         try:
             return np.array([conv(t) for t in tokens])
@@ -87,7 +91,8 @@ def write_labels(path, labels, *, header=False):
     path : str or path-like
         A ``.npy`` path gets a NumPy array file, any other a text file.
     labels : array-like of shape (n,)
-        Floats are written with 17 significant digits, so that they read back exactly.
+        Floats are written with 17 significant digits, so that they read back exactly;
+        booleans as ``True`` and ``False``, which :func:`read_labels` reads as booleans.
     header : bool, default=False
         Precede the labels with ``SCALAR_FIELD n``, as the paper's reference code does;
         off by default, since a plain column is what :func:`numpy.loadtxt` and

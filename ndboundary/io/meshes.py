@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from ..domains import Domain, PolyhedralMesh, SimplicialComplex
-from .cell_blocks import blocks_from_domain, check_mesh_domain, domain_from_blocks
-from .common import existing_file, format_suffix
+from .cell_blocks import blocks_from_domain, check_mesh_domain, domain_from_blocks, top_blocks
+from .common import existing_file, format_suffix, non_finite_error
 from .hedra import read_hedra, write_hedra
 from .meshio_formats import MESHIO_EXTENSIONS, read_with_meshio, write_with_meshio
 from .obj import read_obj, write_obj
 from .off import read_off, write_off
+from .weld import OPEN_EDGE_FRACTION, WeldReport, open_edge_fraction, weld_blocks, weld_map
 
 __all__ = ["DATA_EXTENSIONS", "MESH_EXTENSIONS", "read_mesh", "write_mesh"]
 
@@ -21,14 +24,57 @@ MESH_EXTENSIONS = set(_READERS) | MESHIO_EXTENSIONS
 DATA_EXTENSIONS = (".vtu", ".vtk", ".msh", ".ply")
 
 
-def read_mesh(path, *, drop_unused=True) -> Domain:
+def _weld_option(weld, weld_tolerance):
+    if not (isinstance(weld, (bool, np.bool_)) or (isinstance(weld, str) and weld == "auto")):
+        raise ValueError(f"weld must be True, False or 'auto'; got {weld!r}")
+    weld = weld if isinstance(weld, str) else bool(weld)
+    if isinstance(weld_tolerance, (bool, np.bool_)) or not isinstance(weld_tolerance, numbers.Real):
+        raise TypeError(f"weld_tolerance must be a number; got {type(weld_tolerance).__name__}")
+    if not (np.isfinite(weld_tolerance) and weld_tolerance >= 0):
+        raise ValueError(f"weld_tolerance must be a finite number >= 0; got {weld_tolerance!r}")
+    return weld, float(weld_tolerance)
+
+
+def _welded(points, blocks, ext, weld, weld_tolerance):
+    """Points and blocks, welded when ``weld`` asks for it, and the report (None when not welded)."""
+    if weld is False or points.shape[0] == 0:
+        return points, blocks, None
+    blocks = top_blocks(blocks)
+    surface = all(k in ("triangle", "quad", "polygon") for k, _ in blocks)
+    if weld == "auto" and ext != ".stl" and not (surface and open_edge_fraction(blocks) > OPEN_EDGE_FRACTION):
+        return points, blocks, None
+    scale = float(np.max(np.abs(points))) or 1.0  # scaled, so that the diagonal of huge boxes does not overflow
+    diagonal = scale * float(np.linalg.norm(points.max(axis=0) / scale - points.min(axis=0) / scale))
+    tolerance = min(weld_tolerance * diagonal, np.finfo(np.float64).max)
+    mapping = weld_map(points, tolerance)
+    if weld == "auto" and ext != ".stl" and mapping[1].size == points.shape[0]:
+        return points, blocks, None  # open edges, but no duplicated vertices: a surface with holes
+    welded, blocks, dropped = weld_blocks(points, blocks, tolerance, mapping=mapping)
+    return welded, blocks, WeldReport(points.shape[0], welded.shape[0], dropped, tolerance)
+
+
+def read_mesh(path, *, weld="auto", weld_tolerance=1e-9, drop_unused=True) -> Domain:
     r"""Read a mesh file into the matching domain.
 
     Parameters
     ----------
     path : str or path-like
         A ``.obj``, ``.off``, ``.ply``, ``.stl``, ``.mesh``, ``.msh``, ``.vtk``, ``.vtu`` or
-        ``.hedra`` file (see :mod:`ndboundary.io`).
+        ``.hedra`` file (see :mod:`ndboundary.io`). Text files are read as UTF-8; a
+        leading byte-order mark is skipped.
+    weld : bool or "auto", default="auto"
+        Merge coincident vertices: positions within ``weld_tolerance`` times the diagonal
+        of the bounding box are one vertex (the first of them, vertex order kept; see
+        :func:`~ndboundary.io.weld.weld_map`), and cells that become degenerate (two of
+        their vertices merged) are dropped. Triangle soups, where every face has its own
+        copies of its vertices, need it: without it they fall apart into one component
+        per face. ``"auto"`` welds STL files (they store triangle soups) always, and
+        other surface files (triangles and polygons) when more than 10% of their edges
+        bound one face only and welding merges vertices; curves and solids it leaves as
+        they are. False keeps the vertices of the file.
+    weld_tolerance : float, default=1e-9
+        The merging distance, relative to the bounding box's diagonal (0: exactly equal
+        positions only).
     drop_unused : bool, default=True
         Remove the vertices that no kept cell uses (they carry no measure and would
         leave the relaxation's linear systems singular), renumbering the rest in order.
@@ -40,15 +86,22 @@ def read_mesh(path, *, drop_unused=True) -> Domain:
     SimplicialComplex, PolygonMesh or PolyhedralMesh
         Segments, triangles or tetrahedra alone give a SimplicialComplex; quads and
         polygons a PolygonMesh; hexahedra, wedges, pyramids and general polyhedra a
-        PolyhedralMesh. Only the highest-dimensional cells of a file are kept.
+        PolyhedralMesh. Only the highest-dimensional cells of a file are kept. Its
+        attribute ``weld`` is a :class:`~ndboundary.io.weld.WeldReport` (vertices before
+        and after, cells dropped, the absolute tolerance) when the vertices were welded,
+        else None.
 
     Raises
     ------
     FileNotFoundError
         When ``path`` does not exist (the message quotes it).
+    IsADirectoryError
+        When ``path`` is a directory.
     ValueError
-        On an unknown extension, content that is not the announced format, a file with
-        no cells, or invalid cells (the message names the file and the problem).
+        On an unknown extension, content that is not the announced format, header counts
+        that disagree with the content, a vertex index outside the file's vertices, a NaN
+        or infinite coordinate, a file with no cells, or invalid cells (the message names
+        the file, the line where the format is line based, and the problem).
 
     Examples
     --------
@@ -58,23 +111,42 @@ def read_mesh(path, *, drop_unused=True) -> Domain:
     ...     with open(path, "w") as fh:
     ...         _ = fh.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
     ...     square = read_mesh(path)
-    >>> square
-    PolygonMesh(n_vertices=4, n_elements=1, dim=2, laplacian='consistent')
+    >>> square, square.weld
+    (PolygonMesh(n_vertices=4, n_elements=1, dim=2, laplacian='consistent'), None)
+
+    Two triangles, each with its own copy of the diagonal's vertices, welded:
+
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "soup.obj")
+    ...     with open(path, "w") as fh:
+    ...         _ = fh.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 4 5 6\n")
+    ...     soup, apart = read_mesh(path), read_mesh(path, weld=False)
+    >>> soup.n_vertices, apart.n_vertices, apart.weld
+    (4, 6, None)
+    >>> soup.weld.n_vertices_before, soup.weld.n_vertices_after, soup.weld.n_cells_dropped
+    (6, 4, 0)
     """
-    ext = format_suffix(path, MESH_EXTENSIONS, "mesh")
+    weld, weld_tolerance = _weld_option(weld, weld_tolerance)
     path = existing_file(path)
+    ext = format_suffix(path, MESH_EXTENSIONS, "mesh")
     try:
         points, blocks = _READERS.get(ext, read_with_meshio)(path)
     except UnicodeDecodeError as exc:
         raise ValueError(f"{path}: not a text file: {exc}") from None
     if points.ndim != 2 or points.shape[0] == 0:
         raise ValueError(f"{path}: the file holds no vertices")
+    exc = non_finite_error(path, points, lambda i: f"vertex {i} (0-based)")
+    if exc is not None:
+        raise exc
     try:
-        return domain_from_blocks(points, blocks, drop_unused=drop_unused)
+        points, blocks, report = _welded(points, blocks, ext, weld, weld_tolerance)
+        domain = domain_from_blocks(points, blocks, drop_unused=drop_unused)
     except (ValueError, TypeError) as exc:
         if str(exc).startswith(str(path)):
             raise
         raise ValueError(f"{path}: {exc}") from None
+    domain.weld = report
+    return domain
 
 
 def _check_data(data, n, what):

@@ -6,14 +6,16 @@ these formats, so that OBJ, OFF and HEDRA work without it.
 
 from __future__ import annotations
 
+import codecs
 import os
+import tempfile
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .cell_blocks import CELL_DIMENSIONS
-from .common import points_3d
+from .common import non_finite_error, plural, points_3d
 
 __all__ = ["MESHIO_EXTENSIONS", "WRITABLE_KINDS", "read_with_meshio", "write_with_meshio"]
 
@@ -41,7 +43,8 @@ def _import_meshio():
 def read_with_meshio(path):
     """Read a file with meshio, as points and cell blocks.
 
-    Cells of types the domains do not use (vertices, quadratic cells) are left out.
+    Cells of types the domains do not use (vertices, quadratic cells) are left out. A
+    text file's leading UTF-8 byte-order mark is skipped.
 
     Parameters
     ----------
@@ -58,7 +61,9 @@ def read_with_meshio(path):
     Raises
     ------
     ValueError
-        When meshio cannot read the file (its error is quoted).
+        When meshio cannot read the file (its error is quoted), a cell lists a vertex
+        index outside the file's vertices (numbered as the file numbers them: from 1 in
+        MEDIT files, where meshio turns a ``0`` into -1) or a coordinate is NaN or infinite.
     ImportError
         When meshio is not installed.
 
@@ -74,23 +79,75 @@ def read_with_meshio(path):
     ((3, 3), [('triangle', [[0, 1, 2]])])
     """
     meshio = _import_meshio()
-    try:
-        with warnings.catch_warnings():
-            # meshio tells ASCII from binary STL by a size test that overflows on ASCII files
-            warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
-            m = meshio.read(os.fspath(path))
-    except (Exception, SystemExit) as exc:  # meshio exits on some unreadable files
-        raise ValueError(f"{path}: could not read the file: {type(exc).__name__}: {exc}") from None
+    m = _meshio_read(meshio, path)
+    points = np.asarray(m.points)
+    if points.ndim != 2 or points.dtype.kind not in "iuf":
+        raise ValueError(f"{path}: the points read have shape {points.shape} and dtype {points.dtype}")
+    points = points.astype(np.float64)
+    one_based = Path(os.fspath(path)).suffix.lower() == ".mesh"
+    exc = non_finite_error(path, points, lambda i: f"vertex {i + one_based}")
+    if exc is not None:
+        raise exc
     blocks = []
     for c in m.cells:
         t = c.type
         if t.startswith("polyhedron"):
             blocks.append(("polyhedron", c.data))
-        elif t.startswith("polygon"):
-            blocks.append(("polygon", [list(r) for r in np.asarray(c.data)]))
-        elif t in CELL_DIMENSIONS:
-            blocks.append((t, np.asarray(c.data)))
-    return np.asarray(m.points, dtype=np.float64), blocks
+            for cell in c.data:
+                for face in cell:
+                    _check_indices(path, face, points.shape[0], t, one_based)
+            continue
+        if not (t.startswith("polygon") or t in CELL_DIMENSIONS):
+            continue
+        data = np.asarray(c.data)
+        _check_indices(path, data, points.shape[0], t, one_based)
+        if t.startswith("polygon"):
+            blocks.append(("polygon", [list(r) for r in data]))
+        else:
+            blocks.append((t, data))
+    return points, blocks
+
+
+def _meshio_read(meshio, path):
+    """The mesh meshio reads from a file, its errors as ValueErrors; a text file's byte-order mark is skipped."""
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    # a binary STL starts with 80 free bytes: only an ASCII one ('solid ...') has a byte-order mark
+    bom = head[:3] == codecs.BOM_UTF8 and (Path(os.fspath(path)).suffix.lower() != ".stl" or head[3:8] == b"solid")
+    try:
+        with warnings.catch_warnings():
+            # meshio tells ASCII from binary STL by a size test that overflows on ASCII files
+            warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning)
+            if not bom:
+                return meshio.read(os.fspath(path))
+            with tempfile.TemporaryDirectory() as tmp:
+                copy = Path(tmp) / Path(os.fspath(path)).name
+                copy.write_bytes(Path(os.fspath(path)).read_bytes()[3:])
+                return meshio.read(os.fspath(copy))
+    except (Exception, SystemExit) as exc:  # meshio exits on some unreadable files
+        raise ValueError(f"{path}: could not read the file: {type(exc).__name__}: {exc}") from None
+
+
+def _check_indices(path, data, n, kind, one_based):
+    """Raise a ValueError unless ``data`` holds integer vertex indices in ``0..n - 1``.
+
+    meshio gives 0-based indices; for the 1-based formats (MEDIT) the message quotes the
+    file's own value.
+    """
+    data = np.asarray(data)
+    if data.size == 0:
+        return
+    if data.dtype.kind not in "iu":
+        raise ValueError(f"{path}: {kind} cells hold {data.dtype} values, not vertex indices")
+    bad = (data < 0) | (data >= n)
+    if bad.any():
+        cell = int(np.argwhere(bad)[0, 0]) if data.ndim > 1 else 0
+        value = int(data[bad][0]) + one_based
+        lo, hi = int(one_based), n - 1 + one_based
+        raise ValueError(
+            f"{path}: {kind} {cell + one_based} lists vertex {value}, outside the file's {plural(n, 'vertex')} "
+            f"(numbered {lo}..{hi})"
+        )
 
 
 def write_with_meshio(path, points, blocks, *, order=None, point_data=None, cell_data=None):

@@ -4,20 +4,50 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import points_3d
+from .common import non_finite_error, points_3d
 
 __all__ = ["read_obj", "write_obj"]
 
 
-def _vertex_indices(tokens, n_points):
-    """0-based vertex indices of OBJ tokens ``v``, ``v/vt``, ``v//vn``, ``v/vt/vn`` (1-based; negative
-    ones count back from the last vertex read so far).
+def _vertex_indices(tokens, n_so_far, path, line_no):
+    """0-based vertex indices of OBJ tokens ``v``, ``v/vt``, ``v//vn``, ``v/vt/vn``.
+
+    OBJ indices are 1-based; negative ones count back from the last vertex defined so
+    far (-1 is that vertex). Positive indices are checked against the file's vertex
+    count once it is read; relative ones here.
     """
     out = []
     for tok in tokens:
-        i = int(tok.split("/")[0])
-        out.append(i - 1 if i > 0 else n_points + i)
+        i = int(tok.split("/", 1)[0])
+        if i > 0:
+            out.append(i - 1)
+        elif i < 0 and -i <= n_so_far:
+            out.append(n_so_far + i)
+        elif i == 0:
+            raise ValueError(f"{path}: line {line_no}: vertex index 0; OBJ vertex indices start at 1")
+        else:
+            raise ValueError(
+                f"{path}: line {line_no}: relative vertex index {i} reaches before the first vertex "
+                f"(the {n_so_far} vertices defined so far take -1..-{n_so_far})"
+            )
     return out
+
+
+def _points(coords, v_lines, path):
+    """The vertex coordinates as an (n, 3) array, checked to be finite and of one width."""
+    if not coords:
+        return np.zeros((0, 3))
+    widths = np.array([len(c) for c in coords])
+    if np.any(widths != widths[0]):  # 2-D files (``v x y`` throughout) are read with z = 0
+        i = int(np.flatnonzero(widths != widths[0])[0])
+        raise ValueError(
+            f"{path}: line {v_lines[i]}: a vertex with {widths[i]} coordinates; line {v_lines[0]} has {widths[0]}"
+        )
+    points = points_3d(np.array(coords, dtype=np.float64))
+    exc = non_finite_error(path, points, lambda i: f"vertex {i + 1}", lambda i: v_lines[i])
+    if exc is not None:
+        raise exc
+    return points
 
 
 def read_obj(path):
@@ -30,6 +60,7 @@ def read_obj(path):
     Parameters
     ----------
     path : path-like
+        Read as UTF-8; a leading byte-order mark is dropped.
 
     Returns
     -------
@@ -40,7 +71,10 @@ def read_obj(path):
     Raises
     ------
     ValueError
-        On a line that is not valid OBJ (the message gives its number).
+        On a line that is not valid OBJ, a face of fewer than three vertices, a vertex
+        index outside the file's vertices (1-based; negative ones counting back from the
+        last vertex defined so far) or a coordinate that is NaN or infinite; the message
+        names the file, the line and the value.
 
     Examples
     --------
@@ -53,26 +87,44 @@ def read_obj(path):
     >>> points.shape, blocks
     ((3, 3), [('line', [(0, 1), (1, 2)])])
     """
-    points, faces, lines = [], [], []
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    coords, v_lines, faces, lines = [], [], [], []
+    ahead = []  # (line number, largest index) of rows indexing past the vertices defined so far
+    with open(path, encoding="utf-8-sig", errors="replace") as fh:
         for line_no, line in enumerate(fh, 1):
             parts = line.split()
-            if not parts:
+            if not parts or parts[0] not in ("v", "f", "l"):
                 continue
             key = parts[0]
             try:
                 if key == "v":
-                    points.append([float(t) for t in parts[1:4]])
-                elif key == "f":
-                    faces.append(_vertex_indices(parts[1:], len(points)))
-                elif key == "l":
-                    idx = _vertex_indices(parts[1:], len(points))
-                    lines.extend(zip(idx[:-1], idx[1:], strict=True))
-            except ValueError:
+                    if len(parts) < 3:  # x y z, optionally w or a colour; 2-D files have x y
+                        raise ValueError
+                    coords.append([float(t) for t in parts[1:4]])
+                    v_lines.append(line_no)
+                    continue
+                idx = _vertex_indices(parts[1:], len(coords), path, line_no)
+            except ValueError as exc:
+                if str(exc).startswith(str(path)):
+                    raise
                 raise ValueError(f"{path}: line {line_no} is not valid OBJ: {line.strip()[:80]!r}") from None
+            if idx and max(idx) >= len(coords):
+                ahead.append((line_no, max(idx)))
+            if key == "f":
+                if len(idx) < 3:
+                    raise ValueError(f"{path}: line {line_no}: a face needs at least 3 vertices; got {len(idx)}")
+                faces.append(idx)
+            else:
+                lines.extend(zip(idx[:-1], idx[1:], strict=True))
+    points = _points(coords, v_lines, path)
+    for line_no, i in ahead:
+        if i >= points.shape[0]:
+            raise ValueError(
+                f"{path}: line {line_no}: vertex index {i + 1} is past the last vertex "
+                f"(the file defines {points.shape[0]}, indexed 1..{points.shape[0]})"
+            )
     if faces:
-        return np.array(points), [("polygon", faces)]
-    return np.array(points), [("line", lines)] if lines else []
+        return points, [("polygon", faces)]
+    return points, [("line", lines)] if lines else []
 
 
 def write_obj(path, points, blocks):

@@ -13,6 +13,18 @@ from .ply import write_ascii_ply
 __all__ = ["write_level_set", "write_phi"]
 
 
+def _vtk_labels(labels, classes):
+    """Labels as an array of a type VTK files hold: native-order (u)int8..64, float32 or float64."""
+    kind = labels.dtype.kind
+    if kind == "b":
+        return labels.astype(np.uint8)
+    if kind in "iu":
+        return labels.astype(np.dtype(f"{kind}{labels.dtype.itemsize}"))
+    if kind == "f":
+        return labels.astype(np.float32 if labels.dtype.itemsize <= 4 else np.float64)
+    return (labels == classes[1]).astype(np.int64)
+
+
 def write_phi(path, result, labels=None):
     """Write a relaxation result for ParaView: the domain with ``phi`` and ``u`` as point data.
 
@@ -24,8 +36,10 @@ def write_phi(path, result, labels=None):
         What :func:`~ndboundary.relax` returned.
     labels : array-like, optional
         The labels given to :func:`~ndboundary.relax`, written as cell data ``labels``
-        (element labels) or point data ``labels`` (vertex labels); labels that are not
-        numbers are written as 1 for ``result.classes[1]`` and 0 otherwise. None (the
+        (element labels) or point data ``labels`` (vertex labels): integers and floats as
+        they are (in the nearest type VTK has), booleans as 0 and 1, and labels that are
+        not numbers (strings, objects) as the region index, 1 for ``result.classes[1]``
+        and 0 otherwise. None (the
         default) writes no labels. When the domain was not padded, the unit field and
         the smoothed field are written as cell data too.
 
@@ -60,9 +74,7 @@ def write_phi(path, result, labels=None):
     point_data = {"phi": result.phi, "u": result.u}
     cell_data = {}
     if labels is not None:
-        labels = np.asarray(labels)
-        if labels.dtype.kind not in "biuf":
-            labels = (labels == result.classes[1]).astype(np.int64)
+        labels = _vtk_labels(np.asarray(labels), result.classes)
         on = result.params.get("on", "elements")
         (cell_data if on == "elements" else point_data)["labels"] = labels
     if result.field.shape[0] == domain.n_elements:
