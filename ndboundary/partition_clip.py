@@ -1,0 +1,225 @@
+"""The splitting kernel of :mod:`ndboundary.partition`.
+
+The upper envelope ``M_r = max(f_0, ..., f_r)`` is built one function at a time. On
+the current complex ``M_{r-1}`` is linear on every cell (the cell's region is
+constant), so ``d = f_r - M_{r-1}`` is a continuous piecewise-linear function given
+by its vertex values, and a cell that ``d`` changes sign on is cut by the hyperplane
+``f_r = f_{region}`` of its pair. A k-simplex whose vertices split into ``a``
+negative, ``b`` positive and some zero ones is cut into two pieces: the negative one
+is the product ``Delta^{a-1} x Delta^b`` (the negative vertices times the crossings
+plus the vertex itself), the positive one ``Delta^{b-1} x Delta^a``, each coned over
+the zero vertices; both are cut by the staircase triangulation in the global order
+of vertex ids (the crossings' order, as in :func:`ndboundary.levelset.marching_simplices`),
+which restricts to the same triangulation on every shared face. Every crossing is a
+new point keyed by the pair of (global) ids of its edge, so neighbouring cells create
+the same point and the complex stays conforming.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from math import factorial
+
+import numpy as np
+
+from .levelset import _staircase, sorting_parity
+
+
+@cache
+def _templates(code, k1):
+    """The two pieces of a cut simplex with sign pattern ``code`` (base 3 over its k1
+    sorted vertices: 0 negative, 1 zero, 2 positive): a pair of arrays (m, k1, 2) of
+    slots, ``(i, i)`` a vertex, ``(i, j)`` the crossing on the edge from negative i to
+    positive j, each sub-simplex oriented like the parent (in sorted order).
+    """
+    sign = [(code // 3**i) % 3 for i in range(k1)]
+    neg = [i for i in range(k1) if sign[i] == 0]
+    zero = [i for i in range(k1) if sign[i] == 1]
+    pos = [i for i in range(k1) if sign[i] == 2]
+    out = []
+    for own, other, flip_edge in ((neg, pos, False), (pos, neg, True)):
+        simp = []
+        for path in _staircase(len(own), len(other) + 1):
+            slots = []
+            for p, q in path:
+                if q == 0:
+                    slots.append((own[p], own[p]))
+                else:
+                    e = (own[p], other[q - 1])
+                    slots.append(e[::-1] if flip_edge else e)
+            simp.append(slots + [(z, z) for z in zero])
+        T = np.array(simp, dtype=np.int64)
+        # orientation with every crossing at its midpoint: the sign does not depend on
+        # where the crossings are (the cut is a projective image of the product)
+        m = T.shape[0]
+        xi = np.zeros((m, k1, k1))
+        rows, cols = np.arange(m)[:, None], np.arange(k1)[None, :]
+        np.add.at(xi, (rows, cols, T[..., 0]), 0.5)
+        np.add.at(xi, (rows, cols, T[..., 1]), 0.5)
+        det = np.linalg.det(xi[:, 1:, 1:] - xi[:, :1, 1:])
+        neg_det = det < 0
+        T[neg_det, 0], T[neg_det, 1] = T[neg_det, 1].copy(), T[neg_det, 0].copy()
+        out.append(T)
+    return tuple(out)
+
+
+class _Complex:
+    """Mutable state of the sweep: points, their values, the envelope, cells and regions."""
+
+    def __init__(self, points, simplices, values):
+        V = points.shape[0]
+        self.X = points
+        self.F = values
+        self.M = values[:, 0].copy()
+        self.S = simplices
+        self.region = np.zeros(simplices.shape[0], dtype=np.int64)
+        self.parents = np.stack([np.arange(V), np.arange(V)], axis=1)
+
+    def add(self, r):
+        """Resolve ``f_r`` against the envelope of the functions before it."""
+        d = self.F[:, r] - self.M
+        sg = np.sign(d).astype(np.int64)
+        s = sg[self.S]
+        pos, neg = (s > 0).any(axis=1), (s < 0).any(axis=1)
+        cut = pos & neg
+        # ties (d == 0 on the whole cell) keep the smaller, earlier region
+        self.region[pos & ~neg] = r
+        self.M = np.maximum(self.M, self.F[:, r])
+        if not cut.any():
+            return
+        C = self.S[cut]
+        k1 = C.shape[1]
+        parity = sorting_parity(C)
+        Cs = np.sort(C, axis=1)
+        code = ((sg[Cs] + 1) * 3 ** np.arange(k1)).sum(axis=1)
+        old = self.region[cut]
+        slots, regions = [], []
+        for c in np.unique(code):
+            sel = np.flatnonzero(code == c)
+            for side, T in enumerate(_templates(int(c), k1)):
+                ids = Cs[sel][:, T]  # (n, m, k1, 2)
+                odd = parity[sel] < 0
+                ids[odd, :, 0], ids[odd, :, 1] = ids[odd, :, 1].copy(), ids[odd, :, 0].copy()
+                slots.append(ids.reshape(-1, k1, 2))
+                regions.append(np.repeat(old[sel] if side == 0 else np.full(sel.size, r), T.shape[0]))
+        A = np.concatenate(slots)
+        n = self.X.shape[0]
+        a, b = A[..., 0], A[..., 1]
+        edge = a != b
+        ukeys, inv = np.unique(a[edge] * n + b[edge], return_inverse=True)
+        ea, eb = ukeys // n, ukeys % n
+        t = (d[ea] / (d[ea] - d[eb]))[:, None]  # d[ea] < 0 < d[eb]
+        Xn = self.X[ea] + t * (self.X[eb] - self.X[ea])
+        Fn = self.F[ea] + t * (self.F[eb] - self.F[ea])
+        new = a.copy()
+        new[edge] = n + inv.ravel()
+        self.S = np.concatenate([self.S[~cut], new])
+        self.region = np.concatenate([self.region[~cut], np.concatenate(regions)])
+        self.X = np.concatenate([self.X, Xn])
+        self.F = np.concatenate([self.F, Fn])
+        self.M = np.concatenate([self.M, Fn[:, r]])  # the crossing is on the cut: d == 0 there
+        self.parents = np.concatenate([self.parents, np.stack([ea, eb], axis=1)])
+
+
+def sweep(points, simplices, values):
+    """Refine a complex until the argmax of the columns of ``values`` is constant per simplex.
+
+    Returns points, simplices, regions, point values and each point's parent edge (the
+    two ids it was created between; a point of the input has itself twice).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.partition_clip import sweep
+    >>> X, S, regions, F, parents = sweep(np.eye(2), np.array([[0, 1]]), np.array([[1.0, 0.0], [0.0, 1.0]]))
+    >>> X.tolist(), S.tolist(), regions.tolist(), parents.tolist()
+    ([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]], [[0, 2], [2, 1]], [0, 1], [[0, 0], [1, 1], [0, 1]])
+    """
+    c = _Complex(points, simplices, values)
+    for r in range(1, values.shape[1]):
+        c.add(r)
+    return c.X, c.S, c.region, c.F, c.parents
+
+
+def simplex_measures(points, simplices):
+    """Unsigned length / area / volume of each simplex (any k <= dim).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.partition_clip import simplex_measures
+    >>> simplex_measures(np.array([[0.0, 0, 0], [1, 0, 0], [0, 2, 0]]), np.array([[0, 1, 2], [1, 0, 2]])).tolist()
+    [1.0, 1.0]
+    """
+    k = simplices.shape[1] - 1
+    out = np.empty(simplices.shape[0])
+    for lo in range(0, simplices.shape[0], 1 << 18):
+        X = points[simplices[lo : lo + (1 << 18)]]
+        E = X[:, 1:, :] - X[:, :1, :]
+        if k == points.shape[1]:
+            out[lo : lo + E.shape[0]] = np.abs(np.linalg.det(E))
+        else:
+            out[lo : lo + E.shape[0]] = np.sqrt(np.clip(np.linalg.det(E @ E.transpose(0, 2, 1)), 0, None))
+    return out / factorial(k)
+
+
+def interface_facets(points, simplices, regions):
+    """Facets shared by two cells of different regions, oriented away from the smaller region.
+
+    Returns the facets (n, k) as vertex ids, the region pairs (n, 2) smaller first, and
+    the cell of each facet on each side (n, 2).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.partition_clip import interface_facets
+    >>> pts = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+    >>> facets, pairs, cells = interface_facets(pts, np.array([[0, 1, 2], [0, 2, 3]]), np.array([1, 0]))
+    >>> facets.tolist(), pairs.tolist(), cells.tolist()
+    ([[2, 0]], [[0, 1]], [[1, 0]])
+    """
+    n_pts, k1 = points.shape[0], simplices.shape[1]
+    k = k1 - 1
+    if simplices.shape[0] == 0 or k1 < 2:
+        return np.zeros((0, k), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64)
+    lo = np.full(n_pts, np.iinfo(np.int64).max)
+    hi = np.full(n_pts, -1)
+    rep = np.repeat(regions, k1)
+    np.minimum.at(lo, simplices.ravel(), rep)
+    np.maximum.at(hi, simplices.ravel(), rep)
+    mixed = lo != hi
+    cells = np.flatnonzero(mixed[simplices].sum(axis=1) >= k)
+    facets, owner, opposite = [], [], []
+    for o in range(k1):
+        f = np.delete(simplices[cells], o, axis=1)
+        keep = mixed[f].all(axis=1)
+        facets.append(f[keep])
+        owner.append(cells[keep])
+        opposite.append(np.full(int(keep.sum()), o))
+    f, owner, opposite = np.concatenate(facets), np.concatenate(owner), np.concatenate(opposite)
+    fs = np.sort(f, axis=1)
+    order = np.lexsort(fs.T[::-1])
+    fs, owner, opposite = fs[order], owner[order], opposite[order]
+    same = np.all(fs[1:] == fs[:-1], axis=1)
+    i = np.flatnonzero(same)
+    c0, c1 = owner[i], owner[i + 1]
+    o0, o1 = opposite[i], opposite[i + 1]
+    r0, r1 = regions[c0], regions[c1]
+    differ = r0 != r1
+    c0, c1, o0, o1, r0, r1 = c0[differ], c1[differ], o0[differ], o1[differ], r0[differ], r1[differ]
+    swap = r0 > r1
+    cs = np.where(swap, c1, c0)
+    os_ = np.where(swap, o1, o0)
+    pairs = np.stack([np.minimum(r0, r1), np.maximum(r0, r1)], axis=1)
+    cells2 = np.stack([cs, np.where(swap, c0, c1)], axis=1)
+    mask = np.arange(k1)[None, :] != os_[:, None]
+    facet = simplices[cs][mask].reshape(-1, k)
+    # normal from the cell outwards: (-1)^(k-1) (-1)^o times the cell's own orientation
+    sign = (-1.0) ** (k - 1) * (-1.0) ** os_
+    if k == points.shape[1]:
+        X = points[simplices[cs]]
+        sign = sign * np.sign(np.linalg.det(X[:, 1:, :] - X[:, :1, :]))
+    if k >= 2:
+        flip = sign < 0
+        facet[flip, 0], facet[flip, 1] = facet[flip, 1].copy(), facet[flip, 0].copy()
+    return facet, pairs, cells2
