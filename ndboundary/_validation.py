@@ -85,15 +85,16 @@ def check_cells(cells, n_points, *, name="simplices", n_per_cell=None):
     return arr
 
 
-def check_labels(labels, n_expected, *, what):
-    """Validate a two-class label array.
+def check_labels(labels, n_expected, *, what, many=False):
+    """Validate a label array of two classes (or, with ``many``, of two or more).
 
     Returns
     -------
-    classes : ndarray of shape (2,)
-        The two distinct values, sorted as ``np.unique`` sorts them.
+    classes : ndarray of shape (n_classes,)
+        The distinct values, sorted as ``np.unique`` sorts them.
     region1 : ndarray of bool of shape (n_expected,)
-        True where the label equals ``classes[1]``.
+        For two classes, True where the label equals ``classes[1]``; for more, the
+        index into ``classes`` of every label (int).
     """
     if isinstance(labels, (str, bytes)) or labels is None:
         raise TypeError(f"labels must be an array with one label per {what}, got {type(labels).__name__}")
@@ -119,6 +120,8 @@ def check_labels(labels, n_expected, *, what):
     classes, inverse = np.unique(arr, return_inverse=True)
     if classes.shape[0] == 1:
         raise ValueError(f"labels hold one class only ({classes[0]!r}); two are needed to have a boundary")
+    if classes.shape[0] > 2 and many:
+        return classes, inverse.reshape(-1)
     if classes.shape[0] > 2:
         shown = ", ".join(repr(c) for c in classes[:5])
         raise ValueError(

@@ -181,6 +181,12 @@ def cmd_relax(args):
     outputs = check_outputs(wanted, [("the mesh", args.mesh), ("the labels", args.labels)])
     with reading(args.labels):
         labels = io.read_labels(args.labels)
+    n_classes = np.unique(labels).size
+    if n_classes > 2:
+        raise CLIError(
+            f"{args.labels} holds {n_classes} classes; the command line relaxes two, and three or more "
+            "are relaxed by ndboundary.relax in Python"
+        )
     data = writable_labels(labels)  # what the VTK writers store: booleans and strings become 0/1
     with reading(args.mesh):
         domain = io.read_mesh(args.mesh)

@@ -515,7 +515,7 @@ def _write(name, content):
         ("m.obj", "comments.txt", _write("comments.txt", "# nothing\n\n"), "comments.txt: no labels in the file"),
         ("m.obj", "empty.npy", _write("empty.npy", b""), "empty.npy: could not read as .npy"),
         ("m.obj", "short.txt", _write("short.txt", "0\n1\n0\n"), "short.txt holds 3 labels but m.obj has 64 elements"),
-        ("m.obj", "three.txt", _write("three.txt", "0\n1\n2\n" * 21 + "0\n"), "labels hold 3 classes"),
+        ("m.obj", "three.txt", _write("three.txt", "0\n1\n2\n" * 21 + "0\n"), "holds 3 classes; the command line relaxes two"),
         ("m.obj", "nan.txt", _write("nan.txt", "nan\n" + "1.0\n" * 63), "labels contain NaN"),
         ("m.obj", "bin.txt", _write("bin.txt", b"\xff\xfe\x00\x81" * 16), "bin.txt: not a text file of labels"),
         ("bad.vtu", "el.txt", _write("bad.vtu", "not xml"), "bad.vtu"),

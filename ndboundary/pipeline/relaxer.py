@@ -26,7 +26,7 @@ from .heat import diffuse
 from .integration import integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, check_params
-from .result import RelaxResult
+from .result import RegionsResult, RelaxResult
 from .smoothing import smooth
 
 __all__ = ["Relaxer", "relax"]
@@ -153,7 +153,9 @@ class Relaxer:
         )
         domain = self.domain
         n_expected = domain.n_elements if on == "elements" else domain.n_vertices
-        classes, region1 = check_labels(labels, n_expected, what=on[:-1])
+        classes, region1 = check_labels(labels, n_expected, what=on[:-1], many=True)
+        if classes.size > 2:
+            return self._relax_regions(classes, region1, p, pad, verbose)
         prog = _Progress(verbose)
         t0 = prog.tick
         h = domain.mean_edge_length() if self._h is None else self._h
@@ -201,6 +203,25 @@ class Relaxer:
             solver={"heat": heat_info, "integration": int_info},
             params=params,
         )
+
+    def _relax_regions(self, classes, codes, p, pad, verbose):
+        """Every region relaxed against the rest, on the operators the domain caches."""
+        t0 = time.perf_counter()
+        h = self.domain.mean_edge_length() if self._h is None else self._h
+        params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
+        if p["band"] is None:
+            params.pop("band")
+        results = []
+        for r in range(classes.size):
+            relaxer = Relaxer(self.domain, _keep=False, _h=h)
+            results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
+        timings = {}
+        for res in results:
+            for step, seconds in res.timings.items():
+                timings[step] = timings.get(step, 0.0) + seconds
+        timings["total"] = time.perf_counter() - t0
+        phi = np.stack([res.phi for res in results], axis=1)
+        return RegionsResult(phi, classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
 
     def _relax_band(self, key, region1, classes, width, h, p, pad, verbose):
         """Relax on the elements near zeta and extend phi outside them; None when the band

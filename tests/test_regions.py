@@ -1,0 +1,73 @@
+"""Three or more labels: one relaxed partition, with interfaces and junctions."""
+
+import numpy as np
+import pytest
+
+from ndboundary import relax
+from ndboundary.datasets import kuhn_grid, label_by
+
+
+@pytest.fixture(scope="module")
+def voronoi():
+    mesh = kuhn_grid(60, 2, jitter=0.25, random_state=0)
+    sites = np.array([[-0.5, -0.4], [0.5, -0.5], [0.1, 0.6], [-0.6, 0.5], [0.7, 0.3]])
+    c = mesh.element_centroids()
+    labels = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+    return mesh, sites, labels, relax(mesh, labels, on="elements")
+
+
+def test_partition_has_no_gaps_or_overlaps(voronoi):
+    mesh, _, _, res = voronoi
+    assert res.phi.shape == (mesh.n_vertices, 5)
+    assert res.region_measures().sum() == pytest.approx(mesh.A.sum(), rel=1e-9)
+
+
+def test_interfaces_follow_the_bisectors(voronoi):
+    mesh, sites, _, res = voronoi
+    faces = res.interfaces()
+    a, b = sites[faces.pairs[:, 0]], sites[faces.pairs[:, 1]]
+    n = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
+    d = np.abs(((faces.points[faces.simplices] - 0.5 * (a + b)[:, None]) * n[:, None]).sum(axis=2))
+    h = mesh.mean_edge_length()
+    assert d.mean() / h < 0.12 and d.max() / h < 0.6
+    # every junction lies near the circumcentre of its three sites
+    j = faces.junctions()
+    assert len(j) >= 3
+    for p, regions in zip(j.points[j.simplices[:, 0]], j.regions, strict=True):
+        dist = np.linalg.norm(sites[regions[regions >= 0][:3]] - p, axis=1)
+        assert (dist.max() - dist.min()) / 2 < 0.5 * h
+
+
+def test_each_region_keeps_its_components(voronoi):
+    _, _, labels, res = voronoi
+    for r in range(5):
+        assert res.region_boundary(r).n_components() == 1
+
+
+def test_enclosed_region_has_a_closed_boundary_and_no_junction():
+    mesh = kuhn_grid(40, 2, jitter=0.2, random_state=1)
+    c = mesh.element_centroids()
+    r = np.linalg.norm(c, axis=1)
+    labels = np.where(r < 0.3, 2, np.where(r < 0.7, 1, 0))
+    res = relax(mesh, labels, on="elements")
+    inner = res.region_boundary(2)
+    assert inner.is_closed() and inner.n_components() == 1
+    assert len(res.interfaces().junctions()) == 0
+    assert inner.measure() == pytest.approx(2 * np.pi * 0.3, rel=0.02)
+
+
+def test_two_regions_interfaces_are_the_level_set():
+    mesh = kuhn_grid(30, 2, jitter=0.25, random_state=0)
+    res = relax(mesh, label_by(mesh, lambda x: np.linalg.norm(x, axis=1) - 0.5), on="elements")
+    faces = res.interfaces()
+    assert (faces.pairs == [0, 1]).all()
+    assert faces.measure() == pytest.approx(res.level_set().measure(), rel=1e-12)
+
+
+def test_regions_on_vertices_and_tetrahedra():
+    mesh = kuhn_grid(10, 3, jitter=0.2, random_state=0)
+    x = mesh.points
+    labels = np.where(x[:, 0] < 0, 0, np.where(x[:, 1] < 0, 1, 2))
+    res = relax(mesh, labels, on="vertices")
+    assert res.region_measures().sum() == pytest.approx(8.0, rel=1e-9)
+    assert len(res.interfaces().junctions()) > 0  # a junction curve along the z axis
