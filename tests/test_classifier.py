@@ -185,6 +185,8 @@ def test_auto_extension_power_is_the_best_leave_one_out_power():
     assert sharp.extension_power_ == 8.0
     near = X + 0.01
     nearest = NearestNeighbors(n_neighbors=1).fit(X).kneighbors(near)[1][:, 0]
+    # the extension works in the classifier's coordinates, (X - center_) / scale_
+    near = (near - sharp.center_) / sharp.scale_
     err_sharp = np.abs(sharp.extension_(near)[:, 0] - sharp.phi_[nearest, 0]).mean()
     err_flat = np.abs(flat.extension_(near)[:, 0] - flat.phi_[nearest, 0]).mean()
     assert err_sharp < 0.5 * err_flat

@@ -1,14 +1,33 @@
 """Vertex functions of a kNN point cloud evaluated at new points.
 
 The neighbour-weighted first-order extension
-``sum_j w_j (phi_j + grad phi_j . T_j^T (x - x_j)) / sum_j w_j`` over the ``k`` training
+``sum_j w_j [phi_j + grad phi_j . T_j^T (x - x_j)] / sum_j w_j`` over the ``k`` training
 points nearest to ``x``, with tangent gradients and frames ``T_j`` and weights
 ``w_j = (1 - d_j^2 / d_{k+1}^2) (d_1 / d_j)^p``, ``d_j`` the distance to the ``j``-th
 nearest and ``d_{k+1}`` to the next one: a neighbour's weight fades to 0 before it
-leaves the set, so the extension is continuous in ``x``. The power ``p`` sets how
-sharply it follows the nearest samples; ``power="auto"`` chooses it by the leave-one-out
-accuracy of the extension at labelled training samples, which needs no refit since
-``phi`` stays as fitted.
+leaves the set, so the extension is continuous in ``x``. On no more than ``k`` samples
+it uses all but the farthest, so that there is always a next one to fade against
+(without it every weight would be 1, and the extension at any point the mean of all
+the samples' extensions).
+
+``[.]`` clamps each sample's first-order value to the range of ``phi`` over that
+sample's stencil (itself and its graph neighbours, over which its gradient was fitted):
+a linear fit says nothing beyond the values it was fitted on. Where ``phi`` has a spike
+(a lone sample of a class, its neighbours on a plateau), the neighbours' gradients point
+steeply at it and their linear extrapolations past it, or out of the data's hull, would
+climb above every value of ``phi`` around them; from the spike itself, any slope would
+rise above its value. Clamped, the extension at ``x`` lies within the range of ``phi``
+over the stencils of the samples it draws on (no longer extrapolating past the data)
+and stays continuous, since the bounds belong to the samples, not to ``x``. The price is
+exactness on linear functions wherever ``x`` lies beyond the values a neighbour's
+stencil holds, which inside the data, with stencils wider than the extension's
+neighbourhood, is rare and small. The stencil is the sample's graph neighbours, or its
+``n_neighbors`` nearest samples if those reach further.
+
+The power ``p`` sets how sharply it follows the nearest samples (for ``p > 0`` a point on
+a training sample takes that sample's value); ``power="auto"`` chooses it by the
+leave-one-out accuracy of the extension at labelled training samples, which needs no
+refit since ``phi`` stays as fitted (:class:`NeighborExtension` gives the rules).
 """
 
 from __future__ import annotations
@@ -47,7 +66,8 @@ class NeighborExtension:
     power : float or "auto", default="auto"
         Power ``p`` of the weights (module docstring); ``"auto"`` picks the one of
         :data:`EXTENSION_POWERS` whose leave-one-out extension labels the most samples
-        of ``labels`` right.
+        of ``labels`` right, among those that keep every class at one of its own
+        samples at least (and, on no more than ``n_neighbors + 1`` samples, not 0).
     labels : ndarray of int of shape (n_samples,), optional
         Class codes (column indices; for one function, 0 and 1); needed by ``"auto"``.
     labelled : ndarray of bool of shape (n_samples,), optional
@@ -63,9 +83,11 @@ class NeighborExtension:
     >>> import numpy as np
     >>> from ndboundary import PointCloud
     >>> X = np.random.default_rng(0).normal(size=(300, 2))
-    >>> cloud = PointCloud(X, n_neighbors=10)
-    >>> ext = cloud.extension(X[:, :1], power=0.0)
-    >>> bool(abs(ext(np.array([[0.1, 0.2]]))[0, 0] - 0.1) < 1e-6)
+    >>> cloud = PointCloud(X, n_neighbors=40)
+    >>> ext = cloud.extension(X[:, :1], power=0.0)  # the function x
+    >>> round(float(ext(np.array([[0.1, 0.2]]))[0, 0]), 3)  # first order inside the data
+    0.1
+    >>> bool(ext(np.array([[10.0, 0.0]]))[0, 0] <= X[:, 0].max())  # outside, within the values of phi
     True
     """
 
@@ -83,6 +105,14 @@ class NeighborExtension:
             gu = np.stack([np.bincount(u, weights=g[:, a], minlength=n_u) for a in range(g.shape[1])], axis=1)
             grads.append(gu / cnt[:, None])
         self._grad_u = np.stack(grads, axis=1)  # (n_u, r, m)
+        # the bounds of each sample's first-order extension: the range of phi over its
+        # gradient stencil, or over its n_neighbors nearest if the extension reaches further
+        nbr = cloud.neighbors
+        if self.n_neighbors > nbr.shape[1] and n_u > nbr.shape[1] + 1:
+            nbr = cloud.kneighbors(cloud.unique_points, self.n_neighbors + 1)[0]
+        around = self._phi_u[nbr]  # (n_u, q, r)
+        self._lo = np.minimum(self._phi_u, around.min(axis=1))
+        self._hi = np.maximum(self._phi_u, around.max(axis=1))
         self._loo = None
         if power == "auto":
             if labels is None:
@@ -114,22 +144,42 @@ class NeighborExtension:
     def _choose_power(self, labels, labelled):
         """``(power, (rows, loo))``: the power of :data:`EXTENSION_POWERS` whose leave-one-out
         extension labels the most labelled samples right, and that extension there.
+
+        Only powers that keep every class are candidates: at its own samples (their own
+        points kept), the extension must give each class at least one of them. Leaving
+        a sample out cannot see a class of one sample (or of a few far apart), and every
+        neighbour the class's samples sway counts against them, so the smoothest power
+        would always erase such a class; the relaxation kept it, and the extension
+        should not remove it altogether. On no more samples than ``n_neighbors + 1`` the
+        neighbourhood is the whole set and power 0 its global average, so it is not a
+        candidate either. Among equals the first (smoothest) is kept.
         """
         rows = np.arange(labels.shape[0]) if labelled is None else np.flatnonzero(labelled)
-        right = np.zeros(len(EXTENSION_POWERS), dtype=np.int64)
-        loo = np.empty((len(EXTENSION_POWERS), rows.size, self._phi_u.shape[1]))
+        lab = labels[rows]
+        powers = np.asarray(EXTENSION_POWERS)
+        right = np.zeros(powers.size, dtype=np.int64)
+        loo = np.empty((powers.size, rows.size, self._phi_u.shape[1]))
         for c, *terms in self._terms(self.cloud.points[rows], rows=rows):
-            for i, p in enumerate(EXTENSION_POWERS):
+            for i, p in enumerate(powers):
                 phi = loo[i, c] = _weighted_mean(*terms, p)
-                right[i] += int((_predicted(phi) == labels[rows[c]]).sum())
-        best = int(np.argmax(right))  # the first of equals
-        return float(EXTENSION_POWERS[best]), (rows, loo[best])
+                right[i] += int((_predicted(phi) == lab[c]).sum())
+        own = np.empty((powers.size, rows.size), dtype=np.int64)
+        for c, *terms in self._terms(self.cloud.points[rows]):
+            for i, p in enumerate(powers):
+                own[i, c] = _predicted(_weighted_mean(*terms, p))
+        classes = np.unique(lab)
+        keeps = np.array([np.isin(classes, lab[own[i] == lab]).all() for i in range(powers.size)])
+        if self.cloud.unique_points.shape[0] <= self.n_neighbors + 1:
+            keeps &= powers > 0.0
+        best = int(np.argmax(np.where(keeps, right, -1))) if keeps.any() else int(np.argmax(right))
+        return float(powers[best]), (rows, loo[best])
 
     def _terms(self, X, rows=None):
         """Per chunk of ``X``: ``(slice, vals, taper, log_ratio)``.
 
         ``vals[b, q]`` is the first-order extension of ``phi`` from the ``q``-th nearest
-        training sample of ``X[b]``, at distance ``d_q``; ``taper = 1 - (d_q / d_{k+1})^2``
+        training sample of ``X[b]``, at distance ``d_q``, clamped to the range of ``phi``
+        over that sample's stencil; ``taper = 1 - (d_q / d_{k+1})^2``
         measures it against the next neighbour's distance (a weight that reaches 0 where a
         neighbour leaves the ``k`` nearest) and ``log_ratio = log(d_q / d_1)``.
 
@@ -141,7 +191,10 @@ class NeighborExtension:
         dom = self.cloud
         n_u = dom.unique_points.shape[0]
         own = 0 if rows is None else 1
-        k = min(self.n_neighbors, n_u - own)
+        # keep a (k+1)-th neighbour for the weights to fade against whenever there is one
+        # to spare: without it every weight would be 1 and, on fewer samples than k, the
+        # extension the mean of all first-order extensions, an affine function
+        k = max(1, min(self.n_neighbors, n_u - own - 1))
         nxt = 1 if k + own < n_u else 0  # a (k+1)-th neighbour exists
         for a in range(0, X.shape[0], _CHUNK):
             c = slice(a, min(X.shape[0], a + _CHUNK))
@@ -157,8 +210,9 @@ class NeighborExtension:
                 taper = np.clip(1.0 - t * t, 0.0, 1.0) + 1e-12  # all k tied with the next: even
             else:
                 taper = np.ones((ind.shape[0], k))
-            # a point on a training sample (d_1 = 0) takes that sample's value
+            # for p > 0, a point on a training sample (d_1 = 0) takes that sample's value
             log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
             ind = ind[:, :k]
             off = dom.tangent_offsets(X[c], ind)  # (b, q, m)
-            yield c, self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off), taper, log_ratio
+            vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
+            yield c, np.clip(vals, self._lo[ind], self._hi[ind]), taper, log_ratio

@@ -13,11 +13,23 @@ New points get ``phi`` from the fitted function alone, through the domain's
 extension on a kNN graph, :mod:`ndboundary.domains.pointcloud_extension`; barycentric
 interpolation on a Delaunay complex, :mod:`ndboundary.domains.delaunay`), so the
 prediction of a point never depends on the other points predicted with it.
+
+Three rules keep degenerate inputs classified as a user expects:
+
+* the features are centred and divided by one power-of-two scale for all of them
+  (:mod:`ndboundary.learn.scaling`): distances keep their ratios, so features of any
+  magnitude float64 holds give the same predictions;
+* the relaxed functions have regional maxima only at samples of their class and minima
+  only at the others (:mod:`ndboundary.learn.extrema`): around a class smaller than a
+  stencil the integration leaves peaks above 1/2 with no sample of the class in them;
+* on fewer distinct samples than ``n_neighbors + 1`` the kNN graph is complete and
+  ``lam`` is scaled by ``n_neighbors / (n_distinct - 1)``: a sample's measure in units
+  of ``h`` goes as ``1 / k``, so it grows as the stencil shrinks, and the field term would
+  otherwise outweigh the boundary term and carry the relaxed boundary past samples.
 """
 
 from __future__ import annotations
 
-import numbers
 import sys
 import time
 
@@ -30,7 +42,10 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from ..domains import DelaunayComplex, PointCloud
 from ..domains.delaunay import DELAUNAY_MAX_DIM
 from ..pipeline import relax
+from .extrema import impose_extrema
+from .params import check_classifier_params
 from .propagation import harmonic_labels, vote
+from .scaling import apply_scaling, fit_scaling
 
 __all__ = ["LevelSetClassifier"]
 
@@ -66,14 +81,19 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         ``"auto"`` picks the power among :data:`EXTENSION_POWERS` whose extension best
         predicts each training sample's label from its neighbours (leave-one-out, no
         refit): noisy, overlapping classes pick 0 and sparse high-dimensional ones large
-        powers. The value used is ``extension_power_``.
+        powers. Only powers whose extension still gives every class at least one of its
+        own samples compete (leave-one-out cannot see a class of one sample, and would
+        smooth it away), and power 0 only on more distinct samples than
+        ``extension_neighbors + 1`` (on fewer it would be a global average). The value
+        used is ``extension_power_``.
     graph : {"knn", "delaunay", "auto"}, default="knn"
         Domain over the samples: a kNN :class:`~ndboundary.PointCloud`, a
         :class:`~ndboundary.DelaunayComplex` (2 to 6 features, distinct samples), or ``"auto"``: Delaunay
         for 2 or 3 features and distinct samples, kNN otherwise.
     lam : float, default=1.0
         Weight of the boundary term of the integration (see :func:`ndboundary.relax`):
-        larger stays closer to the jagged kNN boundary, smaller relaxes further.
+        larger stays closer to the jagged kNN boundary, smaller relaxes further. Scaled
+        up on a complete kNN graph (module docstring).
     smoothing : int, default=0
         Field smoothing passes. One pass over a kNN stencil averages about as many
         vectors as several passes over a triangle mesh; on data the field is already
@@ -114,17 +134,25 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (n_features_in_,)
         Only when ``X`` has string column names.
+    center_ : ndarray of shape (n_features_in_,)
+        Per-feature median of the training samples.
+    scale_ : float
+        One scale for all features, a power of two (the median distance of the training
+        samples to ``center_``, rounded down): the classifier works on
+        ``(X - center_) / scale_``.
     domain_ : Domain
-        The graph over the distinct training samples' coordinates.
+        The graph over the distinct training samples, in those coordinates.
     phi_ : ndarray of shape (n_samples, n_relaxations)
         The relaxed functions on the training samples: one column for two classes
-        (``phi > 1/2`` means ``classes_[1]``), one per class otherwise.
+        (``phi > 1/2`` means ``classes_[1]``), one per class otherwise; with regional
+        maxima only at samples of the class, minima only at the others.
     transduction_ : ndarray of shape (n_samples,)
         The labels of the training samples, unlabelled ones filled in by
         harmonic extension before the relaxation.
     extension_ : NeighborExtension or SimplexExtension or None
-        The evaluator of ``phi_`` at new points, given by the domain
-        (:meth:`~ndboundary.Domain.extension`); None when one class was seen.
+        The evaluator of ``phi_`` at new points (in the coordinates of ``domain_``),
+        given by the domain (:meth:`~ndboundary.Domain.extension`); None when one class
+        was seen.
     proba_scale_ : float
         Slope of the logistic map from ``phi`` to probabilities, fitted on
         leave-one-out estimates of ``phi`` at the training samples.
@@ -183,37 +211,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         if self.verbose:
             print(f"[LevelSetClassifier] {msg} ({time.perf_counter() - t0:.2f} s)", file=sys.stderr, flush=True)
 
-    def _check_params(self):
-        if isinstance(self.n_neighbors, str):
-            if self.n_neighbors != "auto":
-                raise ValueError(f"n_neighbors must be an integer or 'auto', got {self.n_neighbors!r}")
-        elif isinstance(self.n_neighbors, bool) or not isinstance(self.n_neighbors, numbers.Integral):
-            raise TypeError(f"n_neighbors must be an integer or 'auto', got {type(self.n_neighbors).__name__}")
-        elif self.n_neighbors < 2:
-            raise ValueError(f"n_neighbors must be >= 2, got {self.n_neighbors}")
-        if isinstance(self.extension_power, str):
-            if self.extension_power != "auto":
-                raise ValueError(f"extension_power must be a number or 'auto', got {self.extension_power!r}")
-        elif isinstance(self.extension_power, bool) or not isinstance(self.extension_power, numbers.Real):
-            raise TypeError(f"extension_power must be a number or 'auto', got {type(self.extension_power).__name__}")
-        elif not 0.0 <= self.extension_power < np.inf:
-            raise ValueError(f"extension_power must be finite and >= 0, got {self.extension_power}")
-        if isinstance(self.extension_neighbors, bool) or not isinstance(self.extension_neighbors, numbers.Integral):
-            raise TypeError(f"extension_neighbors must be an integer, got {type(self.extension_neighbors).__name__}")
-        if self.extension_neighbors < 1:
-            raise ValueError(f"extension_neighbors must be >= 1, got {self.extension_neighbors}")
-        if isinstance(self.vote_threshold, bool) or not isinstance(self.vote_threshold, numbers.Real):
-            raise TypeError(f"vote_threshold must be a number, got {type(self.vote_threshold).__name__}")
-        if not 0.0 <= self.vote_threshold <= 1.0:
-            raise ValueError(f"vote_threshold must be in [0, 1], got {self.vote_threshold}")
-        if isinstance(self.tol, bool) or not isinstance(self.tol, numbers.Real):
-            raise TypeError(f"tol must be a number, got {type(self.tol).__name__}")
-        if not 0.0 < self.tol < 1.0:
-            raise ValueError(f"tol must be in (0, 1), got {self.tol}")
-        if self.graph not in ("knn", "delaunay", "auto"):
-            raise ValueError(f"graph must be 'knn', 'delaunay' or 'auto', got {self.graph!r}")
-
     def _build_domain(self, X):
+        """``(domain, n_neighbors_, lam)``: the graph, its neighbours per sample, the ``lam`` used on it."""
         graph = self.graph
         distinct = np.unique(X, axis=0).shape[0] == X.shape[0]
         if graph == "auto":
@@ -223,12 +222,12 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
                 raise ValueError(
                     f"graph='delaunay' needs 2 to {DELAUNAY_MAX_DIM} features, got {X.shape[1]}; use graph='knn'"
                 )
-            return DelaunayComplex(X), 0
+            return DelaunayComplex(X), 0, self.lam
         k = self.n_neighbors
         if k == "auto":
             k = AUTO_NEIGHBORS if X.shape[0] <= AUTO_NEIGHBORS_MAX_SAMPLES else AUTO_NEIGHBORS_LARGE
         cloud = PointCloud(X, n_neighbors=k, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state)
-        return cloud, cloud.n_neighbors
+        return cloud, cloud.n_neighbors, self.lam * k / cloud.n_neighbors  # complete graph: module docstring
 
     # -- fit -------------------------------------------------------------------------------
     def fit(self, X, y):
@@ -244,9 +243,11 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         -------
         self : LevelSetClassifier
         """
-        self._check_params()
+        check_classifier_params(self)
         X, y = validate_data(self, X, y, ensure_min_samples=2, dtype=np.float64)
         check_classification_targets(y)
+        self.center_, self.scale_ = fit_scaling(X)
+        X = apply_scaling(X, self.center_, self.scale_)
         t0 = time.perf_counter()
         labelled = np.ones(y.shape[0], dtype=bool)
         if self.unlabeled is not None:
@@ -268,7 +269,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             self.extension_ = None
             return self
         self._constant = None
-        self.domain_, self.n_neighbors_ = self._build_domain(X)
+        self.domain_, self.n_neighbors_, lam = self._build_domain(X)
         self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)
         if not labelled.all():
             codes = harmonic_labels(self.domain_, codes, labelled)
@@ -283,8 +284,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             if target.all() or not target.any():
                 phis.append(np.full(X.shape[0], 1.0 if target.all() else 0.0))
                 continue
-            res = relax(self.domain_, target, on="vertices", lam=self.lam, smoothing=self.smoothing, rtol=self.tol)
-            phis.append(res.phi)
+            res = relax(self.domain_, target, on="vertices", lam=lam, smoothing=self.smoothing, rtol=self.tol)
+            phis.append(impose_extrema(self.domain_, res.phi, target))
             self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
         self.phi_ = np.stack(phis, axis=1)
         self.extension_ = self.domain_.extension(
@@ -319,7 +320,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     # -- predict ------------------------------------------------------------------------------
     def _validate_predict(self, X):
         check_is_fitted(self)
-        return validate_data(self, X, reset=False, dtype=np.float64)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        return apply_scaling(X, self.center_, self.scale_)
 
     def decision_function(self, X):
         """Relaxed level-set function minus 1/2 at ``X``.

@@ -93,7 +93,7 @@ def vote(neighborhoods, codes, n_classes, passes, threshold):
     --------
     >>> import numpy as np, scipy.sparse as sp
     >>> from ndboundary.learn import vote
-    >>> path = sp.diags([1, 1, 1], [-1, 0, 1], shape=(5, 5)).tocsr()
+    >>> path = sp.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(5, 5)).tocsr()
     >>> vote(path, np.array([0, 0, 1, 0, 0]), 2, 1, 2 / 3).tolist()
     [0, 0, 0, 0, 0]
     """
