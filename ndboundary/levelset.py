@@ -169,8 +169,18 @@ def _permutation_parity(perm):
 
 
 @cache
-def _staircase(a, b):
-    """Monotone lattice paths from (0, 0) to (a-1, b-1): each is a list of (below, above) positions."""
+def staircase_paths(a, b):
+    """Monotone lattice paths from (0, 0) to (a-1, b-1): each is a list of (below, above) positions.
+
+    They index the staircase triangulation of a product of simplices, the one that agrees
+    on shared faces when vertices are taken in their global order.
+
+    Examples
+    --------
+    >>> from ndboundary.levelset import staircase_paths
+    >>> staircase_paths(2, 2).tolist()
+    [[[0, 0], [1, 0], [1, 1]], [[0, 0], [0, 1], [1, 1]]]
+    """
     paths = []
 
     def walk(p, q, acc):
@@ -246,7 +256,7 @@ def marching_simplices(points, simplices, values, value=0.5):
         sel = np.flatnonzero(code == c)
         bits = np.array([(c >> i) & 1 for i in range(k1)], dtype=bool)
         lo, hi = np.flatnonzero(~bits), np.flatnonzero(bits)
-        for path in _staircase(lo.size, hi.size):  # path: (k, 2) positions in lo / hi
+        for path in staircase_paths(lo.size, hi.size):  # path: (k, 2) positions in lo / hi
             loc = np.stack([lo[path[:, 0]], hi[path[:, 1]]], axis=-1)  # (k, 2) local positions
             out_edges.append(S[sel][:, loc])  # (n, k, 2) directed below -> above
             out_owner.append(sel)

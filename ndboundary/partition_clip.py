@@ -22,7 +22,7 @@ from math import factorial
 
 import numpy as np
 
-from .levelset import _staircase, sorting_parity
+from .levelset import staircase_paths, sorting_parity
 
 
 @cache
@@ -39,7 +39,7 @@ def _templates(code, k1):
     out = []
     for own, other, flip_edge in ((neg, pos, False), (pos, neg, True)):
         simp = []
-        for path in _staircase(len(own), len(other) + 1):
+        for path in staircase_paths(len(own), len(other) + 1):
             slots = []
             for p, q in path:
                 if q == 0:
