@@ -106,11 +106,8 @@ class NeighborExtension:
             grads.append(gu / cnt[:, None])
         self._grad_u = np.stack(grads, axis=1)  # (n_u, r, m)
         # the bounds of each sample's first-order extension: the range of phi over its
-        # gradient stencil, or over its n_neighbors nearest if the extension reaches further
-        nbr = cloud.neighbors
-        if self.n_neighbors > nbr.shape[1] and n_u > nbr.shape[1] + 1:
-            nbr = cloud.kneighbors(cloud.unique_points, self.n_neighbors + 1)[0]
-        around = self._phi_u[nbr]  # (n_u, q, r)
+        # gradient stencil
+        around = self._phi_u[cloud.neighbors]  # (n_u, q, r)
         self._lo = np.minimum(self._phi_u, around.min(axis=1))
         self._hi = np.maximum(self._phi_u, around.max(axis=1))
         self._loo = None
@@ -159,20 +156,50 @@ class NeighborExtension:
         powers = np.asarray(EXTENSION_POWERS)
         right = np.zeros(powers.size, dtype=np.int64)
         loo = np.empty((powers.size, rows.size, self._phi_u.shape[1]))
-        for c, *terms in self._terms(self.cloud.points[rows], rows=rows):
-            for i, p in enumerate(powers):
-                phi = loo[i, c] = _weighted_mean(*terms, p)
-                right[i] += int((_predicted(phi) == lab[c]).sum())
         own = np.empty((powers.size, rows.size), dtype=np.int64)
-        for c, *terms in self._terms(self.cloud.points[rows]):
+        for c, left_out, kept in self._training_terms(rows):
             for i, p in enumerate(powers):
-                own[i, c] = _predicted(_weighted_mean(*terms, p))
+                phi = loo[i, c] = _weighted_mean(*left_out, p)
+                right[i] += int((_predicted(phi) == lab[c]).sum())
+                own[i, c] = _predicted(_weighted_mean(*kept, p))
         classes = np.unique(lab)
         keeps = np.array([np.isin(classes, lab[own[i] == lab]).all() for i in range(powers.size)])
         if self.cloud.unique_points.shape[0] <= self.n_neighbors + 1:
             keeps &= powers > 0.0
         best = int(np.argmax(np.where(keeps, right, -1))) if keeps.any() else int(np.argmax(right))
         return float(powers[best]), (rows, loo[best])
+
+    def _sizes(self, own):
+        """``(k, nxt)``: the neighbours averaged, and whether a next one exists to fade against."""
+        n_u = self.cloud.unique_points.shape[0]
+        # keep a (k+1)-th neighbour for the weights to fade against whenever there is one
+        # to spare: without it every weight would be 1 and, on fewer samples than k, the
+        # extension the mean of all first-order extensions, an affine function
+        k = max(1, min(self.n_neighbors, n_u - own - 1))
+        return k, 1 if k + own < n_u else 0
+
+    def _training_terms(self, rows):
+        """Per chunk of the training samples ``rows``: ``(slice, left_out, kept)``, the
+        :meth:`_terms` of each sample with its own point left out and kept, from one
+        neighbour search (the graph's when it holds enough neighbours).
+        """
+        dom = self.cloud
+        k1, nxt1 = self._sizes(1)
+        k0, nxt0 = self._sizes(0)
+        need = max(k1 + nxt1, k0 + nxt0 - 1)
+        X = dom.points[rows]
+        for a in range(0, rows.size, _CHUNK):
+            c = slice(a, min(rows.size, a + _CHUNK))
+            u = dom.unique_inverse[rows[c]]
+            if need <= dom.neighbors.shape[1]:
+                ind, dist = dom.neighbors[u, :need], dom.distances[u, :need]
+            else:
+                ind, dist = dom.kneighbors(X[c], need + 1)
+                ind, dist = ind[:, 1:], dist[:, 1:]  # the sample itself comes first
+            left_out = self._from_neighbors(X[c], ind[:, : k1 + nxt1], dist[:, : k1 + nxt1], k1, nxt1)
+            with_self = np.concatenate([u[:, None], ind], axis=1)[:, : k0 + nxt0]
+            zero = np.concatenate([np.zeros((u.size, 1)), dist], axis=1)[:, : k0 + nxt0]
+            yield c, left_out, self._from_neighbors(X[c], with_self, zero, k0, nxt0)
 
     def _terms(self, X, rows=None):
         """Per chunk of ``X``: ``(slice, vals, taper, log_ratio)``.
@@ -189,13 +216,8 @@ class NeighborExtension:
         extension uses more neighbours than the graph holds.
         """
         dom = self.cloud
-        n_u = dom.unique_points.shape[0]
         own = 0 if rows is None else 1
-        # keep a (k+1)-th neighbour for the weights to fade against whenever there is one
-        # to spare: without it every weight would be 1 and, on fewer samples than k, the
-        # extension the mean of all first-order extensions, an affine function
-        k = max(1, min(self.n_neighbors, n_u - own - 1))
-        nxt = 1 if k + own < n_u else 0  # a (k+1)-th neighbour exists
+        k, nxt = self._sizes(own)
         for a in range(0, X.shape[0], _CHUNK):
             c = slice(a, min(X.shape[0], a + _CHUNK))
             if rows is not None and k + nxt <= dom.neighbors.shape[1]:
@@ -204,15 +226,21 @@ class NeighborExtension:
             else:
                 ind, dist = dom.kneighbors(X[c], k + nxt + own)
                 ind, dist = ind[:, own:], dist[:, own:]
-            far = np.maximum(dist[:, -1:], np.finfo(np.float64).tiny)
-            if nxt:
-                t = dist[:, :k] / far
-                taper = np.clip(1.0 - t * t, 0.0, 1.0) + 1e-12  # all k tied with the next: even
-            else:
-                taper = np.ones((ind.shape[0], k))
-            # for p > 0, a point on a training sample (d_1 = 0) takes that sample's value
-            log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
-            ind = ind[:, :k]
-            off = dom.tangent_offsets(X[c], ind)  # (b, q, m)
-            vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
-            yield c, np.clip(vals, self._lo[ind], self._hi[ind]), taper, log_ratio
+            yield (c, *self._from_neighbors(X[c], ind, dist, k, nxt))
+
+    def _from_neighbors(self, X, ind, dist, k, nxt):
+        """``(vals, taper, log_ratio)`` of :meth:`_terms` from the neighbours ``ind`` of ``X``
+        at distances ``dist`` (the ``k`` averaged, then the next one if ``nxt``).
+        """
+        far = np.maximum(dist[:, -1:], np.finfo(np.float64).tiny)
+        if nxt:
+            t = dist[:, :k] / far
+            taper = np.clip(1.0 - t * t, 0.0, 1.0) + 1e-12  # all k tied with the next: even
+        else:
+            taper = np.ones((ind.shape[0], k))
+        # for p > 0, a point on a training sample (d_1 = 0) takes that sample's value
+        log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
+        ind = ind[:, :k]
+        off = self.cloud.tangent_offsets(X, ind)  # (b, q, m)
+        vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
+        return np.clip(vals, self._lo[ind], self._hi[ind]), taper, log_ratio
