@@ -198,14 +198,10 @@ def int_tokens(tokens, lines, path, what) -> np.ndarray:
     ValueError: a.off: line 4: vertex index '2.5' is not an integer
     """
     try:
-        return np.array(tokens, dtype=np.int64).reshape(-1)
-    except OverflowError:
-        pass
-    except ValueError:
-        i, line = _first_bad(tokens, lines, int)
-        raise ValueError(f"{path}: line {line}: {what} {tokens[i][:40]!r} is not an integer") from None
-    try:
-        return np.array([max(-INT_CLIP, min(INT_CLIP, int(t))) for t in tokens], dtype=np.int64).reshape(-1)
+        try:
+            return np.array(tokens, dtype=np.int64).reshape(-1)
+        except OverflowError:
+            return np.array([max(-INT_CLIP, min(INT_CLIP, int(t))) for t in tokens], dtype=np.int64).reshape(-1)
     except ValueError:
         i, line = _first_bad(tokens, lines, int)
         raise ValueError(f"{path}: line {line}: {what} {tokens[i][:40]!r} is not an integer") from None

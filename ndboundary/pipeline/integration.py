@@ -40,25 +40,16 @@ class IntegrationSystem:
 
     Examples
     --------
-    >>> from ndboundary.datasets import kuhn_grid, label_by, circle
-    >>> from ndboundary.pipeline.boundary import element_boundary
-    >>> from ndboundary.pipeline.padding import pad
-    >>> from ndboundary.pipeline.heat import diffuse
-    >>> from ndboundary.pipeline.field import initial_field
-    >>> from ndboundary.pipeline.smoothing import smooth
-    >>> from ndboundary.pipeline.integration import integration_system, integrate
-    >>> mesh = kuhn_grid(10, 2)
-    >>> h = mesh.mean_edge_length()
-    >>> region1 = label_by(mesh, circle) == 1
-    >>> zeta = element_boundary(mesh, region1)
-    >>> padded = pad(mesh, region1, zeta, "elements")
-    >>> u, _ = diffuse(padded.work, zeta.sources, h**2, 1e-10)
-    >>> X = smooth(padded.work, initial_field(mesh, padded, region1, zeta.sources, u, 1e-10), 60)
-    >>> system = integration_system(padded.work, X, h, padded, zeta.sources, lam=2.0, mu=0.03, form="mass")
-    >>> system.K.shape, system.rhs.shape, system.S.shape, system.mu
-    ((121, 121), (121,), (20, 121), 0.03)
-    >>> bool(0 < system.lam_scale <= 1), bool(abs(system.lam - 2.0 * system.lam_scale) < 1e-12)
-    (True, True)
+    One built by the steps before it: see :func:`integration_system`. Its fields are the
+    terms of the system, here of one segment held at both ends:
+
+    >>> import numpy as np, scipy.sparse as sp
+    >>> K = sp.csr_matrix([[1.0, -1.0], [-1.0, 1.0]])
+    >>> S = sp.identity(2, format="csr")
+    >>> system = IntegrationSystem(K, np.ones(2), S, 2.0, 1.0, 0.0, np.array([1.0, 1.0]))
+    >>> phi, info = integrate(system, rtol=1e-10, solver="direct")
+    >>> phi.round(6).tolist()
+    [0.5, 0.5]
     """
 
     K: sp.csr_matrix
