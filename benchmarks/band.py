@@ -8,6 +8,13 @@ number of components.
 Usage::
 
     python benchmarks/band.py [--widths 8,12,16,21,24,auto] [--params "dict(smoothing=3)"]
+    python benchmarks/band.py --suite        # every relax of quality.py and meshes.py
+
+``--suite`` runs ``benchmarks/quality.py`` (defaults and the paper's settings) and
+``benchmarks/meshes.py`` (Fig. 6 and the shared meshes) with every call of ``relax``
+made twice, ``band="auto"`` (the default, whose result the script then checks) and
+``band=None``, and prints the gap between the two level sets per call, then the
+scripts' own tables.
 
 Prints a table, then one JSON line per case and width.
 """
@@ -35,20 +42,77 @@ from ndboundary.datasets import (
 
 CASES = {
     "flower-160": lambda: (kuhn_grid(160, 2, jitter=0.25, random_state=0), flower),
+    "flower-400": lambda: (kuhn_grid(400, 2, jitter=0.25, random_state=0), flower),
     "quads-80": lambda: (quad_grid(80, jitter=0.25, random_state=0), circle),
     "voronoi-80": lambda: (voronoi_polygons(80, random_state=0), circle),
     "ico5-plane": lambda: (icosphere(5), lambda x: x[:, 2] - 0.3),
     "ball-24": lambda: (kuhn_grid(24, 3, jitter=0.25, random_state=0), ball),
+    "ball-44": lambda: (kuhn_grid(44, 3, jitter=0.25, random_state=0), ball),
     "hex-24": lambda: (hex_grid(24, jitter=0.25, random_state=0), ball),
+    "hex-40": lambda: (hex_grid(40, jitter=0.25, random_state=0), ball),
+    "4d-ball-12": lambda: (kuhn_grid(12, 4, jitter=0.1, random_state=0), ball),
 }
+DEFAULT_CASES = "flower-160,flower-400,quads-80,voronoi-80,ico5-plane,ball-44,hex-40,4d-ball-12"
+
+
+def gap(a, b, h):
+    """Mean distance from ``a``'s level set to ``b``'s, and the max both ways, in units of ``h``."""
+    pa, pb = a.level_set().points, b.level_set().points
+    there = cKDTree(pb).query(pa)[0] / h
+    back = cKDTree(pa).query(pb)[0] / h
+    return float(there.mean()), float(max(there.max(), back.max()))
+
+
+def run_suite():
+    """quality.py and meshes.py with every relax done with and without the band."""
+    import meshes
+    import quality
+
+    rows = []
+
+    def both(domain, labels, **kw):
+        kw.pop("band", None)
+        t0 = time.perf_counter()
+        res = relax(domain, labels, band="auto", **kw)
+        t_band = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        whole = relax(domain, labels, band=None, **kw)
+        t_whole = time.perf_counter() - t0
+        mean, worst = gap(res, whole, domain.mean_edge_length())
+        share = res.params.get("band_vertices", domain.n_vertices) / domain.n_vertices
+        row = {
+            "bench": "band-suite", "case": len(rows), "domain": repr(domain), "params": repr(kw), "band_share": share,
+            "mean_h": mean, "max_h": worst, "components": res.level_set().n_components(),
+            "whole_components": whole.level_set().n_components(), "band_s": t_band, "whole_s": t_whole,
+        }  # fmt: skip
+        row["pass"] = mean <= 0.01 and worst <= 0.05 and row["components"] == row["whole_components"]
+        rows.append(row)
+        print(
+            f"{len(rows) - 1:3d} {repr(domain)[:70]:70s} {share:5.2f} {mean:7.4f} {worst:7.4f} "
+            f"{row['components']}/{row['whole_components']} {t_band:6.2f} {t_whole:6.2f} {'PASS' if row['pass'] else 'FAIL'}",
+            flush=True,
+        )
+        return res
+
+    quality.relax = meshes.relax = both
+    print(f"{'#':>3s} {'domain':70s} {'verts':>5s} {'mean':>7s} {'max':>7s} comp {'band s':>6s} {'whole':>6s}")
+    quality.main([])
+    meshes.main([])
+    n_pass = sum(r["pass"] for r in rows)
+    print(f"\nband suite: {n_pass}/{len(rows)} relaxations within mean 0.01 h, max 0.05 h, same components")
+    for row in rows:
+        print(json.dumps(row))
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--widths", default="8,12,16,21,24,auto")
     parser.add_argument("--params", default="{}", help="relax parameters, a Python dict literal")
-    parser.add_argument("--cases", default=",".join(CASES))
+    parser.add_argument("--cases", default=DEFAULT_CASES, help=f"any of {', '.join(CASES)}")
+    parser.add_argument("--suite", action="store_true", help="every relax of quality.py and meshes.py instead")
     args = parser.parse_args()
+    if args.suite:
+        return run_suite()
     params = eval(args.params, {"dict": dict})  # noqa: S307 - a command-line convenience
     widths = [w if w == "auto" else float(w) for w in args.widths.split(",")]
     print(f"# band: relax parameters {params}; distances in h; verts = share of the vertices in the band")
@@ -61,7 +125,7 @@ def main():
         labels = label_by(mesh, truth)
         h = mesh.mean_edge_length()
         t0 = time.perf_counter()
-        whole = relax(mesh, labels, on="elements", **params)
+        whole = relax(mesh, labels, on="elements", band=None, **params)
         t_whole = time.perf_counter() - t0
         ref = whole.level_set()
         tree = cKDTree(ref.points)

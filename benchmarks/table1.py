@@ -9,7 +9,8 @@ Meshes
     ``--mesh geodesic`` (default): class-I geodesic spheres, every icosahedron face cut
     into f^2 triangles, 10 f^2 + 2 vertices; f = 10, 20, 39, 77, 158, 316 give
     1 002, 4 002, 15 212, 59 292, 249 642 and 998 562 vertices, the paper's
-    1K/4K/15K/60K/250K/1M. ``--mesh icosphere``: ``datasets.icosphere(s)``, s = 3..8
+    1K/4K/15K/60K/250K/1M, and f = 632 gives 3 994 242 (4M, beyond the paper).
+    ``--mesh icosphere``: ``datasets.icosphere(s)``, s = 3..8
     (642 ... 655 362 vertices). Labelling: the plane cut z > 0.3 (``--cut wavy``:
     z > 0.3 + 0.1 sin(3 atan2(y, x))).
     ``--tets``: a 3-D series instead, ``kuhn_grid(n, 3, jitter=0.25)`` labelled by the
@@ -18,18 +19,20 @@ Meshes
 
 What is measured, per size, each in its own subprocess (so that peak memory,
 ``ru_maxrss``, belongs to that size alone):
-    * ``relax`` on a freshly built domain (operators not cached), ``--repeats`` times;
-      the median of each step of ``r.timings`` (pad, heat, field, smoothing,
-      integration, total). Operators are assembled inside the steps, as a user's
-      first call would: the stiffness and mass in ``pad``, the gradient in ``field``,
-      the adjacency in ``smoothing``.
-    * operator assembly separately: building a fresh ``SimplicialComplex`` and
-      accessing ``.K``, ``.G``, ``.mass``, ``.adjacency``.
+    * cold runs, ``--repeats`` times: a fresh ``SimplicialComplex(points, simplices)``
+      (nothing assembled) and a one-shot ``relax`` with the default ``band="auto"``;
+      the median of each step of ``r.timings`` (locate, pad, heat, field, smoothing,
+      integration, fill, total), of the construction, and of the end-to-end time
+      (construction + relax). Operators are assembled inside the steps, on the band,
+      as a user's first call would.
+    * ``--assembly``: the whole domain's operator assembly (``.K``, ``.G``, ``.mass``,
+      ``.adjacency``), which ``relax`` no longer needs (it raises the peak memory).
     * peak resident memory of the process, and the resident size right after imports.
-    * a peer measured in the same run, up to ``--peer-max`` vertices: the very same
-      integration system (captured from the pipeline) assembled as
-      ``K M^-1 K + mu K + lam S^T S`` and solved by ``scipy.sparse.linalg.spsolve`` (plain
-      SuperLU, default options, no UMFPACK); ratio ours / peer of the integration step.
+    * a peer measured in the same run, up to ``--peer-max`` vertices: the whole
+      domain's integration system (``band=None``, captured from the pipeline)
+      assembled as ``K M^-1 K + mu K + lam S^T S`` and solved by
+      ``scipy.sparse.linalg.spsolve`` (plain SuperLU, default options, no UMFPACK);
+      ratio ours / peer of the integration step.
 
 Every size has a deadline taken from ``--budget`` (default 540 s for the whole run):
 a size that does not finish in time is reported as a timeout with whatever repeats
@@ -39,7 +42,7 @@ ends in under 10 minutes whatever the speed of the library.
 Run::
 
     python benchmarks/table1.py                      # 1K .. 250K, defaults
-    python benchmarks/table1.py --max-vertices 1000000 --budget 7200
+    python benchmarks/table1.py --min-vertices 900000 --max-vertices 4000000 --budget 900
     python benchmarks/table1.py --params paper       # lam 0.5, 3 passes, plain form
     python benchmarks/table1.py --tets
 
@@ -69,7 +72,7 @@ PAPER_TABLE = {
 }
 STEPS = ("heat", "field", "smoothing", "integration", "total")
 
-GEODESIC_FREQ = (10, 20, 39, 77, 158, 316)
+GEODESIC_FREQ = (10, 20, 39, 77, 158, 316, 632)
 ICOSPHERE_LEVELS = (3, 4, 5, 6, 7, 8)
 KUHN_N = (10, 16, 25, 39, 62, 99)
 
@@ -174,35 +177,37 @@ def _emit(obj):
 def worker_ours(args):
     import ndboundary
     from ndboundary import SimplicialComplex, relax
-    from ndboundary.datasets import label_by
 
     _emit({"type": "start", "rss_after_import_mb": rss_mb()})
     t = time.perf_counter()
     pts, T, truth = make_mesh(args.family, args.param, args.jitter)
     t_mesh = time.perf_counter() - t
     truth = truth or cut_truth(args.cut)
+    labels = (truth(pts[T].mean(axis=1)) < 0).astype(np.int64)  # datasets.label_by, without a domain
     params = ndboundary.PAPER if args.params == "paper" else {}
-    # operator assembly on a fresh domain
-    t = time.perf_counter()
-    dom = SimplicialComplex(pts, T)
-    asm = {"construct": time.perf_counter() - t}
-    for name in ("K", "G", "mass", "adjacency"):
+    if args.assembly:
+        # operator assembly of the whole domain, which relax no longer needs
         t = time.perf_counter()
-        getattr(dom, name)
-        asm[name] = time.perf_counter() - t
-    asm["all"] = sum(asm.values())
-    labels = label_by(dom, truth)
-    _emit({"type": "assembly", "n_vertices": int(dom.n_vertices), "n_elements": int(dom.n_elements),
-           "mesh_build": t_mesh, "assembly": asm, "rss_mb": rss_mb()})
-    del dom
-    # relax keeps nothing between calls: every repeat factorises afresh, cold figures
-    # as the paper's
-    for rep in range(args.repeats):
         dom = SimplicialComplex(pts, T)
+        asm = {"construct": time.perf_counter() - t}
+        for name in ("K", "G", "mass", "adjacency"):
+            t = time.perf_counter()
+            getattr(dom, name)
+            asm[name] = time.perf_counter() - t
+        asm["all"] = sum(asm.values())
+        _emit({"type": "assembly", "assembly": asm, "rss_mb": rss_mb()})
+        del dom
+    _emit({"type": "mesh", "n_vertices": int(pts.shape[0]), "n_elements": int(T.shape[0]), "mesh_build": t_mesh})
+    # cold: a fresh domain (nothing assembled) and a one-shot relax (nothing kept) per run
+    for rep in range(args.repeats):
+        t = time.perf_counter()
+        dom = SimplicialComplex(pts, T)
+        t_construct = time.perf_counter() - t
         r = relax(dom, labels, on="elements", **params)
-        _emit({"type": "repeat", "repeat": rep, "timings": r.timings,
+        timings = {**r.timings, "construct": t_construct, "end_to_end": time.perf_counter() - t}
+        _emit({"type": "repeat", "repeat": rep, "timings": timings,
                "solver": {k: vars(v) for k, v in r.solver.items()},
-               "n_padded_elements": int(r.field.shape[0] - dom.n_elements),
+               "band_vertices": int(r.params.get("band_vertices", dom.n_vertices)),
                "n_sources": int(r.boundary.sources.size), "rss_mb": rss_mb(),
                "relax_params": {k: v for k, v in r.params.items() if isinstance(v, (int, float, str, bool))}})
         del r, dom
@@ -236,7 +241,7 @@ def worker_peer(args):
     original = step.solve_integration  # the solver the integration step calls
     step.solve_integration = capture  # grab the exact system the pipeline builds
     try:
-        relax(dom, labels, on="elements", **params)
+        relax(dom, labels, on="elements", band=None, **params)
     except _Captured:
         pass
     finally:
@@ -259,7 +264,7 @@ def worker_peer(args):
 def run_worker(kind, family, param, args, timeout):
     cmd = [sys.executable, os.path.abspath(__file__), "--_worker", kind, "--_family", family,
            "--_param", str(param), "--repeats", str(args.repeats), "--params", args.params, "--cut", args.cut,
-           "--jitter", str(args.jitter)]
+           "--jitter", str(args.jitter)] + (["--assembly"] if args.assembly else [])
     t = time.perf_counter()
     timed_out = False
     try:
@@ -316,6 +321,9 @@ def main(argv=None):
                     help="wall-clock seconds for the whole run; sizes past it time out (default 540)")
     ap.add_argument("--size-timeout", type=float, default=300.0,
                     help="at most this many seconds per worker (default 300)")
+    ap.add_argument("--assembly", action="store_true",
+                    help="also time the whole domain's operator assembly (K, G, mass, adjacency), which relax "
+                         "no longer needs; it raises the peak memory reported")
     ap.add_argument("--_worker", choices=("ours", "peer"), help=argparse.SUPPRESS)
     ap.add_argument("--_family", help=argparse.SUPPRESS)
     ap.add_argument("--_param", type=int, help=argparse.SUPPRESS)
@@ -354,20 +362,22 @@ def main(argv=None):
             msgs, timed_out, wall, rc = run_worker("ours", family, param, args, min(left, args.size_timeout))
             reps = [m for m in msgs if m["type"] == "repeat"]
             asm = next((m for m in msgs if m["type"] == "assembly"), None)
+            mesh = next((m for m in msgs if m["type"] == "mesh"), None)
             start = next((m for m in msgs if m["type"] == "start"), None)
             row["ours_status"] = "timeout" if timed_out else ("ok" if rc == 0 else f"error rc={rc}")
             row["ours_wall"] = wall
             row["repeats_done"] = len(reps)
             if start:
                 row["rss_after_import_mb"] = start["rss_after_import_mb"]
+            if mesh:
+                row.update(n_vertices=mesh["n_vertices"], n_elements=mesh["n_elements"], mesh_build=mesh["mesh_build"])
             if asm:
-                row.update(n_vertices=asm["n_vertices"], n_elements=asm["n_elements"],
-                           assembly=asm["assembly"], mesh_build=asm["mesh_build"])
+                row["assembly"] = asm["assembly"]
             if reps:
                 row["timings"] = {k: float(np.median([r["timings"][k] for r in reps])) for k in reps[0]["timings"]}
                 row["timings_all"] = [r["timings"] for r in reps]
                 row["solver"] = reps[-1]["solver"]
-                row["n_padded_elements"] = reps[-1]["n_padded_elements"]
+                row["band_vertices"] = reps[-1]["band_vertices"]
                 row["relax_params"] = reps[-1].get("relax_params")
                 row["peak_rss_mb"] = max(r["rss_mb"] for r in reps)
             if timed_out:
@@ -396,9 +406,10 @@ def main(argv=None):
 
     # --- tables
     print()
-    print("Per-step seconds (median of repeats), ours vs the paper (nearest paper row; ratio = ours / paper)")
+    print("Per-step seconds (median of repeats, each on a fresh domain), ours vs the paper (nearest paper row;"
+          " ratio = ours / paper)")
     hdr = f"{'verts':>8s} {'paper':>6s} {'reps':>4s} " + " ".join(
-        f"{s[:6]:>8s} {'paper':>8s} {'ratio':>6s}" for s in STEPS) + f" {'pad':>7s}"
+        f"{s[:6]:>8s} {'paper':>8s} {'ratio':>6s}" for s in STEPS)
     print(hdr)
     print("-" * len(hdr))
     for row in results:
@@ -409,22 +420,23 @@ def main(argv=None):
             reps += "!"
         cells = []
         for s in STEPS:
-            ours = t[s] if t else None
-            ratio = ours / pr[s] if t else None
+            ours = t.get(s) if t else None
+            ratio = ours / pr[s] if ours else None
             cells.append(f"{fmt(ours)} {fmt(pr[s])} {fmt(ratio, 6)}")
         tag = f"{pr['verts'] // 1000}K" if pr["verts"] < 1_000_000 else "1M"
-        print(f"{row['n_vertices']:>8d} {tag:>6s} {reps:>4s} " + " ".join(cells) + f" {fmt(t['pad'] if t else None, 7)}")
+        print(f"{row['n_vertices']:>8d} {tag:>6s} {reps:>4s} " + " ".join(cells))
     if any(r.get("ours_status") == "timeout" for r in results):
         print("  '!' = the size hit its deadline; medians over the repeats that finished (none: '-').")
     print()
-    print("Operator assembly on a fresh domain (s), peak memory (MB), solver, and the spsolve peer")
-    hdr2 = (f"{'verts':>8s} {'constr':>7s} {'K':>7s} {'G':>7s} {'mass':>7s} {'adj':>7s} {'asm':>7s} "
-            f"{'rss0':>6s} {'peakMB':>7s} {'padded':>6s} {'heat it':>7s} {'int':>12s} "
+    print("End to end (s: a fresh domain and a one-shot relax), its parts outside the four steps, peak memory (MB),"
+          " solver, and the spsolve peer")
+    hdr2 = (f"{'verts':>8s} {'band %':>6s} {'constr':>7s} {'locate':>7s} {'pad':>7s} {'fill':>7s} {'e2e':>7s} "
+            f"{'rss0':>6s} {'peakMB':>7s} {'heat it':>7s} {'int':>12s} "
             f"{'ours int':>8s} {'peer int':>8s} {'ratio':>6s} {'peerMB':>7s}")
     print(hdr2)
     print("-" * len(hdr2))
     for row in results:
-        a = row.get("assembly", {})
+        t = row.get("timings", {})
         sol = row.get("solver", {})
         peer = row.get("peer")
         integ = sol.get("integration")
@@ -434,15 +446,17 @@ def main(argv=None):
             peer_txt = f"{'>' + format(row['peer_deadline'], '.0f'):>8s}"
         else:
             peer_txt = fmt(peer_int)
-        print(f"{row['n_vertices']:>8d} {fmt(a.get('construct'), 7)} {fmt(a.get('K'), 7)} {fmt(a.get('G'), 7)} "
-              f"{fmt(a.get('mass'), 7)} {fmt(a.get('adjacency'), 7)} {fmt(a.get('all'), 7)} "
+        share = 100.0 * row["band_vertices"] / row["n_vertices"] if "band_vertices" in row else None
+        print(f"{row['n_vertices']:>8d} {fmt(share, 6)} {fmt(t.get('construct'), 7)} {fmt(t.get('locate'), 7)} "
+              f"{fmt(t.get('pad'), 7)} {fmt(t.get('fill'), 7)} {fmt(t.get('end_to_end'), 7)} "
               f"{fmt(row.get('rss_after_import_mb'), 6)} {fmt(row.get('peak_rss_mb'), 7)} "
-              f"{row.get('n_padded_elements', '-')!s:>6s} "
               f"{(str(sol['heat']['iterations']) if sol else '-'):>7s} {intdesc:>12s} "
-              f"{fmt(row['timings']['integration'] if 'timings' in row else None)} {peer_txt} "
+              f"{fmt(t.get('integration'))} {peer_txt} "
               f"{fmt(row.get('ratio_integration_to_peer'), 6)} {fmt(peer['rss_mb'] if peer else None, 7)}")
-    print("  rss0 = resident MB after imports; peakMB = ru_maxrss of the size's own process;"
-          " peer int = assemble K M^-1 K + mu K + lam S^T S and spsolve it; ratio = ours / peer.")
+    print("  band % = the band's share of the vertices; constr = SimplicialComplex(points, simplices); locate ="
+          " zeta and the band; fill = phi outside the band; e2e = constr + relax; rss0 = resident MB after imports;"
+          " peakMB = ru_maxrss of the size's own process; peer int = the whole domain's system (band=None)"
+          " assembled as K M^-1 K + mu K + lam S^T S and solved by spsolve; ratio = ours / peer.")
     print(f"  total wall time {time.perf_counter() - t_start:.0f} s")
     print()
     for row in results:

@@ -109,6 +109,13 @@ class Domain:
         return int(self.points.shape[1])
 
     @property
+    def cell_dim(self) -> int:
+        """Dimension of the elements: 1 for a chain of segments, 2 for triangles and polygons,
+        3 for tetrahedra and polyhedra (by default, :attr:`dim`).
+        """
+        return self.dim
+
+    @property
     def n_elements(self) -> int:
         """Number of elements."""
         raise NotImplementedError

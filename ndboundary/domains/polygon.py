@@ -134,6 +134,11 @@ class PolygonMesh(Domain):
         return int(self.offsets.size - 1)
 
     @property
+    def cell_dim(self) -> int:
+        """Dimension of the elements (polygons)."""
+        return 2
+
+    @property
     def element_dim(self) -> int:
         """Dimension k of the elements."""
         return 2

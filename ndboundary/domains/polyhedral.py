@@ -186,6 +186,11 @@ class PolyhedralMesh(Domain):
         return int(self.cell_offsets.size - 1)
 
     @property
+    def cell_dim(self) -> int:
+        """Dimension of the elements (polyhedra)."""
+        return 3
+
+    @property
     def n_faces(self) -> int:
         """Number of faces."""
         return int(self.face_offsets.size - 1)

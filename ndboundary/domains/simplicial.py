@@ -107,6 +107,11 @@ class SimplicialComplex(Domain):
         return int(self.simplices.shape[0])
 
     @property
+    def cell_dim(self) -> int:
+        """Dimension of the elements (simplices)."""
+        return int(self.simplices.shape[1]) - 1
+
+    @property
     def simplex_dim(self) -> int:
         """The dimension k of the simplices (2 for triangles, 3 for tetrahedra)."""
         return int(self.simplices.shape[1] - 1)

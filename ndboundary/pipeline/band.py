@@ -2,9 +2,9 @@
 
 The level set depends only on the fields near zeta: the heat with ``t = h^2`` decays
 within a few rings, the smoothing spreads information one ring per pass, and the boundary
-term screens the integration. The band holds every element with a vertex within a graph
-distance ``width * h`` of zeta's vertices (Dijkstra along the edges, stopped at that
-distance, so its cost follows the band).
+term and the first-order term screen the integration. The band holds every element with
+a vertex within a graph distance ``width * h`` of zeta's vertices (Dijkstra along the
+edges, stopped at that distance, so its cost follows the band).
 
 Outside the band, phi is the band-edge value plus the signed graph distance in units of
 ``h``: ``phi = 1/2 + s (|phi_b - 1/2| + d(b, v) / h)`` minimised over the band's vertices
@@ -13,6 +13,11 @@ of its region, continuous with the band at its edge, and grows away from zeta at
 rate of the solved phi (``phi - 1/2`` is close to a signed distance in units of ``h``).
 Vertices that no path joins to the band (domain components without zeta) get
 ``1/2 -/+ 1``, as the whole-domain solve pins them.
+
+Outside the band, nothing but linear passes touches the domain: finding zeta and its
+neighbourhood (:func:`~ndboundary.pipeline.boundary.element_boundary`), the edge graph
+(:func:`band_graph`, shared by every labelling of a domain), the stopped Dijkstra of
+:func:`band_elements` and the one of :func:`extend_outside`.
 """
 
 from __future__ import annotations
@@ -21,37 +26,96 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
-__all__ = ["AUTO_BAND_WIDTH", "band_elements", "band_width", "extend_outside"]
+from ..domains.base import Domain
 
-#: ``band="auto"``: the band's half-width in units of ``h``. The first-order term of the
-#: integration (``mu > 0``) screens phi from what lies farther from zeta; at this width the
-#: level set matches the whole-domain solve within 0.01 h on average and 0.05 h at worst
-#: with the default parameters, few smoothing passes and a weaker ``lam`` alike
+__all__ = [
+    "AUTO_BAND_WIDTH",
+    "AUTO_BAND_WIDTH_SOLID",
+    "band_elements",
+    "band_graph",
+    "band_width",
+    "can_cut",
+    "extend_outside",
+]
+
+#: ``band="auto"`` on curves, planar meshes and surfaces: the band's half-width in units
+#: of ``h``. The first-order term of the integration (``mu > 0``) screens phi from what
+#: lies farther from zeta; at this width the level set matches the whole-domain solve
+#: within 0.01 h on average and 0.05 h at worst, with the default parameters, a few
+#: smoothing passes, a weaker or stronger ``lam`` and ``mu`` down to 0.01 alike
 #: (``benchmarks/band.py``).
 AUTO_BAND_WIDTH = 30.0
 
+#: ``band="auto"`` on solids (tetrahedra, hexahedra, polyhedra and beyond): a perturbation
+#: at the band's edge spreads over a larger sphere as it travels inwards and fades faster
+#: than on a surface, so a narrower band meets the same tolerance (``benchmarks/band.py``).
+AUTO_BAND_WIDTH_SOLID = 16.0
 
-def band_elements(domain, sources, h, width):
-    """The elements with a vertex within graph distance ``width * h`` of the ``sources``.
+
+def can_cut(domain):
+    """Whether ``domain`` can be cut to a band (it provides :meth:`~ndboundary.Domain.subdomain`).
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import can_cut
+    >>> can_cut(kuhn_grid(4, 2))
+    True
+    """
+    return type(domain).subdomain is not Domain.subdomain
+
+
+def band_graph(domain, h):
+    """The domain's edges in units of ``h``, both ways, as a sparse matrix over the vertices
+    and one extra, edgeless node (where :func:`extend_outside` puts its virtual source).
+
+    It depends on the domain alone: a :class:`~ndboundary.Relaxer` builds it once for every
+    labelling.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import band_graph
+    >>> grid = kuhn_grid(10, 1)  # a chain of 11 vertices, h = 0.2
+    >>> graph = band_graph(grid, 0.2)
+    >>> graph.shape, graph.nnz, round(float(graph[3, 4]), 9)
+    ((12, 12), 20, 1.0)
+    """
+    e = domain.edges
+    V = domain.n_vertices
+    w = domain.edge_lengths / h
+    idx = np.int32 if 2 * e.shape[0] + V < np.iinfo(np.int32).max else np.int64
+    graph = sp.csr_matrix(
+        (np.concatenate([w, w]), (np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]))),
+        shape=(V + 1, V + 1),
+        dtype=np.float64,
+    )
+    graph.indices = graph.indices.astype(idx, copy=False)
+    graph.indptr = graph.indptr.astype(idx, copy=False)
+    return graph
+
+
+def band_elements(domain, sources, width, graph):
+    """The elements with a vertex within graph distance ``width`` (in units of ``h``) of the
+    ``sources``, along :func:`band_graph`'s ``graph``.
 
     Examples
     --------
     >>> import numpy as np
     >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.band import band_elements
+    >>> from ndboundary.pipeline.band import band_elements, band_graph
     >>> grid = kuhn_grid(20, 2)
     >>> centre = [int(np.argmin(np.linalg.norm(grid.points, axis=1)))]
-    >>> band = band_elements(grid, centre, grid.mean_edge_length(), 3.0)
+    >>> band = band_elements(grid, centre, 3.0, band_graph(grid, grid.mean_edge_length()))
     >>> bool(0 < band.sum() < grid.n_elements)
     True
     """
-    graph = domain.edge_graph(domain.edge_lengths)
-    dist = dijkstra(graph, directed=False, indices=sources, min_only=True, limit=width * h)
-    near = np.isfinite(dist)
+    dist = dijkstra(graph, directed=True, indices=sources, min_only=True, limit=width)
+    near = np.isfinite(dist[: domain.n_vertices])
     return (domain.incidence.T @ near.astype(np.float64)) > 0
 
 
-def extend_outside(domain, vertices, phi_band, vert_region1, h):
+def extend_outside(domain, vertices, phi_band, vert_region1, graph):
     """Phi on every vertex: ``phi_band`` on the band's ``vertices``, the signed graph distance
     from the band's values outside it (see the module docstring).
 
@@ -59,36 +123,52 @@ def extend_outside(domain, vertices, phi_band, vert_region1, h):
     --------
     >>> import numpy as np
     >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.band import extend_outside
+    >>> from ndboundary.pipeline.band import band_graph, extend_outside
     >>> grid = kuhn_grid(10, 1)  # a chain of 11 vertices, h = 0.2
-    >>> phi = extend_outside(grid, np.array([4, 5, 6]), np.array([0.0, 0.5, 1.0]), grid.points[:, 0] > 0, 0.2)
+    >>> band = np.array([4, 5, 6])
+    >>> phi = extend_outside(grid, band, np.array([0.0, 0.5, 1.0]), grid.points[:, 0] > 0, band_graph(grid, 0.2))
     >>> phi.round(6).tolist()
     [-4.0, -3.0, -2.0, -1.0, 0.0, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0]
     """
     V = domain.n_vertices
     offset = np.abs(np.asarray(phi_band, dtype=np.float64) - 0.5)
-    # a virtual source joined to every band vertex by its offset: one Dijkstra pass
-    graph = domain.edge_graph(domain.edge_lengths / h).tocoo()
-    rows = np.concatenate([graph.row, np.full(vertices.size, V)])
-    cols = np.concatenate([graph.col, vertices])
-    weights = np.concatenate([graph.data, offset + 1e-300])  # an explicit zero would drop the edge
-    augmented = sp.csr_matrix((weights, (rows, cols)), shape=(V + 1, V + 1))
-    dist = dijkstra(augmented, directed=False, indices=V)[:V]
+    # the extra node becomes a virtual source joined to every band vertex by its offset:
+    # one Dijkstra pass. Its row is the last one, so appending it costs one copy.
+    nnz = graph.indptr[-1]
+    augmented = sp.csr_matrix(
+        (
+            np.concatenate([graph.data, offset + 1e-300]),  # an explicit zero would drop the edge
+            np.concatenate([graph.indices, vertices.astype(graph.indices.dtype)]),
+            np.append(graph.indptr[:-1], nnz + vertices.size).astype(graph.indptr.dtype),
+        ),
+        shape=graph.shape,
+    )
+    dist = dijkstra(augmented, directed=True, indices=V)[:V]
     sign = np.where(vert_region1, 1.0, -1.0)
     phi = np.where(np.isfinite(dist), 0.5 + sign * dist, 0.5 + sign)
     phi[vertices] = phi_band
     return phi
 
 
-def band_width(params):
+def band_width(params, domain):
     """The band's half-width in units of ``h`` for ``band="auto"``, or None for the whole
-    domain: without the first-order term (``mu = 0``, the paper's energy) nothing screens
-    phi, and the level set depends on the whole domain.
+    domain.
+
+    :data:`AUTO_BAND_WIDTH` on curves, planar meshes and surfaces,
+    :data:`AUTO_BAND_WIDTH_SOLID` on solids (``domain.cell_dim >= 3``). None without the
+    first-order term (``mu = 0``, the paper's energy), where nothing screens phi and the
+    level set depends on the whole domain, and on domains that cannot be cut
+    (:func:`can_cut`).
 
     Examples
     --------
+    >>> from ndboundary.datasets import kuhn_grid
     >>> from ndboundary.pipeline.band import band_width
-    >>> band_width({"mu": 0.03}), band_width({"mu": 0.0})
-    (30.0, None)
+    >>> band_width({"mu": 0.03}, kuhn_grid(4, 2)), band_width({"mu": 0.03}, kuhn_grid(4, 3))
+    (30.0, 16.0)
+    >>> band_width({"mu": 0.0}, kuhn_grid(4, 2)) is None
+    True
     """
-    return AUTO_BAND_WIDTH if params["mu"] > 0 else None
+    if params["mu"] <= 0 or not can_cut(domain):
+        return None
+    return AUTO_BAND_WIDTH_SOLID if domain.cell_dim >= 3 else AUTO_BAND_WIDTH

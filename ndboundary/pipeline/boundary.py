@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from .band import can_cut
+
 __all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary"]
 
 
@@ -50,6 +52,10 @@ class Boundary:
 def element_boundary(domain, region1):
     """Zeta for element labels: the vertices shared by elements of both labels.
 
+    The facets between the labels are sought among the elements that touch zeta's
+    vertices only (every such facet lies there), so that beyond the linear passes of the
+    incidence the cost follows zeta.
+
     Examples
     --------
     >>> from ndboundary.datasets import kuhn_grid, label_by, circle
@@ -66,7 +72,20 @@ def element_boundary(domain, region1):
     S = sp.csr_matrix(
         (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
     )
-    return Boundary(sources, S, domain.points[sources], facets=domain.interface_facets(region1))
+    return Boundary(sources, S, domain.points[sources], facets=_interface_facets(domain, region1, sources))
+
+
+def _interface_facets(domain, region1, sources):
+    """``domain.interface_facets(region1)``, sought among the elements touching ``sources``."""
+    touched = np.zeros(domain.n_vertices)
+    touched[sources] = 1.0
+    near = (domain.incidence.T @ touched) > 0
+    n_near = np.count_nonzero(near)
+    if n_near == 0 or 2 * n_near > domain.n_elements or not can_cut(domain):
+        return domain.interface_facets(region1)
+    sub, vertices = domain.subdomain(near)
+    facets = sub.interface_facets(region1[near])
+    return None if facets is None else vertices[facets]
 
 
 def vertex_boundary(domain, region1):
