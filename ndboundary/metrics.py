@@ -6,7 +6,7 @@ import numpy as np
 
 from .levelset import LevelSet
 
-__all__ = ["as_complex", "closed_curve_length", "curve_distance", "fidelity", "sample_points"]
+__all__ = ["as_complex", "closed_curve_length", "curve_distance", "fidelity", "level_set_distance", "sample_points"]
 
 
 def as_complex(points, simplices) -> LevelSet:
@@ -28,6 +28,72 @@ def as_complex(points, simplices) -> LevelSet:
     return LevelSet(
         np.asarray(points)[used], inv.reshape(simplices.shape), np.zeros((used.size, 2), dtype=np.int64), 0.0
     )
+
+
+def level_set_distance(a, b) -> np.ndarray:
+    """For every point of the level set ``a``, its distance to the level set ``b``.
+
+    Exact for curves (``b`` made of segments) and surfaces (triangles): every simplex
+    that can hold a point nearer than ``b``'s nearest vertex is measured (those whose
+    centroid lies within that distance plus the largest centroid-to-corner distance).
+    For level sets of higher dimension, the distance to ``b``'s nearest point, an upper
+    bound. Distances between vertex sets alone overstate how far two nearby level sets
+    lie apart by up to half the spacing of their points, wherever a point slides along
+    the curve.
+
+    Examples
+    --------
+    >>> from ndboundary import marching_simplices
+    >>> from ndboundary.datasets import kuhn_grid, circle
+    >>> from ndboundary.metrics import level_set_distance
+    >>> mesh = kuhn_grid(16, 2)
+    >>> a = marching_simplices(mesh.points, mesh.simplices, circle(mesh.points), 0.0)
+    >>> b = marching_simplices(mesh.points, mesh.simplices, circle(mesh.points) - 1e-3, 0.0)
+    >>> d = level_set_distance(a, b)  # circles of radius 0.6 and 0.601, as polygons
+    >>> bool(0.0009 < d.min() and d.max() < 0.0011), float(level_set_distance(a, a).max())
+    (True, 0.0)
+    """
+    from scipy.spatial import cKDTree
+
+    if b.n_points == 0:
+        return np.full(a.n_points, np.inf)
+    best = cKDTree(b.points).query(a.points)[0]
+    m = b.simplices.shape[1] if b.n_simplices else 0
+    if m not in (2, 3) or a.n_points == 0:
+        return best
+    corners = b.points[b.simplices]
+    centroids = corners.mean(axis=1)
+    reach = float(np.linalg.norm(corners - centroids[:, None], axis=2).max())
+    found = cKDTree(centroids).query_ball_point(a.points, best + reach)
+    counts = np.fromiter((len(f) for f in found), dtype=np.int64, count=a.n_points)
+    rows = np.repeat(np.arange(a.n_points), counts)
+    cand = np.fromiter((c for f in found for c in f), dtype=np.int64, count=int(counts.sum()))
+    dist = _point_simplex_distance(a.points[rows], corners[cand])
+    np.minimum.at(best, rows, dist)
+    return best
+
+
+def _point_simplex_distance(p, corners):
+    """Distance from each point ``p[i]`` to the segment or triangle ``corners[i]``."""
+
+    def to_segment(p, s0, s1):
+        e = s1 - s0
+        t = np.clip(np.einsum("ij,ij->i", p - s0, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300), 0.0, 1.0)
+        return np.linalg.norm(p - s0 - t[:, None] * e, axis=1)
+
+    if corners.shape[1] == 2:
+        return to_segment(p, corners[:, 0], corners[:, 1])
+    v0, v1, v2 = corners[:, 0], corners[:, 1], corners[:, 2]
+    e1, e2, w = v1 - v0, v2 - v0, p - v0
+    # the projection onto the triangle's plane, in barycentric coordinates
+    d11, d12, d22 = (np.einsum("ij,ij->i", x, y) for x, y in ((e1, e1), (e1, e2), (e2, e2)))
+    w1, w2 = np.einsum("ij,ij->i", w, e1), np.einsum("ij,ij->i", w, e2)
+    det = np.maximum(d11 * d22 - d12 * d12, 1e-300)
+    s, t = (d22 * w1 - d12 * w2) / det, (d11 * w2 - d12 * w1) / det
+    inside = (s >= 0) & (t >= 0) & (s + t <= 1)
+    plane = np.linalg.norm(w - s[:, None] * e1 - t[:, None] * e2, axis=1)
+    edges = np.minimum(np.minimum(to_segment(p, v0, v1), to_segment(p, v1, v2)), to_segment(p, v2, v0))
+    return np.where(inside, plane, edges)
 
 
 def sample_points(complex_) -> np.ndarray:

@@ -2,16 +2,17 @@
 
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
 
-from ndboundary import SimplicialComplex, relax
+from ndboundary import LevelSet, PolygonMesh, Relaxer, SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, hex_grid, icosphere, kuhn_grid, label_by, voronoi_polygons
+from ndboundary.metrics import level_set_distance
+from ndboundary.pipeline.band import AUTO_BAND_WIDTH, AUTO_BAND_WIDTH_SOLID, band_width
 
 
 def level_set_gap(a, b, h):
     """Mean and max distance between two level sets, in units of h (both ways for the max)."""
-    pa, pb = a.level_set().points, b.level_set().points
-    ab, ba = cKDTree(pb).query(pa)[0] / h, cKDTree(pa).query(pb)[0] / h
+    la, lb = a.level_set(), b.level_set()
+    ab, ba = level_set_distance(la, lb) / h, level_set_distance(lb, la) / h
     return ab.mean(), max(ab.max(), ba.max())
 
 
@@ -19,8 +20,8 @@ def level_set_gap(a, b, h):
     "make",
     [
         lambda: (kuhn_grid(200, 2, jitter=0.25, random_state=0), flower),
-        lambda: (icosphere(5), lambda x: x[:, 2] - 0.3),
-        lambda: (voronoi_polygons(100, random_state=0), circle),
+        lambda: (icosphere(6), lambda x: x[:, 2] - 0.3),
+        lambda: (voronoi_polygons(150, random_state=0), circle),
     ],
     ids=["triangles", "surface", "polygons"],
 )
@@ -30,6 +31,8 @@ def test_band_matches_the_whole_domain(make):
     whole = relax(mesh, labels, on="elements", band=None)
     band = relax(mesh, labels, on="elements")
     assert band.params["band_vertices"] < 0.9 * mesh.n_vertices
+    if isinstance(mesh, PolygonMesh):  # lam_scale < 1: a wider band
+        assert band.params["lam_scale"] < 0.9 and band.params["band"] > AUTO_BAND_WIDTH
     mean, worst = level_set_gap(band, whole, mesh.mean_edge_length())
     assert mean <= 0.01 and worst <= 0.05
     assert band.level_set().n_components() == whole.level_set().n_components()
@@ -96,3 +99,55 @@ def test_band_errors(band, err, match):
     mesh = kuhn_grid(8, 2)
     with pytest.raises(err, match=match):
         relax(mesh, label_by(mesh, circle), on="elements", band=band)
+
+
+def test_auto_is_the_default_and_widens_where_the_boundary_term_is_weaker():
+    plane = kuhn_grid(200, 2, jitter=0.2, random_state=0)
+    labels = label_by(plane, lambda x: np.linalg.norm(x, axis=1) - 0.4)
+    res = relax(plane, labels, on="elements")
+    assert res.params["band"] == AUTO_BAND_WIDTH and res.params["band_vertices"] < plane.n_vertices
+    assert {"locate", "fill"} <= set(res.timings)
+    assert relax(plane, labels, on="elements", lam=0.5).params["band"] > AUTO_BAND_WIDTH
+    assert band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(2, 3)) == AUTO_BAND_WIDTH_SOLID
+
+
+def test_auto_relaxes_the_whole_domain_without_the_first_order_term():
+    mesh = kuhn_grid(150, 2, jitter=0.2, random_state=0)
+    labels = label_by(mesh, circle)
+    paper = relax(mesh, labels, on="elements", mu=0.0)
+    assert "band" not in paper.params and "locate" not in paper.timings
+    np.testing.assert_array_equal(paper.phi, relax(mesh, labels, on="elements", mu=0.0, band=None).phi)
+
+
+def test_a_relaxer_keeps_the_edge_graph_for_every_labelling():
+    mesh = kuhn_grid(150, 2, jitter=0.2, random_state=0)
+    relaxer = Relaxer(mesh)
+    first = relaxer.relax(label_by(mesh, circle), on="elements")
+    graph = relaxer._graph[1]
+    second = relaxer.relax(label_by(mesh, flower), on="elements")
+    assert relaxer._graph[1] is graph
+    for res, truth in ((first, circle), (second, flower)):
+        np.testing.assert_array_equal(res.phi, relax(mesh, label_by(mesh, truth), on="elements").phi)
+
+
+@pytest.mark.parametrize("k", [2, 3])
+def test_level_set_distance_is_the_distance_to_the_simplices(k):
+    rng = np.random.default_rng(k)
+    corners = 0.2 * rng.normal(size=(12 * k, 3))
+    simplices = np.arange(12 * k).reshape(-1, k)
+    b = LevelSet(corners, simplices, np.zeros((12 * k, 2), dtype=np.int64), 0.0)
+    # points on the simplices, pushed off them: the distance is at most the push
+    w = rng.dirichlet(np.ones(k), size=simplices.shape[0])
+    on = np.einsum("ij,ijk->ik", w, corners[simplices])
+    push = 1e-3 * rng.normal(size=on.shape)
+    a = LevelSet(on + push, np.zeros((0, k), dtype=np.int64), np.zeros((on.shape[0], 2), dtype=np.int64), 0.0)
+    d = level_set_distance(a, b)
+    assert (d <= np.linalg.norm(push, axis=1) + 1e-12).all()
+    # a dense sampling of the simplices never comes closer than the exact distance
+    u = rng.dirichlet(np.ones(k), size=4000)
+    dense = np.einsum("ij,sjk->sik", u, corners[simplices]).reshape(-1, 3)
+    far = 0.3 * rng.normal(size=(30, 3))
+    a_far = LevelSet(far, np.zeros((0, k), dtype=np.int64), np.zeros((30, 2), dtype=np.int64), 0.0)
+    brute = np.linalg.norm(far[:, None] - dense[None], axis=2).min(axis=1)
+    exact = level_set_distance(a_far, b)
+    assert (exact <= brute + 1e-12).all() and np.allclose(exact, brute, atol=0.01)

@@ -109,13 +109,6 @@ class Domain:
         return int(self.points.shape[1])
 
     @property
-    def cell_dim(self) -> int:
-        """Dimension of the elements: 1 for a chain of segments, 2 for triangles and polygons,
-        3 for tetrahedra and polyhedra (by default, :attr:`dim`).
-        """
-        return self.dim
-
-    @property
     def n_elements(self) -> int:
         """Number of elements."""
         raise NotImplementedError
@@ -261,6 +254,17 @@ class Domain:
         """
         raise NotImplementedError(f"{type(self).__name__} cannot be cut to a band; relax it with band=None")
 
+    @cached_property
+    def usual_degree(self) -> float:
+        """The number of facet neighbours that 90 % of the elements do not exceed: the degree
+        at which :meth:`smooth_field` caps an element's weight.
+
+        A property of the mesh: its bands (:meth:`subdomain`) and paddings
+        (:meth:`split_elements`) keep their parent's, so that they smooth as the whole
+        mesh does.
+        """
+        return float(np.percentile(np.diff(self.adjacency.indptr), 90))
+
     def smooth_field(self, X, passes):
         """Step 3 of the paper: ``passes`` sweeps of averaging each element's vector with its
         neighbours', renormalised after each sweep, in Jacobi order so that the result does
@@ -268,9 +272,9 @@ class Domain:
 
         The weights are the paper's uniform ones, except that an element's weight in its
         neighbours' averages is capped at that of an element of the usual degree,
-        ``min(1, d_90 / degree)`` with ``d_90`` the degree that 90 % of the elements do not
-        exceed: on meshes whose elements have the usual number of neighbours (simplicial,
-        quad and hexahedral grids) this is uniform averaging, while a cell with many more
+        ``min(1, d / degree)`` with ``d`` the :attr:`usual_degree`: on meshes whose
+        elements have the usual number of neighbours (simplicial, quad and hexahedral
+        grids) this is uniform averaging, while a cell with many more
         neighbours than the rest (a large polygon inside a ring of small cells) can no
         longer steer all of them with its one vector, which renormalisation would
         otherwise reinforce sweep after sweep.
@@ -293,7 +297,7 @@ class Domain:
             return X
         adjacency = self.adjacency
         degree = np.diff(adjacency.indptr)
-        cap = np.minimum(1.0, np.percentile(degree, 90) / np.maximum(degree, 1))
+        cap = np.minimum(1.0, self.usual_degree / np.maximum(degree, 1))
         if (cap < 1.0).any():
             adjacency = (adjacency @ sp.diags(cap)).tocsr()
         W = (adjacency + sp.identity(self.n_elements, format="csr")).tocsr()

@@ -134,11 +134,6 @@ class PolygonMesh(Domain):
         return int(self.offsets.size - 1)
 
     @property
-    def cell_dim(self) -> int:
-        """Dimension of the elements (polygons)."""
-        return 2
-
-    @property
     def element_dim(self) -> int:
         """Dimension k of the elements."""
         return 2
@@ -291,6 +286,7 @@ class PolygonMesh(Domain):
         out = PolygonMesh._from_flat(
             np.concatenate([self.points, centres]), indices, offsets, self.laplacian, self.stabilization
         )
+        out.usual_degree = self.usual_degree
         return out, parent
 
     def subdomain(self, mask):
@@ -302,6 +298,7 @@ class PolygonMesh(Domain):
         np.cumsum(self.sizes[mask], out=offsets[1:])
         indices = remap[self.indices[corners]]
         sub = PolygonMesh._from_flat(self.points[vertices], indices, offsets, self.laplacian, self.stabilization)
+        sub.usual_degree = self.usual_degree
         return sub, vertices
 
     def simplicial_refinement(self):

@@ -186,11 +186,6 @@ class PolyhedralMesh(Domain):
         return int(self.cell_offsets.size - 1)
 
     @property
-    def cell_dim(self) -> int:
-        """Dimension of the elements (polyhedra)."""
-        return 3
-
-    @property
     def n_faces(self) -> int:
         """Number of faces."""
         return int(self.face_offsets.size - 1)
@@ -373,7 +368,9 @@ class PolyhedralMesh(Domain):
         if not mask.any():
             return self, np.arange(self.n_elements)
         points, fi, fo, ci, co, parent = pyramid_split(self, mask)
-        return PolyhedralMesh._from_flat(points, fi, fo, ci, co, self.laplacian, self.stabilization), parent
+        out = PolyhedralMesh._from_flat(points, fi, fo, ci, co, self.laplacian, self.stabilization)
+        out.usual_degree = self.usual_degree
+        return out, parent
 
     def subdomain(self, mask):
         """The mesh of the cells selected by ``mask`` (see :meth:`Domain.subdomain`)."""
@@ -392,6 +389,7 @@ class PolyhedralMesh(Domain):
         sub = PolyhedralMesh._from_flat(
             self.points[vertices], remap[corners], fo, face_remap[entries], co, self.laplacian, self.stabilization
         )
+        sub.usual_degree = self.usual_degree
         return sub, vertices
 
     def simplicial_refinement(self):

@@ -107,11 +107,6 @@ class SimplicialComplex(Domain):
         return int(self.simplices.shape[0])
 
     @property
-    def cell_dim(self) -> int:
-        """Dimension of the elements (simplices)."""
-        return int(self.simplices.shape[1]) - 1
-
-    @property
     def simplex_dim(self) -> int:
         """The dimension k of the simplices (2 for triangles, 3 for tetrahedra)."""
         return int(self.simplices.shape[1] - 1)
@@ -355,6 +350,11 @@ class SimplicialComplex(Domain):
             return self._facets[which]
         leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
         return self.sorted_simplices[which // k1][np.arange(which.size)[:, None], leave_out[which % k1]]
+
+    @property
+    def usual_degree(self) -> float:
+        """``k + 1``: a simplex away from the border has a neighbour across each facet."""
+        return float(self.simplices.shape[1])
 
     def split_elements(self, mask):
         """Split the simplices selected by ``mask`` at their barycentre (see :meth:`Domain.split_elements`)."""

@@ -27,8 +27,10 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
 from ..domains.base import Domain
+from .params import DEFAULT_LAM
 
 __all__ = [
+    "AUTO_BAND_MAX_SHARE",
     "AUTO_BAND_WIDTH",
     "AUTO_BAND_WIDTH_SOLID",
     "band_elements",
@@ -50,6 +52,11 @@ AUTO_BAND_WIDTH = 30.0
 #: at the band's edge spreads over a larger sphere as it travels inwards and fades faster
 #: than on a surface, so a narrower band meets the same tolerance (``benchmarks/band.py``).
 AUTO_BAND_WIDTH_SOLID = 16.0
+
+
+#: ``band="auto"`` relaxes the whole domain when the band would hold more than this share of
+#: the elements: it would cost about as much, and the whole-domain solve is exact.
+AUTO_BAND_MAX_SHARE = 0.7
 
 
 def can_cut(domain):
@@ -150,25 +157,31 @@ def extend_outside(domain, vertices, phi_band, vert_region1, graph):
     return phi
 
 
-def band_width(params, domain):
+def band_width(params, domain, lam_scale=1.0):
     """The band's half-width in units of ``h`` for ``band="auto"``, or None for the whole
     domain.
 
     :data:`AUTO_BAND_WIDTH` on curves, planar meshes and surfaces,
-    :data:`AUTO_BAND_WIDTH_SOLID` on solids (``domain.cell_dim >= 3``). None without the
-    first-order term (``mu = 0``, the paper's energy), where nothing screens phi and the
-    level set depends on the whole domain, and on domains that cannot be cut
-    (:func:`can_cut`).
+    :data:`AUTO_BAND_WIDTH_SOLID` on solids (``domain.element_dim >= 3``), for a boundary
+    weight ``lam * lam_scale`` of at least the default's: a weaker boundary term holds
+    phi less firmly at zeta against what lies beyond the band, so the width grows by a
+    quarter for every factor ``e`` the weight falls short
+    (``1 + ln(DEFAULT_LAM / (lam lam_scale)) / 4``). None without the first-order term
+    (``mu = 0``, the paper's energy), where nothing screens phi and the level set depends
+    on the whole domain, and on domains that cannot be cut (:func:`can_cut`).
 
     Examples
     --------
     >>> from ndboundary.datasets import kuhn_grid
     >>> from ndboundary.pipeline.band import band_width
-    >>> band_width({"mu": 0.03}, kuhn_grid(4, 2)), band_width({"mu": 0.03}, kuhn_grid(4, 3))
+    >>> band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(4, 2)), band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(4, 3))
     (30.0, 16.0)
-    >>> band_width({"mu": 0.0}, kuhn_grid(4, 2)) is None
+    >>> round(band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(4, 2), lam_scale=0.25), 2)
+    40.4
+    >>> band_width({"mu": 0.0, "lam": 2.0}, kuhn_grid(4, 2)) is None
     True
     """
     if params["mu"] <= 0 or not can_cut(domain):
         return None
-    return AUTO_BAND_WIDTH_SOLID if domain.cell_dim >= 3 else AUTO_BAND_WIDTH
+    width = AUTO_BAND_WIDTH_SOLID if domain.element_dim >= 3 else AUTO_BAND_WIDTH
+    return float(width * (1.0 + 0.25 * np.log(max(1.0, DEFAULT_LAM / (params["lam"] * lam_scale)))))

@@ -28,7 +28,7 @@ import scipy.sparse as sp
 
 from ..solvers import solve_integration
 
-__all__ = ["IntegrationSystem", "integrate", "integration_system"]
+__all__ = ["IntegrationSystem", "boundary_weight_scale", "integrate", "integration_system"]
 
 
 @dataclass
@@ -61,10 +61,31 @@ class IntegrationSystem:
     rhs: np.ndarray
 
 
-def _lam_scale(work, Kh, mh, sources):
-    """The factor (at most 1) applied to ``lam``: the field term's stiffness at zeta
-    relative to the domain's reference (see the module docstring).
+def boundary_weight_scale(work, h, sources):
+    """The factor (at most 1) applied to ``lam`` on the padded domain ``work`` whose zeta
+    has the vertices ``sources``: the field term's stiffness at zeta relative to the
+    domain's reference (see the module docstring).
+
+    It reads the stiffness and mass at zeta's vertices and their neighbours only, so the
+    two rings of elements around zeta give the value of the whole domain.
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid, voronoi_polygons
+    >>> from ndboundary.pipeline.integration import boundary_weight_scale
+    >>> grid = kuhn_grid(20, 2)
+    >>> round(boundary_weight_scale(grid, grid.mean_edge_length(), [200, 201]), 2)
+    0.99
+    >>> cells = voronoi_polygons(20, random_state=0)
+    >>> bool(boundary_weight_scale(cells, cells.mean_edge_length(), [100, 101, 102]) < 1.0)
+    True
     """
+    k = work.element_dim
+    return _lam_scale(work, work.K * h ** (2 - k), work.mass / h**k, np.asarray(sources))
+
+
+def _lam_scale(work, Kh, mh, sources):
+    """:func:`boundary_weight_scale` from the scaled stiffness ``Kh`` and mass ``mh``."""
     reference = work.lam_reference()
     if reference is None or sources.size == 0:
         return 1.0

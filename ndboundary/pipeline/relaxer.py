@@ -19,12 +19,12 @@ from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
 from ..solvers.cache import digest
-from .band import band_elements, band_graph, band_width, extend_outside
+from .band import AUTO_BAND_MAX_SHARE, band_elements, band_graph, band_width, extend_outside
 from .boundary import element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
 from .heat import diffuse
-from .integration import integrate, integration_system
+from .integration import boundary_weight_scale, integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, check_params
 from .result import RegionsResult, RelaxResult
@@ -112,7 +112,7 @@ class Relaxer:
         self._factors = FactorCache()
         self._labelling = None  # (key, boundary, padded)
         self._heat = None  # (key, u, heat_info, X)
-        self._band = None  # (key, width, boundary, mask, vertices)
+        self._band = None  # (key, band asked, width, boundary, mask, vertices)
         self._band_relaxer = None  # (digest of the band's mask, relaxer of the band)
         self._graph = None  # the edge graph of the band's searches: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
@@ -122,7 +122,7 @@ class Relaxer:
         """Memory held for the next relaxation: padded operators, heat, field and factor (bytes)."""
         held = _nbytes([self._labelling, self._heat, self._graph], {id(self.domain)}) + self._factors.nbytes
         if self._band is not None:
-            held += _nbytes(self._band[2:], set())
+            held += _nbytes(self._band[3:], set())
         if self._band_relaxer is not None:
             sub = self._band_relaxer[1]
             held += sub.nbytes + _nbytes(sub.domain, set())
@@ -167,9 +167,8 @@ class Relaxer:
         h = domain.mean_edge_length() if self._h is None else self._h
 
         key = _labels_key(region1, on, bool(pad))
-        width = band_width(p, domain) if p["band"] == "auto" else p["band"]
-        if width is not None:
-            result = self._relax_band(key, region1, classes, width, h, p, pad, verbose)
+        if p["band"] is not None and (p["band"] != "auto" or band_width(p, domain) is not None):
+            result = self._relax_band(key, region1, classes, h, p, pad, verbose)
             if result is not None:
                 result.timings["total"] = time.perf_counter() - t0
                 return result
@@ -231,9 +230,10 @@ class Relaxer:
         phi = np.stack([res.phi for res in results], axis=1)
         return RegionsResult(phi, classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
 
-    def _relax_band(self, key, region1, classes, width, h, p, pad, verbose):
+    def _relax_band(self, key, region1, classes, h, p, pad, verbose):
         """Relax on the elements near zeta and extend phi outside them; None when the band
-        holds every element (the whole-domain relaxation is then the same).
+        holds every element (the whole-domain relaxation is then the same) or, for
+        ``band="auto"``, most of them (the whole domain then costs no more).
 
         The edge graph serves every labelling, and the band's relaxer (its operators,
         orderings and factor) every labelling whose band is the same.
@@ -243,15 +243,18 @@ class Relaxer:
         if self._graph is None or self._graph[0] != h:
             self._graph = (h, band_graph(domain, h))
         graph = self._graph[1]
-        if self._band is not None and self._band[:2] == (key, width):
-            boundary, mask, vertices = self._band[2:]
+        if self._band is not None and self._band[:2] == (key, p["band"]):
+            width, boundary, mask, vertices = self._band[2:]
         else:
             self._band = None
             boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
             if boundary.sources.size == 0:
                 raise ValueError("the two regions never meet: labels form no boundary on this domain")
+            width = p["band"]
+            if width == "auto":
+                width = band_width(p, domain, self._boundary_weight_scale(region1, boundary, on, pad, h))
             mask = band_elements(domain, boundary.sources, width, graph)
-            if mask.all():
+            if mask.all() or (p["band"] == "auto" and mask.mean() > AUTO_BAND_MAX_SHARE):
                 return None
             vertices = None
         mask_key = digest("band", mask)
@@ -263,7 +266,7 @@ class Relaxer:
             sub, vertices = domain.subdomain(mask)
             relaxer = Relaxer(sub, _keep=self._keep, _h=h)
         if self._keep:
-            self._band = (key, width, boundary, mask, vertices)
+            self._band = (key, p["band"], width, boundary, mask, vertices)
             self._band_relaxer = (mask_key, relaxer)
         if verbose:
             print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
@@ -283,6 +286,23 @@ class Relaxer:
         res.timings = {"locate": locate, **res.timings, "fill": fill}
         res.params.update(band=width, band_vertices=int(vertices.size))
         return res
+
+    def _boundary_weight_scale(self, region1, boundary, on, pad, h):
+        """``lam_scale`` of the labelling (:func:`boundary_weight_scale`), from the two rings
+        of elements around zeta, padded: they hold the stiffness and mass it reads.
+        """
+        domain = self.domain
+        inc = domain.incidence
+        near = np.zeros(domain.n_vertices)
+        near[boundary.sources] = 1.0
+        for _ in range(2):
+            ring = (inc.T @ near) > 0
+            near = (inc @ ring.astype(np.float64)) > 0
+        sub, vertices = domain.subdomain(ring)
+        labels = region1[ring] if on == "elements" else region1[vertices]
+        zeta = (element_boundary if on == "elements" else vertex_boundary)(sub, labels)
+        padded = pad_domain(sub, labels, zeta, on, pad)
+        return boundary_weight_scale(padded.work, h, zeta.sources)
 
     def _padded(self, key, region1, on, pad):
         """Zeta and the padded domain of a labelling, kept for the next call."""
