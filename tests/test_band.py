@@ -29,7 +29,9 @@ def test_band_matches_the_whole_domain(make):
     mesh, truth = make()
     labels = label_by(mesh, truth)
     whole = relax(mesh, labels, on="elements", band=None)
-    band = relax(mesh, labels, on="elements")
+    # the width band="auto" chooses, without its rule that small meshes relax whole
+    width = band_width({"mu": 0.03, "lam": 2.0}, mesh, whole.params["lam_scale"])
+    band = relax(mesh, labels, on="elements", band=width)
     assert band.params["band_vertices"] < 0.9 * mesh.n_vertices
     if isinstance(mesh, PolygonMesh):  # lam_scale < 1: a wider band
         assert band.params["lam_scale"] < 0.9 and band.params["band"] > AUTO_BAND_WIDTH
@@ -102,13 +104,15 @@ def test_band_errors(band, err, match):
 
 
 def test_auto_is_the_default_and_widens_where_the_boundary_term_is_weaker():
-    plane = kuhn_grid(200, 2, jitter=0.2, random_state=0)
+    plane = kuhn_grid(240, 2, jitter=0.2, random_state=0)  # above AUTO_BAND_MIN_VERTICES
     labels = label_by(plane, lambda x: np.linalg.norm(x, axis=1) - 0.4)
     res = relax(plane, labels, on="elements")
     assert res.params["band"] == AUTO_BAND_WIDTH and res.params["band_vertices"] < plane.n_vertices
     assert {"locate", "fill"} <= set(res.timings)
     assert relax(plane, labels, on="elements", lam=0.5).params["band"] > AUTO_BAND_WIDTH
     assert band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(2, 3)) == AUTO_BAND_WIDTH_SOLID
+    small = kuhn_grid(100, 2)
+    assert "band" not in relax(small, label_by(small, circle), on="elements").params  # the whole domain
 
 
 def test_auto_relaxes_the_whole_domain_without_the_first_order_term():
@@ -120,7 +124,7 @@ def test_auto_relaxes_the_whole_domain_without_the_first_order_term():
 
 
 def test_a_relaxer_keeps_the_edge_graph_for_every_labelling():
-    mesh = kuhn_grid(150, 2, jitter=0.2, random_state=0)
+    mesh = kuhn_grid(240, 2, jitter=0.2, random_state=0)
     relaxer = Relaxer(mesh)
     first = relaxer.relax(label_by(mesh, circle), on="elements")
     graph = relaxer._graph[1]

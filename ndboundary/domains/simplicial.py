@@ -138,9 +138,11 @@ class SimplicialComplex(Domain):
     def _aspect_ratios(self):
         X = self.points[self.simplices]
         k = self.simplex_dim
-        iu, ju = np.triu_indices(k + 1, 1)
-        longest = np.linalg.norm(X[:, iu] - X[:, ju], axis=2).max(axis=1)
-        return longest**k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * self.volumes)
+        longest = np.zeros(X.shape[0])
+        for i, j in zip(*np.triu_indices(k + 1, 1)):
+            d = X[:, i] - X[:, j]
+            np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
+        return np.sqrt(longest) ** k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * self.volumes)
 
     def aspect_ratios(self):
         """``L^k / (k! V)`` per simplex, ``L`` its longest edge and ``V`` its volume, divided

@@ -31,6 +31,7 @@ from .params import DEFAULT_LAM
 
 __all__ = [
     "AUTO_BAND_MAX_SHARE",
+    "AUTO_BAND_MIN_VERTICES",
     "AUTO_BAND_WIDTH",
     "AUTO_BAND_WIDTH_SOLID",
     "band_elements",
@@ -57,6 +58,10 @@ AUTO_BAND_WIDTH_SOLID = 16.0
 #: ``band="auto"`` relaxes the whole domain when the band would hold more than this share of
 #: the elements: it would cost about as much, and the whole-domain solve is exact.
 AUTO_BAND_MAX_SHARE = 0.7
+
+#: ``band="auto"`` relaxes the whole domain below this many vertices: finding zeta and the
+#: band, and filling phi outside it, would cost about what the band saves.
+AUTO_BAND_MIN_VERTICES = 50_000
 
 
 def can_cut(domain):

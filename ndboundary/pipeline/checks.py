@@ -39,9 +39,10 @@ def check_element_shapes(domain, stacklevel=3):
     if ratios is None or ratios.size == 0:
         return
     median = float(np.median(ratios))
-    worst = np.argsort(ratios)[::-1][:3]
-    if median <= ANISOTROPIC_MEDIAN and ratios[worst[0]] <= FLAT_ASPECT:
+    if median <= ANISOTROPIC_MEDIAN and ratios.max() <= FLAT_ASPECT:
         return
+    top = np.argpartition(ratios, -3)[-3:] if ratios.size > 3 else np.arange(ratios.size)
+    worst = top[np.argsort(ratios[top])[::-1]]
     named = ", ".join(f"{int(e)} ({ratios[e]:.3g})" for e in worst)
     why = (
         f"the median element has an aspect ratio of {median:.3g}: the heat and the field "

@@ -19,7 +19,7 @@ from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
 from ..solvers.cache import digest
-from .band import AUTO_BAND_MAX_SHARE, band_elements, band_graph, band_width, extend_outside
+from .band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_elements, band_graph, band_width, extend_outside
 from .boundary import element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
@@ -167,7 +167,10 @@ class Relaxer:
         h = domain.mean_edge_length() if self._h is None else self._h
 
         key = _labels_key(region1, on, bool(pad))
-        if p["band"] is not None and (p["band"] != "auto" or band_width(p, domain) is not None):
+        auto = p["band"] == "auto"
+        if p["band"] is not None and not (
+            auto and (band_width(p, domain) is None or domain.n_vertices < AUTO_BAND_MIN_VERTICES)
+        ):
             result = self._relax_band(key, region1, classes, h, p, pad, verbose)
             if result is not None:
                 result.timings["total"] = time.perf_counter() - t0
@@ -252,9 +255,21 @@ class Relaxer:
                 raise ValueError("the two regions never meet: labels form no boundary on this domain")
             width = p["band"]
             if width == "auto":
-                width = band_width(p, domain, self._boundary_weight_scale(region1, boundary, on, pad, h))
-            mask = band_elements(domain, boundary.sources, width, graph)
-            if mask.all() or (p["band"] == "auto" and mask.mean() > AUTO_BAND_MAX_SHARE):
+                # the narrowest band auto can choose first: when it already holds most of
+                # the domain, the whole domain costs no more
+                width = band_width(p, domain)
+                mask = band_elements(domain, boundary.sources, width, graph)
+                if mask.mean() > AUTO_BAND_MAX_SHARE:
+                    return None
+                wider = band_width(p, domain, self._boundary_weight_scale(region1, boundary, on, pad, h))
+                if wider > width:
+                    width = wider
+                    mask = band_elements(domain, boundary.sources, width, graph)
+                if mask.mean() > AUTO_BAND_MAX_SHARE:
+                    return None
+            else:
+                mask = band_elements(domain, boundary.sources, width, graph)
+            if mask.all():
                 return None
             vertices = None
         mask_key = digest("band", mask)
