@@ -469,9 +469,13 @@ def test_relax_on_is_required_when_the_counts_are_equal(tmp_path, capsys, monkey
         ("--lam", "1e400", "must be a finite number in (0, 1e6], got '1e400'"),
         ("--lam", "1e7", "must be a finite number in (0, 1e6], got '1e7'"),
         ("--lam", "two", "must be a finite number in (0, 1e6], got 'two'"),
+        ("--band", "0", "must be 'auto', 'none' or a width in units of h above 0, got '0'"),
+        ("--band", "wide", "must be 'auto', 'none' or a width in units of h above 0, got 'wide'"),
+        ("--band", "nan", "must be 'auto', 'none' or a width in units of h above 0, got 'nan'"),
     ],
     ids=["smoothing-huge", "smoothing-above", "smoothing-negative", "smoothing-float", "smoothing-5000-digits",
-         "lam-zero", "lam-negative", "lam-nan", "lam-inf", "lam-overflow", "lam-above", "lam-word"],
+         "lam-zero", "lam-negative", "lam-nan", "lam-inf", "lam-overflow", "lam-above", "lam-word", "band-zero",
+         "band-word", "band-nan"],
 )
 def test_relax_numeric_options_are_bounded(work, capsys, monkeypatch, option, value, message):
     from ndboundary import io
@@ -614,3 +618,10 @@ def test_relax_without_meshio_fails_before_reading(work, capsys, monkeypatch):
     code, _, err = _relax(capsys, "m.obj", "el.txt", "-o", "o.vtu")
     assert code == 1 and not reads and not (work / "o.vtu").exists()
     _one_error(err, "-o o.vtu: writing .vtu needs meshio (pip install 'ndboundary[io]')")
+
+
+def test_relax_band_option_reaches_relax_and_the_report(work, capsys):
+    code, out, _ = _relax(capsys, "m.obj", "el.txt", "-o", "o.vtu", "--band", "2")
+    assert code == 0 and "on the band of 2 h around the jagged boundary" in out
+    code, out, _ = _relax(capsys, "m.obj", "el.txt", "-o", "o.vtu", "--band", "none")
+    assert code == 0 and "(on the whole mesh)" in out
