@@ -7,10 +7,12 @@ a vertex within a graph distance ``width * h`` of zeta's vertices (Dijkstra alon
 edges, stopped at that distance, so its cost follows the band).
 
 Outside the band, phi is the band-edge value plus the signed graph distance in units of
-``h``: ``phi = 1/2 + s (|phi_b - 1/2| + d(b, v) / h)`` minimised over the band's vertices
-``b``, with ``s = -1`` in region 0 and ``+1`` in region 1. It is finite, on the side of 1/2
-of its region, continuous with the band at its edge, and grows away from zeta at the
-rate of the solved phi (``phi - 1/2`` is close to a signed distance in units of ``h``).
+``h``: ``phi = 1/2 + s (|phi_b - 1/2| + c d(b, v) / h)`` minimised over the band's vertices
+``b``, with ``s = -1`` in region 0 and ``+1`` in region 1, and ``c`` the rate at which the
+solved ``|phi - 1/2|`` grows with the graph distance over the band's outer half
+(:func:`growth_rate`). It is finite, on the side of 1/2 of its region, continuous with the
+band at its edge, and grows away from zeta at the rate of the solved phi
+(``phi - 1/2`` is close to a signed distance in units of ``h``).
 Vertices that no path joins to the band (domain components without zeta) get
 ``1/2 -/+ 1``, as the whole-domain solve pins them.
 
@@ -39,6 +41,7 @@ __all__ = [
     "band_width",
     "can_cut",
     "extend_outside",
+    "growth_rate",
 ]
 
 #: ``band="auto"`` on curves, planar meshes and surfaces: the band's half-width in units
@@ -109,7 +112,8 @@ def band_graph(domain, h):
 
 def band_elements(domain, sources, width, graph):
     """The elements with a vertex within graph distance ``width`` (in units of ``h``) of the
-    ``sources``, along :func:`band_graph`'s ``graph``.
+    ``sources``, along :func:`band_graph`'s ``graph``, and every vertex's distance (inf
+    beyond ``width``).
 
     Examples
     --------
@@ -118,18 +122,42 @@ def band_elements(domain, sources, width, graph):
     >>> from ndboundary.pipeline.band import band_elements, band_graph
     >>> grid = kuhn_grid(20, 2)
     >>> centre = [int(np.argmin(np.linalg.norm(grid.points, axis=1)))]
-    >>> band = band_elements(grid, centre, 3.0, band_graph(grid, grid.mean_edge_length()))
-    >>> bool(0 < band.sum() < grid.n_elements)
-    True
+    >>> band, dist = band_elements(grid, centre, 3.0, band_graph(grid, grid.mean_edge_length()))
+    >>> bool(0 < band.sum() < grid.n_elements), float(dist[centre[0]]), bool(np.isinf(dist).any())
+    (True, 0.0, True)
     """
-    dist = dijkstra(graph, directed=True, indices=sources, min_only=True, limit=width)
-    near = np.isfinite(dist[: domain.n_vertices])
-    return (domain.incidence.T @ near.astype(np.float64)) > 0
+    dist = dijkstra(graph, directed=True, indices=sources, min_only=True, limit=width)[: domain.n_vertices]
+    near = np.isfinite(dist)
+    return (domain.incidence.T @ near.astype(np.float64)) > 0, dist
 
 
-def extend_outside(domain, vertices, phi_band, vert_region1, graph):
-    """Phi on every vertex: ``phi_band`` on the band's ``vertices``, the signed graph distance
-    from the band's values outside it (see the module docstring).
+def growth_rate(phi_band, distance, width):
+    """How fast ``|phi - 1/2|`` grows with the graph distance from zeta (both in units of
+    ``h``) over the outer half of the band: the slope :func:`extend_outside` continues.
+
+    A graph path zig-zags, so it is longer than the straight distance that the solved phi
+    follows; the slope, fitted on the band's own values, makes the fill grow as phi does.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.band import growth_rate
+    >>> d = np.linspace(0.0, 10.0, 11)
+    >>> round(growth_rate(0.5 + 0.9 * d, d, 10.0), 6)
+    0.9
+    """
+    phi_band, distance = np.asarray(phi_band, dtype=np.float64), np.asarray(distance, dtype=np.float64)
+    outer = np.isfinite(distance) & (distance >= 0.5 * width)
+    if np.count_nonzero(outer) < 2 or np.ptp(distance[outer]) == 0:
+        return 1.0
+    d, f = distance[outer], np.abs(phi_band[outer] - 0.5)
+    slope = np.cov(d, f, bias=True)[0, 1] / np.var(d)
+    return float(np.clip(slope, 0.5, 2.0))
+
+
+def extend_outside(domain, vertices, phi_band, vert_region1, graph, rate=1.0):
+    """Phi on every vertex: ``phi_band`` on the band's ``vertices``, outside it the band-edge
+    value plus ``rate`` times the signed graph distance (see the module docstring).
 
     Examples
     --------
@@ -143,7 +171,7 @@ def extend_outside(domain, vertices, phi_band, vert_region1, graph):
     [-4.0, -3.0, -2.0, -1.0, 0.0, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0]
     """
     V = domain.n_vertices
-    offset = np.abs(np.asarray(phi_band, dtype=np.float64) - 0.5)
+    offset = np.abs(np.asarray(phi_band, dtype=np.float64) - 0.5) / rate
     # the extra node becomes a virtual source joined to every band vertex by its offset:
     # one Dijkstra pass. Its row is the last one, so appending it costs one copy.
     nnz = graph.indptr[-1]
@@ -155,7 +183,7 @@ def extend_outside(domain, vertices, phi_band, vert_region1, graph):
         ),
         shape=graph.shape,
     )
-    dist = dijkstra(augmented, directed=True, indices=V)[:V]
+    dist = rate * dijkstra(augmented, directed=True, indices=V)[:V]
     sign = np.where(vert_region1, 1.0, -1.0)
     phi = np.where(np.isfinite(dist), 0.5 + sign * dist, 0.5 + sign)
     phi[vertices] = phi_band

@@ -19,7 +19,15 @@ from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
 from ..solvers.cache import digest
-from .band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_elements, band_graph, band_width, extend_outside
+from .band import (
+    AUTO_BAND_MAX_SHARE,
+    AUTO_BAND_MIN_VERTICES,
+    band_elements,
+    band_graph,
+    band_width,
+    extend_outside,
+    growth_rate,
+)
 from .boundary import element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
@@ -112,7 +120,7 @@ class Relaxer:
         self._factors = FactorCache()
         self._labelling = None  # (key, boundary, padded)
         self._heat = None  # (key, u, heat_info, X)
-        self._band = None  # (key, band asked, width, boundary, mask, vertices)
+        self._band = None  # (key, band asked, width, boundary, mask, distance from zeta, vertices)
         self._band_relaxer = None  # (digest of the band's mask, relaxer of the band)
         self._graph = None  # the edge graph of the band's searches: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
@@ -247,7 +255,7 @@ class Relaxer:
             self._graph = (h, band_graph(domain, h))
         graph = self._graph[1]
         if self._band is not None and self._band[:2] == (key, p["band"]):
-            width, boundary, mask, vertices = self._band[2:]
+            width, boundary, mask, dist, vertices = self._band[2:]
         else:
             self._band = None
             boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
@@ -258,17 +266,17 @@ class Relaxer:
                 # the narrowest band auto can choose first: when it already holds most of
                 # the domain, the whole domain costs no more
                 width = band_width(p, domain)
-                mask = band_elements(domain, boundary.sources, width, graph)
+                mask, dist = band_elements(domain, boundary.sources, width, graph)
                 if mask.mean() > AUTO_BAND_MAX_SHARE:
                     return None
                 wider = band_width(p, domain, self._boundary_weight_scale(region1, boundary, on, pad, h))
                 if wider > width:
                     width = wider
-                    mask = band_elements(domain, boundary.sources, width, graph)
+                    mask, dist = band_elements(domain, boundary.sources, width, graph)
                 if mask.mean() > AUTO_BAND_MAX_SHARE:
                     return None
             else:
-                mask = band_elements(domain, boundary.sources, width, graph)
+                mask, dist = band_elements(domain, boundary.sources, width, graph)
             if mask.all():
                 return None
             vertices = None
@@ -281,7 +289,7 @@ class Relaxer:
             sub, vertices = domain.subdomain(mask)
             relaxer = Relaxer(sub, _keep=self._keep, _h=h)
         if self._keep:
-            self._band = (key, p["band"], width, boundary, mask, vertices)
+            self._band = (key, p["band"], width, boundary, mask, dist, vertices)
             self._band_relaxer = (mask_key, relaxer)
         if verbose:
             print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
@@ -291,7 +299,8 @@ class Relaxer:
         res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
         tick = time.perf_counter()
         vert_region1 = region1 if on == "vertices" else (domain.incidence @ region1.astype(np.float64)) > 0
-        res.phi = extend_outside(domain, vertices, res.phi, vert_region1, graph)
+        rate = growth_rate(res.phi, dist[vertices], width)
+        res.phi = extend_outside(domain, vertices, res.phi, vert_region1, graph, rate)
         u = np.zeros(domain.n_vertices)
         u[vertices] = res.u
         res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain
