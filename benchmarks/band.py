@@ -86,7 +86,11 @@ def run_suite():
         h = domain.mean_edge_length()
         mean, worst = gap(res, whole, h)
         # the band at auto's width, without auto's rules that small meshes relax whole
-        p = {"mu": kw.get("mu", ndboundary.DEFAULT_MU), "lam": kw.get("lam", ndboundary.DEFAULT_LAM)}
+        p = {
+            "mu": kw.get("mu", ndboundary.DEFAULT_MU),
+            "lam": kw.get("lam", ndboundary.DEFAULT_LAM),
+            "smoothing": kw.get("smoothing", ndboundary.DEFAULT_SMOOTHING),
+        }
         width = band_width(p, domain, whole.params["lam_scale"]) if can_cut(domain) else None
         forced = whole if width is None else relax(domain, labels, band=width, **kw)
         f_mean, f_worst = gap(forced, whole, h)

@@ -29,13 +29,13 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
 from ..domains.base import Domain
-from .params import DEFAULT_LAM
+from .params import DEFAULT_LAM, DEFAULT_SMOOTHING
 
 __all__ = [
     "AUTO_BAND_MAX_SHARE",
     "AUTO_BAND_MIN_VERTICES",
+    "AUTO_BAND_MIN_SMOOTHING",
     "AUTO_BAND_WIDTH",
-    "AUTO_BAND_WIDTH_SOLID",
     "band_elements",
     "band_graph",
     "band_width",
@@ -44,19 +44,18 @@ __all__ = [
     "growth_rate",
 ]
 
-#: ``band="auto"`` on curves, planar meshes and surfaces: the band's half-width in units
-#: of ``h``. The first-order term of the integration (``mu > 0``) screens phi from what
-#: lies farther from zeta; at this width the level set matches the whole-domain solve
-#: within 0.01 h on average and 0.05 h at worst, with the default parameters, a few
-#: smoothing passes, a weaker or stronger ``lam`` and ``mu`` down to 0.01 alike
-#: (``benchmarks/band.py``).
-AUTO_BAND_WIDTH = 30.0
+#: ``band="auto"`` with the default ``lam``, ``smoothing`` and ``mu``: the band's half-width
+#: in units of ``h``. The first-order term of the integration (``mu > 0``) screens phi from
+#: what lies farther from zeta, and the boundary term holds it there: at half this width
+#: the level set already matches the whole-domain solve within 0.01 h on average and
+#: 0.05 h at worst, on triangles, quads, Voronoi polygons, surfaces, tetrahedra and
+#: hexahedra alike (``benchmarks/band.py``).
+AUTO_BAND_WIDTH = 12.0
 
-#: ``band="auto"`` on solids (tetrahedra, hexahedra, polyhedra and beyond): a perturbation
-#: at the band's edge spreads over a larger sphere as it travels inwards and fades faster
-#: than on a surface, so a narrower band meets the same tolerance (``benchmarks/band.py``).
-AUTO_BAND_WIDTH_SOLID = 16.0
-
+#: ``band="auto"`` relaxes the whole domain with fewer smoothing passes than this: a field
+#: smoothed a few times only is rough, and its integration depends on what lies far from
+#: zeta (``benchmarks/band.py --params "dict(smoothing=3)"``).
+AUTO_BAND_MIN_SMOOTHING = 10
 
 #: ``band="auto"`` relaxes the whole domain when the band would hold more than this share of
 #: the elements: it would cost about as much, and the whole-domain solve is exact.
@@ -64,7 +63,7 @@ AUTO_BAND_MAX_SHARE = 0.7
 
 #: ``band="auto"`` relaxes the whole domain below this many vertices: finding zeta and the
 #: band, and filling phi outside it, would cost about what the band saves.
-AUTO_BAND_MIN_VERTICES = 50_000
+AUTO_BAND_MIN_VERTICES = 20_000
 
 
 def can_cut(domain):
@@ -194,27 +193,29 @@ def band_width(params, domain, lam_scale=1.0):
     """The band's half-width in units of ``h`` for ``band="auto"``, or None for the whole
     domain.
 
-    :data:`AUTO_BAND_WIDTH` on curves, planar meshes and surfaces,
-    :data:`AUTO_BAND_WIDTH_SOLID` on solids (``domain.element_dim >= 3``), for a boundary
-    weight ``lam * lam_scale`` of at least the default's: a weaker boundary term holds
-    phi less firmly at zeta against what lies beyond the band, so the width grows by a
-    quarter for every factor ``e`` the weight falls short
-    (``1 + ln(DEFAULT_LAM / (lam lam_scale)) / 4``). None without the first-order term
-    (``mu = 0``, the paper's energy), where nothing screens phi and the level set depends
-    on the whole domain, and on domains that cannot be cut (:func:`can_cut`).
+    :data:`AUTO_BAND_WIDTH` for the default parameters, wider for a weaker boundary term
+    or fewer smoothing passes, each of which lets phi at zeta depend on more of the
+    domain: times ``(DEFAULT_LAM / (lam lam_scale))^(3/4)`` when the boundary weight
+    ``lam * lam_scale`` (``lam_scale``: :func:`~ndboundary.pipeline.integration.boundary_weight_scale`)
+    falls below the default's, and times ``(DEFAULT_SMOOTHING / smoothing)^(1/2)`` below
+    the default passes. None without the first-order term (``mu = 0``, the paper's
+    energy: nothing screens phi), with fewer than :data:`AUTO_BAND_MIN_SMOOTHING` passes,
+    and on domains that cannot be cut (:func:`can_cut`).
 
     Examples
     --------
     >>> from ndboundary.datasets import kuhn_grid
     >>> from ndboundary.pipeline.band import band_width
-    >>> band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(4, 2)), band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(4, 3))
-    (30.0, 16.0)
-    >>> round(band_width({"mu": 0.03, "lam": 2.0}, kuhn_grid(4, 2), lam_scale=0.25), 2)
-    40.4
-    >>> band_width({"mu": 0.0, "lam": 2.0}, kuhn_grid(4, 2)) is None
+    >>> defaults = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
+    >>> band_width(defaults, kuhn_grid(4, 2)), band_width(defaults, kuhn_grid(4, 2), lam_scale=0.25)
+    (12.0, 57.1)
+    >>> band_width({**defaults, "smoothing": 15}, kuhn_grid(4, 3))
+    24.0
+    >>> band_width({**defaults, "mu": 0.0}, kuhn_grid(4, 2)) is None
     True
     """
-    if params["mu"] <= 0 or not can_cut(domain):
+    if params["mu"] <= 0 or params["smoothing"] < AUTO_BAND_MIN_SMOOTHING or not can_cut(domain):
         return None
-    width = AUTO_BAND_WIDTH_SOLID if domain.element_dim >= 3 else AUTO_BAND_WIDTH
-    return float(width * (1.0 + 0.25 * np.log(max(1.0, DEFAULT_LAM / (params["lam"] * lam_scale)))))
+    weaker = max(1.0, DEFAULT_LAM / (params["lam"] * lam_scale)) ** 0.75
+    rougher = max(1.0, DEFAULT_SMOOTHING / params["smoothing"]) ** 0.5
+    return round(float(AUTO_BAND_WIDTH * weaker * rougher), 1)
