@@ -53,9 +53,13 @@ CASES = {
     "ball-44": lambda: (kuhn_grid(44, 3, jitter=0.25, random_state=0), ball),
     "hex-24": lambda: (hex_grid(24, jitter=0.25, random_state=0), ball),
     "hex-40": lambda: (hex_grid(40, jitter=0.25, random_state=0), ball),
+    "ball-64-r0.3": lambda: (kuhn_grid(64, 3, jitter=0.25, random_state=0), lambda x: ball(x, 0.3)),
+    "hex-56-r0.3": lambda: (hex_grid(56, jitter=0.25, random_state=0), lambda x: ball(x, 0.3)),
     "4d-ball-12": lambda: (kuhn_grid(12, 4, jitter=0.1, random_state=0), ball),
 }
-DEFAULT_CASES = "flower-160,flower-400,quads-80,voronoi-80,ico5-plane,ball-44,hex-40,4d-ball-12"
+DEFAULT_CASES = (
+    "flower-160,flower-400,quads-80,voronoi-80,ico5-plane,ball-44,hex-40,ball-64-r0.3,hex-56-r0.3,4d-ball-12"
+)
 
 
 def gap(a, b, h):
