@@ -1,16 +1,18 @@
 """Benchmark the solvers of the integration system ``(K M^-1 K + mu K + lam S^T S) phi = r``.
 
 Captures the integration system that ``relax`` solves (jittered Kuhn grids labelled by
-a circle / ball, an icosphere or the geodesic sphere of ``table1.py`` cut by a plane),
-then times each available candidate in a fresh subprocess (so that packages that clash,
-like cholespy and sksparse-minimal, and the memory of one run do not affect another),
-``--repeats`` times.
+a circle / ball, an icosphere or the geodesic sphere of ``table1.py`` cut by a plane;
+with ``relax``'s default ``band="auto"`` that is the band's system, ``--band none`` the
+whole domain's), then times each available candidate in a fresh subprocess (so that
+packages that clash, like cholespy and sksparse-minimal, and the memory of one run do
+not affect another), ``--repeats`` times.
 
-Prints one JSON line per run, then a table of medians: size, method, setup s (assembly
-and factorisation), solve s, total s, its ratio to ``superlu-direct`` measured in the
-same run (``x superlu``: 6.0 means six times faster), the peak memory the solve added
-to the process, iterations, residual, and the relative difference to the first direct
-solve.
+Prints the size of each system (unknowns, their share of the domain's vertices, entries
+of ``K`` and ``Q``), one JSON line per run, then a table of medians: size, unknowns,
+entries of ``Q``, method, setup s (assembly and factorisation / AMG hierarchy), solve s,
+total s, its ratio to ``superlu-direct`` and to ``auto`` measured in the same run (``x
+superlu``: 6.0 means six times faster), the peak memory the solve added to the
+process, iterations, residual, and the relative difference to the first direct solve.
 
     python benchmarks/solvers.py                       # default sizes, < 10 minutes
     python benchmarks/solvers.py --sizes 2d:640,3d:48  # bigger
@@ -18,12 +20,40 @@ solve.
         --methods pardiso-direct,cvxopt-direct,cholmod-direct,superlu-direct
     python benchmarks/solvers.py --factor-threads 1    # MKL / OpenBLAS threads of a factor
 
-Sizes: ``2d:n`` / ``3d:n`` (Kuhn grid of n cells a side), ``ico:k`` (icosphere of
-subdivision k), ``sphere:f`` (geodesic sphere of frequency f, 10 f^2 + 2 vertices:
-77 -> 59K, 158 -> 250K, 317 -> 1.0M).
+Sizes: ``2d:n`` / ``3d:n`` (Kuhn grid of n cells a side, a circle / ball of radius
+0.6), ``3dsmall:n`` (the same grid, a ball of radius 0.3: a band thin against the
+domain), ``ico:k`` (icosphere of subdivision k), ``sphere:f`` (geodesic sphere of
+frequency f, 10 f^2 + 2 vertices: 77 -> 59K, 158 -> 250K, 316 -> 1.0M).
 
-Candidates (each skipped when its package is missing; the first eight are the default
-``--methods``, the others on request):
+Choice for the band systems ``relax`` solves by default (12 h wide), medians of 3 (2
+cores shared with another user's work: single runs of one method spread by up to 50 %
+while it was busy, and the medians of ``auto`` and ``amg-pcg``, the same solver, differ
+by up to 17 %)::
+
+    python benchmarks/solvers.py --sizes sphere:316,2d:999 --slow 40 --timeout 120 \
+        --methods auto,pardiso-direct,cvxopt-direct,cholmod-direct,superlu-direct,amg-pcg
+    python benchmarks/solvers.py --sizes 3dsmall:99,3d:62,3d:99 --slow 30 --timeout 45 \
+      --methods auto,auto-nolight,amg-pcg,pardiso-pcg,cvxopt-pcg,cholmod-pcg,pardiso-direct,cvxopt-direct,cholmod-direct
+
+On curves and surfaces the band's squared operator is cheap to factor: on the bands of
+the 1 M-vertex sphere and triangle grid (62 K / 55 K unknowns) ``auto`` (cvxopt)
+factorises and solves in 0.32 / 0.18 s, sksparse-minimal's CHOLMOD in 0.32 / 0.23 s,
+SuperLU in 0.40 / 0.34 s, PARDISO in 0.96 / 0.58 s (loading MKL), AMG-PCG in 0.80 /
+0.92 s. On tetrahedra ``auto`` keeps AMG-PCG: 2.1 s at 123 K unknowns (``3dsmall:99``),
+3.1 s at 169 K (``3d:62``) and 9.4 s at 402 K (``3d:99``); PCG with a factored ``K + D``
+takes 8.2 s and 13.8 s on the first two (PARDISO; 40-45 iterations, where AMG's need
+45-51; cvxopt 26 s and 43 s), a factorisation of ``Q`` 35 s at 123 K (PARDISO; cvxopt and
+sksparse-minimal more than 45 s). The band's ragged edge and the vertices padding adds
+are light (a small lumped mass against their neighbours'): the AMG V-cycle alone
+(``auto-nolight``) needed 76 and 104 iterations (3.0 s, 5.6 s) and more than 45 s on
+``3d:99``, the Jacobi step on those vertices around it
+(``ndboundary.solvers.amg.light_vertex_jacobi``) 45, 51 and 61. On the wider bands of
+16 h (``3d:99``: 540 K unknowns), the V-cycle alone needed 463 iterations (94 s), with
+the step 59 (16.8 s).
+
+Candidates (each skipped when its package is missing; by default ``--methods`` runs
+``auto``, ``amg-pcg``, ``superlu-pcg`` and the ``-direct`` ones of PARDISO, cvxopt,
+sksparse-minimal and SuperLU, the others on request):
 
 - ``auto``: ``solve_integration``'s default;
 - ``pardiso-direct`` / ``pardiso-pcg``: MKL PARDISO from pypardiso (direct on the whole
@@ -37,13 +67,17 @@ Candidates (each skipped when its package is missing; the first eight are the de
 - ``sksparse-direct`` / ``sksparse-pcg``: scikit-sparse's CHOLMOD (built against the
   system SuiteSparse);
 - ``auto-blasthreads``: ``auto`` without limiting BLAS to one thread;
+- ``auto-nolight``: ``auto`` without the Jacobi step on light vertices around the AMG
+  V-cycle (``LIGHT_VERTEX_SHARE = 0``: the V-cycle alone, as before that step);
 - ``auto-repeat`` / ``pardiso-direct-repeat``: the second solve on one mesh (after an
   untimed one with another ``lam``: same sparsity pattern, other values), where PARDISO
   reuses its ordering (kept by a ``FactorCache`` the two solves share; every other run
   passes ``cache=None`` and starts cold).
 
 A method whose first run takes longer than ``--slow`` seconds is run once and not
-tried on bigger sizes of the same kind of mesh.
+tried on systems as large or larger of the same kind of mesh (``3dsmall`` counts as
+``3d``); ``--timeout`` stops a run. ``--band none`` captures the whole domain's system
+instead of the band's; ``--systems DIR`` keeps the captured systems for the next run.
 """
 
 from __future__ import annotations
@@ -76,6 +110,7 @@ ALL_METHODS = [
     "sksparse-direct",
     "sksparse-pcg",
     "auto-blasthreads",
+    "auto-nolight",
     "auto-repeat",
     "pardiso-direct-repeat",
 ]
@@ -115,18 +150,25 @@ def _domain(spec):
         return dom, label_by(dom, lambda x: x[:, 2] - 0.3)
     dim = int(kind[0])
     dom = kuhn_grid(n, dim, jitter=0.25, random_state=0)
+    if kind == "3dsmall":  # a ball of radius 0.3: a band thin against the domain
+        return dom, label_by(dom, lambda x: ball(x, r=0.3))
     return dom, label_by(dom, ball if dim == 3 else circle)
 
 
-def build(spec, outdir):
+def build(spec, outdir, band="auto"):
     """Capture the integration system of ``relax`` on ``spec``, save it, return its path.
 
-    ``spec`` is "2d:160", "3d:24", "ico:6" or "sphere:158"; ``relax`` runs with its
-    defaults up to the integration solve, whose arguments are saved.
+    ``spec`` is "2d:160", "3d:24", "3dsmall:99", "ico:6" or "sphere:158"; ``relax`` runs
+    with its defaults and ``band`` ("auto": the band's system, "none": the whole
+    domain's) up to the integration solve, whose arguments are saved with the domain's
+    vertex count and the number of entries of ``Q``. A saved system is reused.
     """
     import ndboundary.pipeline.integration as step
     from ndboundary import relax
 
+    path = os.path.join(outdir, spec.replace(":", "_") + ("" if band == "auto" else "-whole") + ".npz")
+    if os.path.exists(path):
+        return path
     dom, lab = _domain(spec)
     captured = {}
 
@@ -137,28 +179,18 @@ def build(spec, outdir):
     real = step.solve_integration  # the solver the integration step calls
     step.solve_integration = capture
     try:
-        relax(dom, lab, on="elements")
+        relax(dom, lab, on="elements", band=None if band == "none" else band)
     except _Captured:
         pass
     finally:
         step.solve_integration = real
     K, S = captured["K"], captured["S"]
-    path = os.path.join(outdir, spec.replace(":", "_") + ".npz")
+    Q = K @ sp.diags(1.0 / captured["mass"]) @ K + captured["lam"] * (S.T @ S)
+    arrays = {f"{name}_{a}": getattr(M, a) for name, M in (("K", K), ("S", S)) for a in ("data", "indices", "indptr")}
     np.savez(
-        path,
-        K_data=K.data,
-        K_indices=K.indices,
-        K_indptr=K.indptr,
-        K_shape=K.shape,
-        S_data=S.data,
-        S_indices=S.indices,
-        S_indptr=S.indptr,
-        S_shape=S.shape,
-        mass=captured["mass"],
-        rhs=captured["rhs"],
-        mu=captured["mu"],
-        lam=captured["lam"],
-    )
+        path, **arrays, K_shape=K.shape, S_shape=S.shape, mass=captured["mass"], rhs=captured["rhs"],
+        mu=captured["mu"], lam=captured["lam"], n_domain=dom.n_vertices, Q_nnz=Q.nnz,
+    )  # fmt: skip
     return path
 
 
@@ -257,6 +289,8 @@ def worker(path, method, repeats, factor_threads=None):
         kw = {"method": "direct", "backend": base}
     else:
         kw = {"method": "pcg", "preconditioner": "cholesky", "backend": base}
+    if method == "auto-nolight":
+        solvers.amg.LIGHT_VERTEX_SHARE = 0.0
     if method == "auto-blasthreads":
         common.SOLVE_THREADS = None  # BLAS's own number of threads during the solves
     perm = None
@@ -301,6 +335,7 @@ def worker(path, method, repeats, factor_threads=None):
         row = {
             "size": os.path.basename(path)[:-4],
             "n": int(K.shape[0]),
+            "nnz": int(np.load(path)["Q_nnz"]),
             "method": method,
             "rep": rep,
             "solver": info.method,
@@ -331,31 +366,16 @@ def _available(method):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    p.add_argument(
-        "--sizes", default=DEFAULT_SIZES, help=f"comma-separated kind:n (default {DEFAULT_SIZES})"
-    )
-    p.add_argument(
-        "--methods", default=DEFAULT_METHODS, help=f"comma-separated, from {','.join(ALL_METHODS)}"
-    )
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--sizes", default=DEFAULT_SIZES, help=f"comma-separated kind:n (default {DEFAULT_SIZES})")
+    p.add_argument("--methods", default=DEFAULT_METHODS, help=f"comma-separated, from {','.join(ALL_METHODS)}")
+    p.add_argument("--band", choices=("auto", "none"), default="auto", help="the band or whole domain")
     p.add_argument("--repeats", type=int, default=3)
-    p.add_argument(
-        "--factor-threads",
-        type=int,
-        default=None,
-        help="threads of a sparse factorisation (default: ndboundary.solvers.FACTOR_THREADS)",
-    )
-    p.add_argument(
-        "--slow",
-        type=float,
-        default=20.0,
-        help="seconds above which a method is not repeated nor grown",
-    )
-    p.add_argument(
-        "--worker", nargs=3, metavar=("PATH", "METHOD", "REPEATS"), help=argparse.SUPPRESS
-    )
+    p.add_argument("--factor-threads", type=int, default=None, help="factorisation threads (default FACTOR_THREADS)")
+    p.add_argument("--slow", type=float, default=20.0, help="seconds above which a method is not repeated nor grown")
+    p.add_argument("--timeout", type=float, default=None, help="seconds after which a run is stopped (counts as slow)")
+    p.add_argument("--systems", default=None, help="directory keeping the captured systems for later runs")
+    p.add_argument("--worker", nargs=3, metavar=("PATH", "METHOD", "REPEATS"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.worker:
         worker(args.worker[0], args.worker[1], int(args.worker[2]), args.factor_threads)
@@ -366,95 +386,108 @@ def main(argv=None):
             p.error(f"unknown method {m!r}")
     methods = [m for m in methods if _available(m)]
     rows = []
-    too_slow = set()
+    too_slow = {}  # (kind of mesh, method): the fewest unknowns it was too slow on
     with tempfile.TemporaryDirectory() as tmp:
+        outdir = args.systems or tmp
+        os.makedirs(outdir, exist_ok=True)
         for spec in args.sizes.split(","):
             t = time.perf_counter()
-            path = build(spec, tmp)
-            print(f"# built {spec} in {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
-            kind = spec.split(":")[0]
-            ref = None
-            pending = []
+            path = build(spec, outdir, args.band)
+            z = np.load(path)
+            n, share = int(z["K_shape"][0]), int(z["K_shape"][0]) / int(z["n_domain"])
+            print(
+                f"# {spec} band={args.band}: n {n} ({share:.0%} of {int(z['n_domain'])} vertices), nnz K "
+                f"{z['K_data'].size}, nnz Q {int(z['Q_nnz'])}; built in {time.perf_counter() - t:.1f} s",
+                file=sys.stderr, flush=True,
+            )  # fmt: skip
+            kind = spec.split(":")[0].replace("small", "")  # 3dsmall grows into 3d
+            ref = [None, []]  # the first direct solve's phi, the runs waiting for it
             for m in methods:
-                if (kind, m) in too_slow:
+                if too_slow.get((kind, m), np.inf) <= n:
                     continue
-                cmd = [
-                    sys.executable,
-                    os.path.abspath(__file__),
-                    "--worker",
-                    path,
-                    m,
-                    "1",
-                ]
+                cmd = [sys.executable, os.path.abspath(__file__), "--worker", path, m, "1"]
                 if args.factor_threads is not None:
                     cmd += ["--factor-threads", str(args.factor_threads)]
-                runs = []
-                for rep in range(args.repeats):
-                    out = subprocess.run(cmd, check=False, capture_output=True, text=True)
-                    if out.returncode != 0:
-                        print(
-                            f"# {spec} {m} failed: {out.stderr.strip().splitlines()[-1:]}",
-                            file=sys.stderr,
-                        )
-                        break
-                    row = json.loads(out.stdout.strip().splitlines()[-1])
-                    row["rep"] = rep
-                    phi = np.load(path[:-4] + f"__{m}.npy")
-                    if ref is None and m.endswith("direct"):
-                        ref = phi
-                        for r in pending:  # runs before the first direct one
-                            r["diff_vs_direct"] = float(
-                                np.linalg.norm(r.pop("_phi") - ref) / np.linalg.norm(ref)
-                            )
-                        pending = []
-                    if ref is not None:
-                        row["diff_vs_direct"] = float(
-                            np.linalg.norm(phi - ref) / np.linalg.norm(ref)
-                        )
-                    else:
-                        row["diff_vs_direct"] = None
-                    row.pop("phi_sha", None)
-                    print(json.dumps(row), flush=True)
-                    if ref is None:
-                        row["_phi"] = phi
-                        pending.append(row)
-                    runs.append(row)
-                    if row["wall"] > args.slow:
-                        too_slow.add((kind, m))
-                        break
+                runs = _runs(cmd, spec, m, path, ref, args)
+                if runs and runs[-1]["wall"] > args.slow:
+                    too_slow[kind, m] = min(n, too_slow.get((kind, m), n))
                 if runs:
                     rows.append(runs)
     print()
     print(table(rows))
 
 
+def _runs(cmd, spec, m, path, ref, args):
+    """Up to ``--repeats`` runs of ``cmd``, each compared with the first direct solve
+    (``ref``); a run past ``--slow`` seconds ends them, one past ``--timeout`` is recorded
+    with that many seconds and no solution.
+    """
+    runs = []
+    for rep in range(args.repeats):
+        try:
+            out = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=args.timeout)
+        except subprocess.TimeoutExpired:
+            print(f"# {spec} {m} stopped after {args.timeout:.0f} s", file=sys.stderr, flush=True)
+            nan = float("nan")
+            z = np.load(path)
+            row = {"size": os.path.basename(path)[:-4], "n": int(z["K_shape"][0]), "nnz": int(z["Q_nnz"]),
+                   "method": m, "rep": rep, "solver": "timeout", "setup": nan, "solve": nan,
+                   "wall": args.timeout, "cpu": nan, "iterations": 0, "residual": nan, "memory": nan,
+                   "diff_vs_direct": None}  # fmt: skip
+            print(json.dumps(row), flush=True)
+            return [*runs, row]
+        if out.returncode != 0:
+            print(f"# {spec} {m} failed: {out.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
+            break
+        row = json.loads(out.stdout.strip().splitlines()[-1])
+        row["rep"] = rep
+        phi = np.load(path[:-4] + f"__{m}.npy")
+        if ref[0] is None and m.endswith("direct"):
+            ref[0] = phi
+            for r in ref[1]:  # runs before the first direct one
+                r["diff_vs_direct"] = float(np.linalg.norm(r.pop("_phi") - phi) / np.linalg.norm(phi))
+            ref[1].clear()
+        row["diff_vs_direct"] = None
+        if ref[0] is not None:
+            row["diff_vs_direct"] = float(np.linalg.norm(phi - ref[0]) / np.linalg.norm(ref[0]))
+        print(json.dumps(row), flush=True)
+        if ref[0] is None:
+            row["_phi"] = phi
+            ref[1].append(row)
+        runs.append(row)
+        if row["wall"] > args.slow:
+            break
+    return runs
+
+
 def table(rows):
-    """The table of medians of ``rows`` (one list of runs per size and method)."""
+    """The table of medians of ``rows`` (one list of runs per size and method), with the
+    speed-ups over ``superlu-direct`` and ``auto`` of the same size in the same run.
+    """
     med = []
     for runs in rows:
-        m = {
-            k: float(np.median([r[k] for r in runs]))
-            for k in ("setup", "solve", "wall", "cpu", "iterations", "residual", "memory")
-        }
+        keys = ("setup", "solve", "wall", "cpu", "iterations", "residual", "memory")
+        m = {k: float(np.median([r[k] for r in runs])) for k in keys}
         m["runs"] = len(runs)
-        m["diff"] = max(
-            (r["diff_vs_direct"] for r in runs if r["diff_vs_direct"] is not None), default=None
-        )
+        m["diff"] = max((r["diff_vs_direct"] for r in runs if r["diff_vs_direct"] is not None), default=None)
         med.append((runs[0], m))
-    superlu = {r0["size"]: m["wall"] for r0, m in med if r0["method"] == "superlu-direct"}
+    peer = {(r0["size"], r0["method"]): m["wall"] for r0, m in med if r0["method"] in ("superlu-direct", "auto")}
     head = (
-        f"{'size':11s} {'n':>8s} {'method':18s} {'solver':13s} {'setup s':>8s} {'solve s':>8s} "
-        f"{'total s':>8s} {'x superlu':>9s} {'mem MB':>7s} {'cpu s':>7s} {'iters':>5s} "
+        f"{'size':14s} {'n':>8s} {'nnz Q':>10s} {'method':18s} {'solver':18s} {'setup s':>8s} {'solve s':>8s} "
+        f"{'total s':>8s} {'x superlu':>9s} {'x auto':>6s} {'mem MB':>7s} {'cpu s':>7s} {'iters':>5s} "
         f"{'residual':>9s} {'vs direct':>9s} runs"
     )
     lines = [head, "-" * len(head)]
     for r0, m in med:
-        ref = superlu.get(r0["size"])
-        ratio = f"{ref / m['wall']:9.2f}" if ref else f"{'-':>9s}"
+        ratios = []
+        for name, width in (("superlu-direct", 9), ("auto", 6)):
+            ref = peer.get((r0["size"], name))
+            ratios.append(f"{ref / m['wall']:{width}.2f}" if ref else f"{'-':>{width}s}")
         diff = f"{m['diff']:9.1e}" if m["diff"] is not None else f"{'-':>9s}"
+        total = f"{m['wall']:8.2f}" if r0["solver"] != "timeout" else f"{'>' + format(m['wall'], 'g'):>8s}"
         lines.append(
-            f"{r0['size']:11s} {r0['n']:8d} {r0['method']:18s} {r0['solver']:13s} "
-            f"{m['setup']:8.2f} {m['solve']:8.3f} {m['wall']:8.2f} {ratio} {m['memory']:7.0f} "
+            f"{r0['size']:14s} {r0['n']:8d} {r0.get('nnz', 0):10d} {r0['method']:18s} {r0['solver']:18s} "
+            f"{m['setup']:8.2f} {m['solve']:8.3f} {total} {' '.join(ratios)} {m['memory']:7.0f} "
             f"{m['cpu']:7.2f} {int(m['iterations']):5d} {m['residual']:9.1e} {diff} {m['runs']}"
         )
     return "\n".join(lines)

@@ -139,7 +139,7 @@ class SimplicialComplex(Domain):
         X = self.points[self.simplices]
         k = self.simplex_dim
         longest = np.zeros(X.shape[0])
-        for i, j in zip(*np.triu_indices(k + 1, 1)):
+        for i, j in zip(*np.triu_indices(k + 1, 1), strict=True):
             d = X[:, i] - X[:, j]
             np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
         return np.sqrt(longest) ** k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * self.volumes)

@@ -63,6 +63,7 @@ _TUNING = {
     "LARGE_SYSTEM": cholesky,
     "BACKENDS": cholesky,
     "AMG_DENSE_ROWS": amg,
+    "LIGHT_VERTEX_SHARE": amg,
 }
 
 

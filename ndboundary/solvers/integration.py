@@ -13,10 +13,11 @@ Two ways, chosen by the shape of ``K`` (``method="auto"``):
   :class:`~ndboundary.solvers.SolverFallbackWarning` per process naming the cost.
 - denser rows (tetrahedra, higher dimensions, neighbour graphs): conjugate gradients
   preconditioned by ``(K + D) M^{-1} (K + D)``, ``D`` diagonal, ``(K + D)^{-1}``
-  applied by one smoothed-aggregation AMG V-cycle (:mod:`.amg`, package pyamg: linear
-  cost, where any factorisation of a 3-D mesh fills in as n^2), else by a Cholesky
-  factor, with one :class:`~ndboundary.solvers.SolverFallbackWarning` per process
-  naming the cost.
+  applied by one smoothed-aggregation AMG V-cycle with a Jacobi step on the light
+  vertices around it (:mod:`.amg`, package pyamg: linear cost, where any factorisation
+  of a 3-D mesh fills in as n^2; a factor of ``K + D`` costs more than the iterations it
+  saves), else by a Cholesky factor, with one
+  :class:`~ndboundary.solvers.SolverFallbackWarning` per process naming the cost.
 
 Every solve reports its relative residual; an iteration that does not reach its
 tolerance warns with the residual it reached (``method="pcg"``) or finishes with a
@@ -34,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .amg import amg_preconditioner
+from .amg import amg_preconditioner, light_vertex_jacobi
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
 from .common import (
     ConvergenceWarning,
@@ -142,7 +143,8 @@ def solve_integration(
         elsewhere (tetrahedra, higher dimensions, graphs), falling back to direct when
         pcg does not converge (up to :data:`DIRECT_FALLBACK_MAX` unknowns; beyond, pcg
         goes on for ``4 maxiter`` more iterations and warns if that is not enough). The
-        default picks the fastest way for the shape of ``K``.
+        default picks the fastest way for the shape of ``K``, on a band's system as on the
+        whole domain's (``benchmarks/solvers.py``).
     backend : {"auto", "pardiso", "cvxopt", "cholmod", "superlu"}, default="auto"
         Sparse Cholesky used by the direct solve and the factorised preconditioner
         (see :func:`~ndboundary.solvers.factorize_spd`; ``"auto"``: the fastest
@@ -150,10 +152,11 @@ def solve_integration(
         direct solve of more than :data:`SMALL_SYSTEM` unknowns warns once per process
         (:class:`~ndboundary.solvers.SolverFallbackWarning`).
     preconditioner : {"auto", "amg", "cholesky"}, default="auto"
-        How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) or a
-        sparse Cholesky factor. ``"auto"``: amg on meshes with denser rows when pyamg
-        is installed (its cost grows linearly, where the factor fills in), cholesky
-        otherwise.
+        How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) with a
+        Jacobi step on the light vertices before and after it
+        (:func:`~ndboundary.solvers.amg.light_vertex_jacobi`), or a sparse Cholesky
+        factor. ``"auto"``: amg on meshes with denser rows when pyamg is installed (its
+        cost grows linearly, where the factor fills in), cholesky otherwise.
     cache : FactorCache, optional
         Where to keep the factorisation / AMG hierarchy for the next solve of the same
         matrix (compared by content) and PARDISO's ordering for the same pattern. None,
@@ -186,11 +189,8 @@ def solve_integration(
         raise ValueError(f"method must be 'auto', 'pcg' or 'direct', got {method!r}")
     if preconditioner not in ("auto", "amg", "cholesky"):
         raise ValueError(f"preconditioner must be 'auto', 'amg' or 'cholesky', got {preconditioner!r}")
-    K = sp.csr_matrix(K)
-    mass = np.asarray(mass, dtype=np.float64)
-    S = sp.csr_matrix(S)
-    rhs = np.asarray(rhs, dtype=np.float64)
-    system = _System(K, mass, S, lam, mu, rhs)
+    K, S = sp.csr_matrix(K), sp.csr_matrix(S)
+    system = _System(K, np.asarray(mass, dtype=np.float64), S, lam, mu, np.asarray(rhs, dtype=np.float64))
     sparse_rows = _is_sparse_rows(K)
     if method == "direct" or (method == "auto" and sparse_rows):
         return _solve_direct(system, rtol, refine_single=method == "auto", backend=backend, cache=cache)
@@ -293,8 +293,8 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     use_amg = _use_amg(preconditioner, sparse_rows)
     name = "pcg-amg" if use_amg else "pcg-cholesky"
     with one_blas_thread():
-        if use_amg:
-            solve = _cached("amg", A, amg_preconditioner, cache)
+        if use_amg:  # the hierarchy is kept; the light vertices' step is rebuilt from the mass
+            solve = light_vertex_jacobi(A, mass, _cached("amg", A, amg_preconditioner, cache))
         else:
             solve = _cached(
                 ("factor", backend), A,
