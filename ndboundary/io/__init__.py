@@ -7,7 +7,8 @@ extension                 read                            write
 ========================  ==============================  ==============================
 ``.obj``, ``.off``        triangles, polygons, segments   triangles, polygons, segments
 ``.hedra``                polyhedra (CinoLib)             polyhedra, tetrahedra
-``.ply``                  triangles, polygons (meshio)    triangles, polygons
+``.ply``                  triangles, polygons (meshio     triangles, polygons
+                          for the uncommon layouts)
 ``.stl``                  triangles (meshio)              triangles
 ``.mesh`` (MEDIT),        triangles, quads, tetrahedra,   the same
 ``.msh`` (Gmsh)           hexahedra, wedges, pyramids
@@ -17,7 +18,13 @@ extension                 read                            write
 
 meshio (optional dependency, ``meshio>=5.3``) is imported only for the formats it
 handles; OBJ, OFF and HEDRA are read and written here (meshio's OFF is triangles
-only, and its OBJ ignores segments).
+only, and its OBJ ignores segments), and so are the PLY files of one vertex and one
+face element whose faces all have the same size (or any sizes, in ASCII), with the
+result meshio gives. OBJ, OFF and ASCII PLY files of a megabyte or more are read in
+one compiled pass over their bytes, and the text writers format large arrays in one
+compiled pass too (a million-vertex mesh is read or written in about a second:
+``benchmarks/io_speed.py``). Any file the compiled pass does not read in full is read
+again line by line (or by meshio), so that errors keep their messages and lines.
 
 :func:`read_mesh` returns the matching domain: a :class:`~ndboundary.SimplicialComplex`
 for segments, triangles or tetrahedra alone, a :class:`~ndboundary.PolygonMesh` for
@@ -45,9 +52,12 @@ module                          holds
 :mod:`.labels`                  :func:`read_labels`, :func:`write_labels`
 :mod:`.cell_blocks`             cell blocks (the form between files and domains) to domains
                                 and back
-:mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, the
-:mod:`.hedra`, :mod:`.ply`      ASCII PLY level-set writer
+:mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, PLY (its
+:mod:`.hedra`, :mod:`.ply`      common layouts, and the ASCII level-set writer)
 :mod:`.meshio_formats`          PLY, STL, MEDIT, Gmsh, VTK and VTU through meshio
+:mod:`.text_scan`,              compiled (numba) scans of OBJ, OFF and PLY text; decimal
+:mod:`.text_numbers`            tokens, correctly rounded
+:mod:`.text_format`             compiled ``%.17g`` and integer text of the writers
 :mod:`.weld`                    merging coincident vertices, :class:`WeldReport`
 :mod:`.common`                  file and extension checks, number tokens, 3-D points
 ==============================  ===========================================================

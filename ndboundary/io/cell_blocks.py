@@ -32,6 +32,7 @@ __all__ = [
     "blocks_from_domain",
     "check_mesh_domain",
     "domain_from_blocks",
+    "polygon_block",
     "top_blocks",
 ]
 
@@ -76,6 +77,27 @@ def check_mesh_domain(domain):
 
 
 # -- blocks to a domain -------------------------------------------------------------------------
+
+
+def polygon_block(flat, sizes):
+    """The block of polygons given as flat vertex indices and sizes, as the readers return them.
+
+    Polygons all of three or all of four vertices become one ``"triangle"`` or
+    ``"quad"`` array (what meshio reads too); others a ``"polygon"`` list, in order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> kind, rows = polygon_block(np.arange(6), np.array([3, 3]))
+    >>> kind, rows.tolist()
+    ('triangle', [[0, 1, 2], [3, 4, 5]])
+    >>> polygon_block(np.arange(7), np.array([3, 4]))
+    ('polygon', [[0, 1, 2], [3, 4, 5, 6]])
+    """
+    if sizes.size and sizes[0] in (3, 4) and np.all(sizes == sizes[0]):
+        return ("triangle" if sizes[0] == 3 else "quad"), flat.reshape(-1, int(sizes[0]))
+    values, ends = flat.tolist(), np.cumsum(sizes).tolist()
+    return "polygon", [values[end - k : end] for end, k in zip(ends, sizes.tolist(), strict=True)]
 
 
 def _block_dim(kind):
@@ -221,6 +243,10 @@ def domain_from_blocks(points, blocks, *, drop_unused=True) -> Domain:
     if top == 1:
         return SimplicialComplex(points, np.concatenate([np.asarray(d, dtype=np.int64) for _, d in blocks]))
     if top == 2:
+        widths = {d.shape[1] if isinstance(d, np.ndarray) and d.ndim == 2 else None for _, d in blocks}
+        if len(widths) == 1 and None not in widths:  # arrays of one width: no lists of rows
+            cells = np.concatenate([np.asarray(d, dtype=np.int64) for _, d in blocks])
+            return (SimplicialComplex if cells.shape[1] == 3 else PolygonMesh)(points, cells)
         polys = [list(r) for _, d in blocks for r in (d.tolist() if isinstance(d, np.ndarray) else d)]
         if all(len(p) == 3 for p in polys):
             return SimplicialComplex(points, np.array(polys, dtype=np.int64))

@@ -9,7 +9,10 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "FAST_MIN_BYTES",
+    "FAST_MIN_VALUES",
     "existing_file",
+    "file_bytes",
     "float_tokens",
     "flat_rows",
     "format_suffix",
@@ -22,6 +25,14 @@ __all__ = [
 
 #: The largest magnitude :func:`int_tokens` keeps; larger integers are clipped to it (they index no mesh).
 INT_CLIP = 2**62
+#: Text mesh files of at least this many bytes are read by the compiled scans of
+#: :mod:`.text_scan`; smaller ones line by line, in well under a second and without
+#: loading (or, once per installation, compiling) the compiled code.
+FAST_MIN_BYTES = 1 << 20
+#: Arrays of at least this many values are formatted (:mod:`.text_format`) and their
+#: edges counted (:func:`~.weld.open_edge_fraction`) by compiled loops; smaller ones by
+#: numpy and Python, with the same result.
+FAST_MIN_VALUES = 1 << 17
 
 
 def existing_file(path) -> Path:
@@ -120,6 +131,24 @@ def uncommented_lines(path) -> list:
         return [line.split("#", 1)[0] for line in fh]
 
 
+def file_bytes(path) -> bytes:
+    r"""The bytes of a file, without a leading UTF-8 byte-order mark (as ``utf-8-sig`` drops it).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "b.obj")
+    ...     with open(path, "wb") as fh:
+    ...         _ = fh.write(b"\xef\xbb\xbfv 0 0 0\n")
+    ...     file_bytes(path)
+    b'v 0 0 0\n'
+    """
+    with open(path, "rb") as fh:
+        data = fh.read()
+    return data[3:] if data[:3] == b"\xef\xbb\xbf" else data
+
+
 def flat_rows(rows):
     """Index rows (a 2-D array or a list of sequences) as one flat int64 array and the row sizes.
 
@@ -137,7 +166,7 @@ def flat_rows(rows):
     if isinstance(rows, np.ndarray) and rows.ndim == 2:
         if rows.size and rows.dtype.kind not in "iu":
             raise ValueError(f"cells hold {rows.dtype} values, not indices")
-        return rows.astype(np.int64).ravel(), np.full(rows.shape[0], rows.shape[1], dtype=np.int64)
+        return rows.astype(np.int64, copy=False).ravel(), np.full(rows.shape[0], rows.shape[1], dtype=np.int64)
     rows = list(rows)
     sizes = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
     try:

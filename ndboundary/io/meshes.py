@@ -13,11 +13,12 @@ from .hedra import read_hedra, write_hedra
 from .meshio_formats import MESHIO_EXTENSIONS, read_with_meshio, write_with_meshio
 from .obj import read_obj, write_obj
 from .off import read_off, write_off
+from .ply import read_ply
 from .weld import OPEN_EDGE_FRACTION, WeldReport, open_edge_fraction, weld_blocks, weld_map
 
 __all__ = ["DATA_EXTENSIONS", "MESH_EXTENSIONS", "read_mesh", "write_mesh"]
 
-_READERS = {".obj": read_obj, ".off": read_off, ".hedra": read_hedra}
+_READERS = {".obj": read_obj, ".off": read_off, ".hedra": read_hedra, ".ply": read_ply}
 #: The mesh formats read and written, by extension.
 MESH_EXTENSIONS = set(_READERS) | MESHIO_EXTENSIONS
 #: The mesh formats that carry per-vertex and per-element data arrays.

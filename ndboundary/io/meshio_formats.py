@@ -150,6 +150,14 @@ def _check_indices(path, data, n, kind, one_based):
         )
 
 
+def _in_order(values, order):
+    """``values[order]``, without the copy when ``order`` is ``0, 1, ..., len(values) - 1`` (one block)."""
+    values, order = np.asarray(values), np.asarray(order)
+    if order.size == values.shape[0] and np.array_equal(order, np.arange(order.size)):
+        return values
+    return values[order]
+
+
 def write_with_meshio(path, points, blocks, *, order=None, point_data=None, cell_data=None):
     """Write points, cell blocks and data arrays with meshio.
 
@@ -202,7 +210,7 @@ def write_with_meshio(path, points, blocks, *, order=None, point_data=None, cell
             f"use one of {', '.join(sorted(e for e, k in WRITABLE_KINDS.items() if bad <= k) or ['.vtu'])}"
         )
     cells = [(k, np.asarray(d, dtype=np.int32) if not k.startswith("polyhedron") else d) for k, d in blocks]
-    cd = {name: [np.asarray(v)[o] for o in order] for name, v in (cell_data or {}).items()}
+    cd = {name: [_in_order(v, o) for o in order] for name, v in (cell_data or {}).items()}
     mesh = meshio.Mesh(points_3d(points), cells, point_data=point_data or {}, cell_data=cd)
     try:
         if ext == ".msh":

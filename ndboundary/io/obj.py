@@ -1,12 +1,24 @@
-"""Wavefront OBJ: vertices, faces (``f``) and polylines (``l``)."""
+"""Wavefront OBJ: vertices, faces (``f``) and polylines (``l``).
+
+:func:`read_obj` scans large files in one compiled pass (:func:`~.text_scan.scan_obj`);
+a file the scan does not read in full (a malformed line, a token that is not a plain
+number, non-ASCII text on a ``v``, ``f`` or ``l`` line) is read again line by line by
+:func:`read_obj_lines`, which raises the errors with the line's number. Both give the
+same points and cells.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .common import non_finite_error, points_3d
+from . import common
+from .cell_blocks import polygon_block
+from .common import file_bytes, flat_rows, non_finite_error, points_3d
+from .text_format import points_text, rows_text
+from .text_numbers import fill_slow
+from .text_scan import scan_obj
 
-__all__ = ["read_obj", "write_obj"]
+__all__ = ["read_obj", "read_obj_lines", "write_obj"]
 
 
 def _vertex_indices(tokens, n_so_far, path, line_no):
@@ -54,8 +66,9 @@ def read_obj(path):
     r"""Read the vertices and the faces (else the polylines) of an OBJ file as cell blocks.
 
     Texture coordinates, normals, groups and materials are ignored. Faces come as one
-    ``"polygon"`` block; a file without faces gives its polylines as a ``"line"`` block
-    of segments, one per pair of consecutive vertices of each ``l`` line.
+    block (``"triangle"`` or ``"quad"`` arrays when all faces have three or all four
+    vertices, else a ``"polygon"`` list); a file without faces gives its polylines as a
+    ``"line"`` array of segments, one per pair of consecutive vertices of each ``l`` line.
 
     Parameters
     ----------
@@ -84,6 +97,79 @@ def read_obj(path):
     ...     with open(path, "w") as fh:
     ...         _ = fh.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nl 1 2 3\n")
     ...     points, blocks = read_obj(path)
+    >>> points.shape, [(kind, rows.tolist()) for kind, rows in blocks]
+    ((3, 3), [('line', [[0, 1], [1, 2]])])
+    """
+    data = file_bytes(path)
+    fast = scan_obj_bytes(data) if len(data) >= common.FAST_MIN_BYTES else None
+    if fast is not None:
+        return fast
+    points, blocks = read_obj_lines(path)
+    return points, [
+        ("line", np.array(rows, dtype=np.int64).reshape(-1, 2)) if kind == "line" else polygon_block(*flat_rows(rows))
+        for kind, rows in blocks
+    ]
+
+
+def scan_obj_bytes(data):
+    """The points and blocks of an OBJ file's bytes (byte-order mark removed), or None when the scan defers.
+
+    The scan defers on anything :func:`read_obj_lines` would refuse, and on what it
+    does not read itself (see :mod:`.text_scan`), so that its errors keep their lines.
+    """
+    status, coords, flat, sizes, kinds = scan_obj(np.frombuffer(data, dtype=np.uint8))
+    if status:
+        return None
+    coords = fill_slow(coords, data)
+    if not np.isfinite(coords).all():
+        return None
+    points = coords.reshape(-1, 3)
+    faces = kinds == ord("f")
+    if faces.any():
+        if not faces.all():
+            flat, sizes = flat[np.repeat(faces, sizes)], sizes[faces]
+        return points, [polygon_block(flat, sizes)]
+    ends = np.repeat(np.cumsum(sizes), sizes)
+    first = np.flatnonzero(np.arange(flat.size) + 1 < ends)  # every vertex but the last of its line
+    segments = np.stack([flat[first], flat[first + 1]], axis=1)
+    return points, [("line", segments)] if segments.size else []
+
+
+def read_obj_lines(path):
+    r"""Read an OBJ file line by line, as :func:`read_obj` does (with lists of rows for cells).
+
+    The reference reader: :func:`read_obj` falls back on it for the files its scan does
+    not read in full. Texture coordinates, normals, groups and materials are ignored.
+    Faces come as one ``"polygon"`` block; a file without faces gives its polylines as a
+    ``"line"`` block of segments, one per pair of consecutive vertices of each ``l`` line.
+
+    Parameters
+    ----------
+    path : path-like
+        Read as UTF-8; a leading byte-order mark is dropped.
+
+    Returns
+    -------
+    points : ndarray of shape (n_vertices, 3)
+    blocks : list of (kind, data)
+        See :mod:`ndboundary.io.cell_blocks`; empty when the file has neither.
+
+    Raises
+    ------
+    ValueError
+        On a line that is not valid OBJ, a face of fewer than three vertices, a vertex
+        index outside the file's vertices (1-based; negative ones counting back from the
+        last vertex defined so far) or a coordinate that is NaN or infinite; the message
+        names the file, the line and the value.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "l.obj")
+    ...     with open(path, "w") as fh:
+    ...         _ = fh.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nl 1 2 3\n")
+    ...     points, blocks = read_obj_lines(path)
     >>> points.shape, blocks
     ((3, 3), [('line', [(0, 1), (1, 2)])])
     """
@@ -154,8 +240,6 @@ def write_obj(path, points, blocks):
     pts = points_3d(points)
     with open(path, "w", encoding="utf-8") as fh:
         fh.write("# written by ndboundary\n")
-        np.savetxt(fh, pts, fmt="v %.17g %.17g %.17g")
+        fh.write(points_text(pts, "v %.17g %.17g %.17g\n"))
         for kind, rows in blocks:
-            tag = "l" if kind == "line" else "f"
-            for r in rows:
-                fh.write(tag + " " + " ".join(str(int(i) + 1) for i in r) + "\n")
+            fh.write(rows_text(rows, base=1, prefix="l " if kind == "line" else "f "))

@@ -11,12 +11,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .._arrays import first_of_groups, group_rows
+from .._arrays import first_of_groups, group_rows, sort_rows
+from . import common
 from .common import flat_rows
 
 __all__ = ["OPEN_EDGE_FRACTION", "WeldReport", "open_edge_fraction", "weld_blocks", "weld_map"]
@@ -261,13 +263,67 @@ def open_edge_fraction(blocks):
             sizes.append(size)
     if not flats:
         return 0.0
-    flat, sizes = np.concatenate(flats), np.concatenate(sizes)
+    flat, sizes = (flats[0], sizes[0]) if len(flats) == 1 else (np.concatenate(flats), np.concatenate(sizes))
     sizes = sizes[sizes > 0]
     if flat.size == 0:
         return 0.0
+    lowest, highest = int(flat.min()), int(flat.max())
+    if flat.size >= common.FAST_MIN_VALUES and lowest >= 0 and highest < 4 * flat.size + 1024:
+        distinct, once = _edge_counts(flat, sizes, highest + 1)
+        return float(once / distinct)
     nxt = np.arange(flat.size) + 1
     ends = np.cumsum(sizes) - 1
     nxt[ends] = ends - sizes + 1
-    lo, hi = np.minimum(flat, flat[nxt]), np.maximum(flat, flat[nxt])
-    _, counts = np.unique(lo * (int(hi.max()) + 1) + hi, return_counts=True)
+    edges = np.stack([np.minimum(flat, flat[nxt]), np.maximum(flat, flat[nxt])], axis=1)
+    _, new = sort_rows(edges)
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, edges.shape[0]))
     return float(np.count_nonzero(counts == 1) / counts.size)
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_counts(flat, sizes, n):  # pragma: no cover - compiled
+    """The number of distinct edges of polygons (flat rows of indices in ``0..n - 1``) and of those met once.
+
+    The edges are bucketed by their lower vertex (a counting sort); the few upper
+    vertices of every bucket are then sorted and their runs counted.
+    """
+    start = np.zeros(n + 1, dtype=np.int64)
+    k = 0
+    for r in range(sizes.size):
+        for j in range(sizes[r]):
+            b = k + j + 1 if j + 1 < sizes[r] else k  # the next corner, cyclically
+            start[min(flat[k + j], flat[b]) + 1] += 1
+        k += sizes[r]
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    upper = np.empty(flat.size, dtype=np.int64)
+    k = 0
+    for r in range(sizes.size):
+        for j in range(sizes[r]):
+            a, b = flat[k + j], flat[k + j + 1 if j + 1 < sizes[r] else k]
+            upper[fill[min(a, b)]] = max(a, b)
+            fill[min(a, b)] += 1
+        k += sizes[r]
+    distinct, once = 0, 0
+    for v in range(n):
+        lo, hi = start[v], start[v + 1]
+        if hi - lo > 32:
+            upper[lo:hi] = np.sort(upper[lo:hi])
+        else:  # insertion sort: buckets hold a vertex's few neighbours
+            for i in range(lo + 1, hi):
+                x, j = upper[i], i - 1
+                while j >= lo and upper[j] > x:
+                    upper[j + 1] = upper[j]
+                    j -= 1
+                upper[j + 1] = x
+        i = lo
+        while i < hi:
+            j = i + 1
+            while j < hi and upper[j] == upper[i]:
+                j += 1
+            distinct += 1
+            once += j - i == 1
+            i = j
+    return distinct, once

@@ -1,0 +1,139 @@
+"""Reading and writing a 1 M-vertex triangle mesh: OBJ, OFF, binary and ASCII PLY, and the phi writer (VTU).
+
+The mesh is a jittered Kuhn grid of ``--n`` cells a side (999: 1,000,000 vertices and
+1,996,002 triangles) lifted onto the surface ``z = 0.1 sin(3x) cos(2y)``, so that every
+coordinate is written with 17 significant digits. Each format is written to a temporary
+folder and read back; medians of ``--repeats`` runs, wall clock and CPU time (the
+machine may be shared: CPU time is the steadier figure).
+
+- write: ``write_mesh`` (OBJ, OFF; binary PLY through meshio), ``write_ascii_ply`` (the
+  ASCII PLY of ``write_level_set``), and ``write_mesh`` to ``.vtu`` with the point data
+  ``phi`` and ``u`` and three cell arrays, what ``write_phi`` writes.
+- read: ``read_mesh`` (parsing and building the domain) and, on its own, the format's
+  reader (``parse``). The peer, timed once in the same run: the line-by-line reader the
+  compiled scans fall back on (OBJ, OFF), meshio (PLY), and the ratio to ``parse``.
+
+Run::
+
+    python benchmarks/io_speed.py                  # 1 M vertices, about three minutes
+    python benchmarks/io_speed.py --n 300 --repeats 5
+
+Prints a table, then one JSON line per format (``{"bench": "io_speed", ...}``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ndboundary import SimplicialComplex, read_mesh, write_mesh
+from ndboundary.datasets import kuhn_grid
+from ndboundary.io.meshio_formats import read_with_meshio
+from ndboundary.io.obj import read_obj, read_obj_lines
+from ndboundary.io.off import read_off, read_off_lines
+from ndboundary.io.ply import read_ply, write_ascii_ply
+
+
+def surface(n):
+    """The benchmark mesh: a jittered Kuhn grid of ``n`` cells a side, lifted to 3-D."""
+    grid = kuhn_grid(n, 2, jitter=0.25, random_state=0)
+    x, y = grid.points.T
+    return SimplicialComplex(np.c_[x, y, 0.1 * np.sin(3 * x) * np.cos(2 * y)], grid.simplices)
+
+
+def timed(fn, repeats):
+    """Median wall and CPU seconds of ``repeats`` calls, and the last result."""
+    walls, cpus, out = [], [], None
+    for _ in range(repeats):
+        out = None  # free the last result (a domain of a million vertices) before the next run
+        wall, cpu = time.perf_counter(), time.process_time()
+        out = fn()
+        cpus.append(time.process_time() - cpu)
+        walls.append(time.perf_counter() - wall)
+    return statistics.median(walls), statistics.median(cpus), out
+
+
+def formats(mesh, folder):
+    """Per format: (name, path, writer, reader, peer reader)."""
+    phi = {"phi": mesh.points[:, 0], "u": mesh.points[:, 2]}
+    ascii_ply = lambda p: write_ascii_ply(p, mesh.points, mesh.simplices)  # noqa: E731
+    cells = {"labels": np.arange(mesh.n_elements) % 2, "field": np.ones((mesh.n_elements, 3))}
+    cells["smoothed_field"] = cells["field"]
+    return [
+        ("obj", folder / "m.obj", lambda p: write_mesh(p, mesh), read_obj, read_obj_lines),
+        ("off", folder / "m.off", lambda p: write_mesh(p, mesh), read_off, read_off_lines),
+        ("ply-binary", folder / "b.ply", lambda p: write_mesh(p, mesh), read_ply, read_with_meshio),
+        ("ply-ascii", folder / "a.ply", ascii_ply, read_ply, read_with_meshio),
+        ("vtu-phi", folder / "phi.vtu", lambda p: write_mesh(p, mesh, point_data=phi, cell_data=cells), None, None),
+    ]
+
+
+def run(n, repeats, peer):
+    mesh = surface(n)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, path, write, parse, reference in formats(mesh, Path(tmp)):
+            row = {"bench": "io_speed", "format": name, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_elements}
+            row["write_s"], row["write_cpu_s"], _ = timed(lambda: write(path), repeats)  # noqa: B023
+            row["mb"] = os.path.getsize(path) / 1e6
+            if parse is not None:
+                row["read_s"], row["read_cpu_s"], domain = timed(lambda: read_mesh(path), repeats)  # noqa: B023
+                assert domain.n_vertices == mesh.n_vertices and domain.n_elements == mesh.n_elements
+                del domain
+                row["parse_s"], row["parse_cpu_s"], _ = timed(lambda: parse(path), repeats)  # noqa: B023
+            if peer and reference is not None:
+                row["peer"] = reference.__name__
+                row["peer_parse_s"], _, _ = timed(lambda: reference(path), 1)  # noqa: B023
+                row["peer_ratio"] = row["peer_parse_s"] / row["parse_s"]
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    return rows
+
+
+def table(rows):
+    def cell(row, key):
+        return f"{row[key]:.2f}" if key in row else "-"
+
+    head = ["format", "MB", "write s", "write cpu", "read s", "read cpu", "parse s", "peer", "peer s", "x peer"]
+    print("\n" + " | ".join(head))
+    print(" | ".join("-" * len(h) for h in head))
+    for r in rows:
+        keys = ["mb", "write_s", "write_cpu_s", "read_s", "read_cpu_s", "parse_s"]
+        print(" | ".join([r["format"], *(cell(r, k) for k in keys), r.get("peer", "-"), cell(r, "peer_parse_s"),
+                          cell(r, "peer_ratio")]))  # fmt: skip
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--n", type=int, default=999, help="cells a side of the Kuhn grid (999: 1 M vertices)")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--no-peer", action="store_true", help="skip the line readers and meshio")
+    args = parser.parse_args()
+    read_mesh_warmup()
+    rows = run(args.n, args.repeats, not args.no_peer)
+    table(rows)
+    print()
+    for row in rows:
+        print(json.dumps(row))
+
+
+def read_mesh_warmup():
+    """Load (or compile, once per installation) the compiled scans and writers, so that no timing holds it."""
+    mesh = surface(250)  # files and arrays above the sizes that use the compiled code
+    with tempfile.TemporaryDirectory() as tmp:
+        for ext in (".obj", ".off", ".ply"):
+            write_mesh(Path(tmp) / f"w{ext}", mesh)
+            read_mesh(Path(tmp) / f"w{ext}")
+        write_ascii_ply(Path(tmp) / "a.ply", mesh.points, mesh.simplices)
+        read_mesh(Path(tmp) / "a.ply")
+
+
+if __name__ == "__main__":
+    main()
