@@ -159,3 +159,14 @@ def test_level_set_distance_is_the_distance_to_the_simplices(k):
     brute = np.linalg.norm(far[:, None] - dense[None], axis=2).min(axis=1)
     exact = level_set_distance(a_far, b)
     assert (exact <= brute + 1e-12).all() and np.allclose(exact, brute, atol=0.01)
+
+
+def test_band_that_reaches_the_border_matches_the_whole_domain():
+    mesh = kuhn_grid(120, 2, jitter=0.25, random_state=0)
+    labels = label_by(mesh, lambda x: np.hypot(x[:, 0] - 0.75, x[:, 1] - 0.75) - 0.2)  # 0.05 from two sides
+    whole = relax(mesh, labels, on="elements", band=None)
+    band = relax(mesh, labels, on="elements", band=AUTO_BAND_WIDTH)
+    assert band.params["band_vertices"] < 0.5 * mesh.n_vertices
+    mean, worst = level_set_gap(band, whole, mesh.mean_edge_length())
+    assert mean <= 0.01 and worst <= 0.05
+    assert band.level_set().n_components() == whole.level_set().n_components() == 1
