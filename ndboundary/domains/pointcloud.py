@@ -33,6 +33,12 @@ so that a bridge couples its ends as strongly as a typical neighbour pair does.
 Exact duplicates are merged for the geometry (neighbours are searched among distinct
 points) and keep their own vertex, joined to their representative by an edge, so that
 duplicates with different labels still form a boundary.
+
+The operators are built from these arrays by
+:class:`~ndboundary.domains.pointcloud_operators.StencilDomain`, which a band of the
+cloud (:meth:`PointCloud.subdomain`, the relaxation's ``band=``) shares: the band keeps
+the cloud's neighbours, frames and weights, and its operators are the cloud's restricted
+to its elements.
 """
 
 from __future__ import annotations
@@ -44,11 +50,10 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from .._validation import check_points
-from ..fields import normalize_rows
-from .base import Domain
 from .neighbors import component_bridges, estimate_intrinsic_dim, kneighbors
 from .pointcloud_extension import NeighborExtension
-from .tangent import ball_volume, frame_transport, local_pca, lsq_coefficients
+from .pointcloud_operators import StencilDomain
+from .tangent import ball_volume, local_pca, lsq_coefficients
 
 __all__ = ["PointCloud"]
 
@@ -58,7 +63,7 @@ _CHUNK = 4096
 _GATHER = 1 << 22
 
 
-class PointCloud(Domain):
+class PointCloud(StencilDomain):
     """A kNN graph over data points with intrinsic (tangent-space) operators.
 
     Parameters
@@ -157,6 +162,9 @@ class PointCloud(Domain):
         self._stencil = np.concatenate(
             [np.arange(self.points.shape[0])[:, None], rep[self.neighbors[self.unique_inverse]]], axis=1
         )
+        self._rows = self.unique_inverse
+        dup = np.flatnonzero(rep[self.unique_inverse] != np.arange(self.points.shape[0]))
+        self._dup_pairs = np.stack([dup, rep[self.unique_inverse[dup]]], axis=1)
         mult = np.bincount(self.unique_inverse, minlength=n_u)
         vol = ball_volume(m) * self.distances[:, -1] ** m / k
         self._point_measure = (vol / mult)[self.unique_inverse]
@@ -172,168 +180,17 @@ class PointCloud(Domain):
         g = sp.csr_matrix((np.ones(n_u * k), (np.repeat(np.arange(n_u), k), self.neighbors.ravel())), shape=(n_u, n_u))
         return g + g.T
 
-    # -- sizes ------------------------------------------------------------------------
-    @property
-    def dim(self) -> int:
-        """Number of field components per element: the intrinsic dimension ``m``."""
-        return self.intrinsic_dim
-
-    @property
-    def n_features(self) -> int:
-        """Dimension ``D`` of the ambient space."""
-        return int(self.points.shape[1])
-
-    @property
-    def n_elements(self) -> int:
-        """Number of elements."""
-        return int(self.points.shape[0] + self.bridges.shape[0])
-
-    @property
-    def element_dim(self) -> int:
-        """Dimension k of the elements."""
-        return self.intrinsic_dim
-
     def mean_edge_length(self) -> float:
         """Mean distance from a point to its neighbours (bridges excluded): the scale ``h``."""
         return float(self.distances.mean())
 
-    def element_centroids(self) -> np.ndarray:
-        """The points, then the bridges' midpoints, shape (n_elements, n_features)."""
-        mid = 0.5 * (self.points[self.bridges[:, 0]] + self.points[self.bridges[:, 1]])
-        return np.concatenate([self.points, mid])
+    def _element_coef(self, elements):
+        return self._coef[self._rows[elements]]
 
-    # -- operators ----------------------------------------------------------------------
-    def _bridge_lengths(self):
-        b = self.bridges
-        return np.linalg.norm(self.points[b[:, 0]] - self.points[b[:, 1]], axis=1)
-
-    def build_gradient(self):
-        """The gradient operator (see the module docstring)."""
-        N = self.points.shape[0]
-        m, s = self.intrinsic_dim, self._stencil
-        k1 = s.shape[1]
-        coef = self._coef[self.unique_inverse]  # (N, m, k)
-        data = np.concatenate([-coef.sum(axis=2, keepdims=True), coef], axis=2)  # (N, m, k+1)
-        indices = np.broadcast_to(s[:, None, :], (N, m, k1))
-        indptr = np.arange(N * m + 1, dtype=np.int64) * k1
-        G = sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(N * m, N))
-        nb = self.bridges.shape[0]
-        if nb == 0:
-            return G
-        L = self._bridge_lengths()
-        rows = np.repeat(np.arange(nb) * m, 2)
-        cols = self.bridges.ravel()
-        vals = np.stack([-1.0 / L, 1.0 / L], axis=1).ravel()
-        Gb = sp.csr_matrix((vals, (rows, cols)), shape=(nb * m, N))
-        return sp.vstack([G, Gb]).tocsr()
-
-    def build_measures(self):
-        """The element measures."""
-        A = self._point_measure
-        if self.bridges.shape[0] == 0:
-            return A.copy()
-        # a bridge of length L couples its ends like a typical neighbour pair
+    def _bridge_measures(self):
+        """A bridge of length ``L`` couples its ends like a typical neighbour pair."""
         h = self.mean_edge_length()
-        return np.concatenate([A, np.median(A) * (self._bridge_lengths() / h) ** 2])
-
-    def build_mass(self):
-        """Each element's measure shared equally among its vertices."""
-        return self._point_measure.copy()
-
-    def _element_vertices(self):
-        """(element index, vertex index) pairs of the incidence."""
-        N, k1 = self._stencil.shape
-        e = np.repeat(np.arange(N), k1)
-        v = self._stencil.ravel()
-        nb = self.bridges.shape[0]
-        if nb:
-            e = np.concatenate([e, np.repeat(N + np.arange(nb), 2)])
-            v = np.concatenate([v, self.bridges.ravel()])
-        return e, v
-
-    def build_incidence(self):
-        """The vertex-element incidence."""
-        e, v = self._element_vertices()
-        inc = sp.csr_matrix((np.ones(e.size), (v, e)), shape=(self.n_vertices, self.n_elements))
-        inc.data[:] = 1.0
-        return inc
-
-    def _point_pairs(self):
-        N = self.points.shape[0]
-        i = np.repeat(np.arange(N), self._stencil.shape[1] - 1)
-        j = self._stencil[:, 1:].ravel()
-        dup = np.flatnonzero(self._rep[self.unique_inverse] != np.arange(N))
-        i = np.concatenate([i, dup])
-        j = np.concatenate([j, self._rep[self.unique_inverse[dup]]])
-        return i, j
-
-    def build_adjacency(self):
-        """Elements sharing a facet."""
-        i, j = self._point_pairs()
-        adj = sp.csr_matrix((np.ones(i.size), (i, j)), shape=(self.n_elements, self.n_elements))
-        adj = (adj + adj.T).tocsr()
-        adj.setdiag(0)
-        adj.eliminate_zeros()
-        adj.data[:] = 1.0
-        return adj
-
-    def build_edges(self):
-        """The unique edges, ``i < j``."""
-        i, j = self._point_pairs()
-        i = np.concatenate([i, self.bridges[:, 0]])
-        j = np.concatenate([j, self.bridges[:, 1]])
-        N = self.points.shape[0]
-        key = np.unique(np.minimum(i, j) * N + np.maximum(i, j))
-        return np.stack([key // N, key % N], axis=1)
-
-    def smoothing_operator(self):
-        """The linear map of one smoothing pass on the flattened field, shape (n_elements * m,) * 2.
-
-        Element ``j``'s new vector is ``sum_i T_j^T T_i X_i`` over ``i`` in ``j``'s
-        stencil (itself and its neighbours): every neighbour's vector is carried into
-        ``j``'s tangent frame through the ambient space before averaging. Bridges keep
-        their own vector.
-        """
-        W = frame_transport(self.frames, self.unique_inverse, self._stencil)
-        nb = self.bridges.shape[0]
-        return sp.block_diag([W, sp.identity(nb * self.intrinsic_dim)], format="csr") if nb else W
-
-    # -- what the relaxation asks ---------------------------------------------------------
-    def smooth_field(self, X, passes):
-        """Step 3 on tangent fields: ``passes`` sweeps of :meth:`smoothing_operator` (every
-        neighbour's vector carried into the point's tangent frame before averaging),
-        renormalised after each sweep, in Jacobi order. ``X`` is not modified.
-        """
-        if passes == 0:
-            return X
-        W = self.smoothing_operator()
-        Xs = X
-        for _ in range(passes):
-            Xs = normalize_rows((W @ Xs.reshape(-1)).reshape(Xs.shape))
-        return Xs
-
-    def lam_reference(self):
-        """None: a kNN graph has no regular grid to measure ``lam`` against."""
-        return None
-
-    def split_elements(self, mask):
-        """No padding: a point's gradient is a least-squares fit over ``k`` neighbours.
-
-        Padding exists for simplices all of whose vertices hold the same heat. Here the
-        heat is never prescribed at the sources (it is the solution of ``(M + tK) u = b``
-        with ``b`` proportional to the varying masses), a point's gradient draws on
-        ``k`` neighbours, and the pipeline lets a point whose gradient vanishes take
-        its direction from its neighbours during smoothing.
-        """
-        return self, np.arange(self.n_elements)
-
-    def simplicial_refinement(self):
-        """A point cloud has no simplices: evaluate phi at new points instead."""
-        raise TypeError(
-            "a PointCloud has no simplices to extract a level set from; build a Delaunay "
-            "complex (ndboundary.DelaunayComplex) or evaluate phi at new points "
-            "with LevelSetClassifier"
-        )
+        return np.median(self._point_measure) * (self._bridge_lengths() / h) ** 2
 
     def propagation_edges(self, max_neighbors):
         """Each sample's ``max_neighbors`` nearest neighbours, its duplicates and the bridges.
@@ -345,9 +202,8 @@ class PointCloud(Domain):
         kk = min(max_neighbors, self.neighbors.shape[1])
         i = np.repeat(np.arange(n), kk)
         j = self._rep[self.neighbors[self.unique_inverse, :kk]].ravel()
-        dup = np.flatnonzero(self._rep[self.unique_inverse] != np.arange(n))
-        i = np.concatenate([i, dup, self.bridges[:, 0]])
-        j = np.concatenate([j, self._rep[self.unique_inverse[dup]], self.bridges[:, 1]])
+        i = np.concatenate([i, self._dup_pairs[:, 0], self.bridges[:, 0]])
+        j = np.concatenate([j, self._dup_pairs[:, 1], self.bridges[:, 1]])
         return np.stack([i, j], axis=1)
 
     def vertex_neighborhoods(self):

@@ -84,17 +84,19 @@ def lsq_coefficients(Z):
     return np.linalg.solve(ZtZ, Z.transpose(0, 2, 1))
 
 
-def frame_transport(frames, unique_inverse, stencil):
+def frame_transport(frames, rows, stencil):
     """The averaging of tangent vectors over stencils, carried between frames.
 
     Row block ``j`` maps the flattened field to ``sum_i T_j^T T_i X_i`` over ``i`` in
-    ``stencil[j]``: every neighbour's vector goes into ``j``'s frame through the ambient
-    space. Sparse of shape (N m, N m), ``N = len(stencil)``, ``m`` the frames' width.
+    ``stencil[j]``, ``T_i = frames[rows[i]]``: every neighbour's vector goes into ``j``'s
+    frame through the ambient space. Negative entries of ``stencil`` are left out of the
+    sums (in a band of a point cloud, the neighbours that are not elements of the band).
+    Sparse of shape (N m, N m), ``N = len(stencil)``, ``m`` the frames' width.
 
     Examples
     --------
     Three points sharing one frame, each with a stencil of two: vectors pass unchanged,
-    so a constant field sums to twice itself.
+    so a constant field sums to twice itself, or to itself where a neighbour is absent.
 
     >>> import numpy as np
     >>> from ndboundary.domains.tangent import frame_transport
@@ -102,16 +104,25 @@ def frame_transport(frames, unique_inverse, stencil):
     >>> M = frame_transport(frames, np.arange(3), np.array([[0, 1], [1, 2], [2, 0]]))
     >>> M.shape, (M @ np.ones(6)).round(6).tolist()
     ((6, 6), [2.0, 2.0, 2.0, 2.0, 2.0, 2.0])
+    >>> M = frame_transport(frames, np.arange(3), np.array([[0, 1], [1, -1], [2, 0]]))
+    >>> (M @ np.ones(6)).round(6).tolist()
+    [2.0, 2.0, 1.0, 1.0, 2.0, 2.0]
     """
     N, k1 = stencil.shape
     m = frames.shape[2]
-    u, s = unique_inverse, stencil
+    present = stencil >= 0
+    s = stencil if present.all() else np.where(present, stencil, 0)
     data = np.empty((N, m, k1, m))
     for a in range(0, N, _CHUNK):
         c = slice(a, min(N, a + _CHUNK))
-        Tj = frames[u[c]]  # (b, D, m)
-        Ti = frames[u[s[c]]]  # (b, k1, D, m)
+        Tj = frames[rows[c]]  # (b, D, m)
+        Ti = frames[rows[s[c]]]  # (b, k1, D, m)
         data[c] = np.einsum("bda,bkdc->bakc", Tj, Ti, optimize=True)
     indices = (s[:, None, :, None] * m + np.arange(m)[None, None, None, :]).repeat(m, axis=1)
-    indptr = np.arange(N * m + 1, dtype=np.int64) * (k1 * m)
-    return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(N * m, N * m))
+    if present.all():
+        indptr = np.arange(N * m + 1, dtype=np.int64) * (k1 * m)
+        return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(N * m, N * m))
+    keep = np.broadcast_to(present[:, None, :, None], data.shape)
+    indptr = np.zeros(N * m + 1, dtype=np.int64)
+    np.cumsum(np.repeat(present.sum(axis=1) * m, m), out=indptr[1:])
+    return sp.csr_matrix((data[keep], indices[keep], indptr), shape=(N * m, N * m))

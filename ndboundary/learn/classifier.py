@@ -34,7 +34,6 @@ import sys
 import time
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -42,8 +41,10 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from ..domains import DelaunayComplex, PointCloud
 from ..domains.delaunay import DELAUNAY_MAX_DIM
 from ..pipeline import relax
+from .band import classifier_band
 from .extrema import impose_extrema
 from .params import check_classifier_params
+from .probability import logistic_slope
 from .propagation import harmonic_labels, vote
 from .scaling import apply_scaling, fit_scaling
 
@@ -117,6 +118,13 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     unlabeled : int, float, str or None, default=None
         The label that marks an unlabelled sample (``-1`` to follow
         :class:`~sklearn.semi_supervised.LabelSpreading`). None: every label is a class.
+    band : "auto", float or None, default="auto"
+        Relax each class only over the samples within this graph distance of its jagged
+        boundary, in units of ``h``, and fill ``phi`` beyond them with the signed graph
+        distance (the ``band`` of :func:`ndboundary.relax`); None: the whole graph.
+        ``"auto"``: a band of 16 ``h`` on a kNN graph of more than 20 000 samples, the
+        whole graph otherwise (:func:`~ndboundary.learn.band.classifier_band`, which says
+        where the band pays). The value used is ``band_``.
     intrinsic_dim : int or None, default=None
         Tangent dimension of the kNN operators; estimated when None.
     random_state : int, Generator or None, default=None
@@ -131,6 +139,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         Neighbours per sample of the kNN graph (0 for a Delaunay complex).
     extension_power_ : float or None
         Power of the extension weights (None for a Delaunay complex).
+    band_ : float or None
+        Width of the band the classes were relaxed over, in units of ``h`` (None: the
+        whole graph).
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (n_features_in_,)
         Only when ``X`` has string column names.
@@ -188,6 +199,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         vote_threshold=2 / 3,
         tol=1e-6,
         unlabeled=None,
+        band="auto",
         intrinsic_dim=None,
         random_state=None,
         verbose=False,
@@ -202,6 +214,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self.vote_threshold = vote_threshold
         self.tol = tol
         self.unlabeled = unlabeled
+        self.band = band
         self.intrinsic_dim = intrinsic_dim
         self.random_state = random_state
         self.verbose = verbose
@@ -266,10 +279,12 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             self.proba_scale_ = 1.0
             self.n_neighbors_ = 0
             self.extension_power_ = None
+            self.band_ = None
             self.extension_ = None
             return self
         self._constant = None
         self.domain_, self.n_neighbors_, lam = self._build_domain(X)
+        self.band_ = classifier_band(self.band, self.domain_)
         self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)
         if not labelled.all():
             codes = harmonic_labels(self.domain_, codes, labelled)
@@ -284,7 +299,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             if target.all() or not target.any():
                 phis.append(np.full(X.shape[0], 1.0 if target.all() else 0.0))
                 continue
-            res = relax(self.domain_, target, on="vertices", lam=lam, smoothing=self.smoothing, rtol=self.tol)
+            res = relax(
+                self.domain_, target, on="vertices", lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_
+            )
             phis.append(impose_extrema(self.domain_, res.phi, target))
             self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
         self.phi_ = np.stack(phis, axis=1)
@@ -299,23 +316,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
     def _fit_proba_scale(self, codes, labelled):
         """Slope of the logistic map fitted on leave-one-out ``phi`` at the labelled samples."""
-        phi = self.extension_.leave_one_out(np.flatnonzero(labelled))
-        c = codes[labelled]
-        if phi.shape[1] == 1:
-            z = phi[:, 0] - 0.5
-            sgn = np.where(c == 1, 1.0, -1.0)
-
-            def loss(la):
-                return np.logaddexp(0.0, -np.exp(la) * sgn * z).mean()
-        else:
-
-            def loss(la):
-                s = np.exp(la) * phi
-                s = s - s.max(axis=1, keepdims=True)
-                return (np.log(np.exp(s).sum(axis=1)) - s[np.arange(s.shape[0]), c]).mean()
-
-        res = minimize_scalar(loss, bounds=(-8.0, 8.0), method="bounded")
-        return float(np.exp(res.x))
+        return logistic_slope(self.extension_.leave_one_out(np.flatnonzero(labelled)), codes[labelled])
 
     # -- predict ------------------------------------------------------------------------------
     def _validate_predict(self, X):

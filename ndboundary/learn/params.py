@@ -68,5 +68,14 @@ def check_classifier_params(est):
         raise TypeError(f"tol must be a number, got {type(est.tol).__name__}")
     if not 0.0 < est.tol < 1.0:
         raise ValueError(f"tol must be in (0, 1), got {est.tol}")
+    b = est.band
+    if isinstance(b, str):
+        if b != "auto":
+            raise ValueError(f"band must be 'auto', a width in units of h or None, got {b!r}")
+    elif b is not None:
+        if not _is_real(b):
+            raise TypeError(f"band must be 'auto', a number or None, got {type(b).__name__}")
+        if not 0.0 < b < np.inf:
+            raise ValueError(f"band must be a positive finite width in units of h, got {b}")
     if est.graph not in ("knn", "delaunay", "auto"):
         raise ValueError(f"graph must be 'knn', 'delaunay' or 'auto', got {est.graph!r}")

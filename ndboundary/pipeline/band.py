@@ -208,7 +208,7 @@ def band_width(params, domain, lam_scale=1.0):
     >>> from ndboundary.pipeline.band import band_width
     >>> defaults = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
     >>> band_width(defaults, kuhn_grid(4, 2)), band_width(defaults, kuhn_grid(4, 2), lam_scale=0.25)
-    (12.0, 57.1)
+    (12.0, 33.9)
     >>> band_width({**defaults, "smoothing": 15}, kuhn_grid(4, 3))
     24.0
     >>> band_width({**defaults, "mu": 0.0}, kuhn_grid(4, 2)) is None

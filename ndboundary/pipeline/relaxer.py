@@ -121,7 +121,7 @@ class Relaxer:
         self._labelling = None  # (key, boundary, padded)
         self._heat = None  # (key, u, heat_info, X)
         self._band = None  # (key, band asked, width, boundary, mask, distance from zeta, vertices)
-        self._band_relaxer = None  # (digest of the band's mask, relaxer of the band)
+        self._band_relaxer = None  # (digest of the band's mask, relaxer of the band, its vertices)
         self._graph = None  # the edge graph of the band's searches: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
 
@@ -283,15 +283,14 @@ class Relaxer:
             vertices = None
         mask_key = digest("band", mask)
         if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
-            relaxer = self._band_relaxer[1]
-            vertices = np.flatnonzero(domain.incidence @ mask.astype(np.float64))
+            relaxer, vertices = self._band_relaxer[1:]
         else:
             self._band_relaxer = None
             sub, vertices = domain.subdomain(mask)
             relaxer = Relaxer(sub, _keep=self._keep, _h=h)
         if self._keep:
             self._band = (key, p["band"], width, boundary, mask, dist, vertices)
-            self._band_relaxer = (mask_key, relaxer)
+            self._band_relaxer = (mask_key, relaxer, vertices)
         if verbose:
             print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
         locate = time.perf_counter() - tick
