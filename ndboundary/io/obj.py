@@ -143,24 +143,8 @@ def read_obj_lines(path):
     Faces come as one ``"polygon"`` block; a file without faces gives its polylines as a
     ``"line"`` block of segments, one per pair of consecutive vertices of each ``l`` line.
 
-    Parameters
-    ----------
-    path : path-like
-        Read as UTF-8; a leading byte-order mark is dropped.
-
-    Returns
-    -------
-    points : ndarray of shape (n_vertices, 3)
-    blocks : list of (kind, data)
-        See :mod:`ndboundary.io.cell_blocks`; empty when the file has neither.
-
-    Raises
-    ------
-    ValueError
-        On a line that is not valid OBJ, a face of fewer than three vertices, a vertex
-        index outside the file's vertices (1-based; negative ones counting back from the
-        last vertex defined so far) or a coordinate that is NaN or infinite; the message
-        names the file, the line and the value.
+    Takes and returns what :func:`read_obj` does (with lists of rows), and raises its
+    errors, naming the file, the line and the value.
 
     Examples
     --------

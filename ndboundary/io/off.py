@@ -200,24 +200,8 @@ def read_off_lines(path):
     one a line, and the faces ``k i_1 ... i_k`` (0-based), one a line. Trailing per-line
     values (colours) and ``#`` comments are ignored.
 
-    Parameters
-    ----------
-    path : path-like
-        Read as UTF-8; a leading byte-order mark is dropped.
-
-    Returns
-    -------
-    points : ndarray of shape (n_vertices, 3)
-    blocks : list of (kind, data)
-        One ``"polygon"`` block, or none when the file has no faces.
-
-    Raises
-    ------
-    ValueError
-        When the file does not start with ``OFF``, its content is malformed, it holds
-        fewer or more lines than its header announces, a vertex index is outside
-        ``0..n_vertices - 1`` or a coordinate is NaN or infinite (the message names the
-        file, the line and the value).
+    Takes and returns what :func:`read_off` does (with a ``"polygon"`` block of row
+    lists), and raises its errors, naming the file, the line and the value.
 
     Examples
     --------
