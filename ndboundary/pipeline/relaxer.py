@@ -84,9 +84,11 @@ class Relaxer:
     heat and the field of the last labelling, and the last factorisation of the
     integration system (with PARDISO's ordering, which serves every labelling of the
     domain). Another smoothing of the same labels then costs the smoothing and a
-    back-substitution; another ``lam`` reuses everything but the factorisation. Memory is
-    bounded to one labelling and one factor: :attr:`nbytes` reports it and
-    :meth:`clear` frees it.
+    back-substitution; another ``lam`` reuses everything but the factorisation. On the
+    band (:mod:`ndboundary.pipeline.band`) it keeps the edge graph the band is found on,
+    which serves every labelling of the domain, and the band's own relaxer, which serves
+    every labelling with the same band. Memory is bounded to one labelling and one
+    factor: :attr:`nbytes` reports it and :meth:`clear` frees it.
 
     Parameters
     ----------
