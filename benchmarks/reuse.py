@@ -1,11 +1,12 @@
 """Reuse between relaxations of one domain: ``Relaxer(domain).relax`` twice on a geodesic sphere.
 
-The first call computes everything: the jagged boundary and padded domain, the heat and
-the field, and the factorisation of the integration system. The second call changes
-only the number of smoothing passes: the relaxer reuses the padded operators, the heat
-and field, and (the integration matrix being the same) the factor, so that it costs the
-smoothing and a back-substitution. ``ndboundary.relax`` keeps nothing between calls:
-every one of its calls costs as much as the first here.
+The first call computes everything: the jagged boundary, the band and its padded
+domain, the heat and the field, and the factorisation of the integration system. The
+second call raises the number of smoothing passes (more passes keep the band's width:
+fewer widen it, and then the band is built again): the relaxer reuses the band, its
+padded operators, the heat and field, and (the integration matrix being the same) the
+factor, so that it costs the smoothing and a back-substitution. ``ndboundary.relax``
+keeps nothing between calls: every one of its calls costs as much as the first here.
 
 Usage::
 
@@ -29,7 +30,7 @@ import ndboundary as nb
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--freq", type=int, default=158, help="geodesic frequency (158: 250K vertices)")
-    ap.add_argument("--smoothing", type=int, default=20, help="smoothing passes of the second call (default 20)")
+    ap.add_argument("--smoothing", type=int, default=100, help="smoothing passes of the second call (default 100)")
     args = ap.parse_args(argv)
     pts, T = geodesic_sphere(args.freq)
     dom = nb.SimplicialComplex(pts, T)

@@ -170,3 +170,16 @@ def test_band_that_reaches_the_border_matches_the_whole_domain():
     mean, worst = level_set_gap(band, whole, mesh.mean_edge_length())
     assert mean <= 0.01 and worst <= 0.05
     assert band.level_set().n_components() == whole.level_set().n_components() == 1
+
+
+def test_a_relaxer_on_the_band_equals_relax_when_the_width_changes():
+    mesh = kuhn_grid(240, 2, jitter=0.2, random_state=0)
+    labels = label_by(mesh, lambda x: np.linalg.norm(x, axis=1) - 0.4)
+    relaxer = Relaxer(mesh)
+    first = relaxer.relax(labels, on="elements")
+    for kwargs in ({"smoothing": 20}, {"smoothing": 200}, {"lam": 0.5}, {}):
+        res = relaxer.relax(labels, on="elements", **kwargs)
+        one_shot = relax(mesh, labels, on="elements", **kwargs)
+        assert res.params["band"] == one_shot.params["band"]
+        np.testing.assert_array_equal(res.phi, one_shot.phi)
+    assert relaxer.relax(labels, on="elements", smoothing=20).params["band"] > first.params["band"]

@@ -122,7 +122,7 @@ class Relaxer:
         self._factors = FactorCache()
         self._labelling = None  # (key, boundary, padded)
         self._heat = None  # (key, u, heat_info, X)
-        self._band = None  # (key, band asked, width, boundary, mask, distance from zeta, vertices)
+        self._band = None  # (key, boundary, lam_scale or None, (width, mask, distance from zeta))
         self._band_relaxer = None  # (digest of the band's mask, relaxer of the band, its vertices)
         self._graph = None  # the edge graph of the band's searches: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
@@ -132,7 +132,7 @@ class Relaxer:
         """Memory held for the next relaxation: padded operators, heat, field and factor (bytes)."""
         held = _nbytes([self._labelling, self._heat, self._graph], {id(self.domain)}) + self._factors.nbytes
         if self._band is not None:
-            held += _nbytes(self._band[3:], set())
+            held += _nbytes([self._band[1], self._band[3]], set())
         if self._band_relaxer is not None:
             sub = self._band_relaxer[1]
             held += sub.nbytes + _nbytes(sub.domain, set())
@@ -257,32 +257,40 @@ class Relaxer:
         if self._graph is None or self._graph[0] != h:
             self._graph = (h, band_graph(domain, h))
         graph = self._graph[1]
-        if self._band is not None and self._band[:2] == (key, p["band"]):
-            width, boundary, mask, dist, vertices = self._band[2:]
+        if self._band is not None and self._band[0] == key:
+            boundary, scale, cached = self._band[1:]
         else:
             self._band = None
             boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
             if boundary.sources.size == 0:
                 raise ValueError("the two regions never meet: labels form no boundary on this domain")
-            width = p["band"]
-            if width == "auto":
-                # the narrowest band auto can choose first: when it already holds most of
-                # the domain, the whole domain costs no more
-                width = band_width(p, domain)
-                mask, dist = band_elements(domain, boundary.sources, width, graph)
-                if mask.mean() > AUTO_BAND_MAX_SHARE:
-                    return None
-                wider = band_width(p, domain, self._boundary_weight_scale(region1, boundary, on, pad, h))
-                if wider > width:
-                    width = wider
-                    mask, dist = band_elements(domain, boundary.sources, width, graph)
-                if mask.mean() > AUTO_BAND_MAX_SHARE:
-                    return None
-            else:
-                mask, dist = band_elements(domain, boundary.sources, width, graph)
-            if mask.all():
+            scale = cached = None
+
+        def band_of(width):
+            if cached is not None and cached[0] == width:
+                return cached[1:]
+            return band_elements(domain, boundary.sources, width, graph)
+
+        width = p["band"]
+        if width == "auto":
+            # the narrowest band auto can choose first: when it already holds most of the
+            # domain, the whole domain costs no more
+            width = band_width(p, domain)
+            mask, dist = band_of(width)
+            if mask.mean() > AUTO_BAND_MAX_SHARE:
                 return None
-            vertices = None
+            if scale is None:
+                scale = self._boundary_weight_scale(region1, boundary, on, pad, h)
+            wider = band_width(p, domain, scale)
+            if wider > width:
+                width = wider
+                mask, dist = band_of(width)
+            if mask.mean() > AUTO_BAND_MAX_SHARE:
+                return None
+        else:
+            mask, dist = band_of(width)
+        if mask.all():
+            return None
         mask_key = digest("band", mask)
         if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
             relaxer, vertices = self._band_relaxer[1:]
@@ -291,7 +299,7 @@ class Relaxer:
             sub, vertices = domain.subdomain(mask)
             relaxer = Relaxer(sub, _keep=self._keep, _h=h)
         if self._keep:
-            self._band = (key, p["band"], width, boundary, mask, dist, vertices)
+            self._band = (key, boundary, scale, (width, mask, dist))
             self._band_relaxer = (mask_key, relaxer, vertices)
         if verbose:
             print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
