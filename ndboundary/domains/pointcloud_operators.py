@@ -20,9 +20,9 @@ the kept neighbours instead would be exact on linear functions, but on the band'
 ill-conditioned: on the data of ``benchmarks/scale.py`` (20 000 samples, 15 neighbours,
 a band 2 h wide) the heat took 900 conjugate-gradient iterations instead of 31, and the
 integration's did not converge. The cloud's weights keep the band's systems as
-well-conditioned as the cloud's. The band
-shares the cloud's frames, weights and measures and searches no neighbours: cutting it
-costs a pass over the mask and work in proportion to the band.
+well-conditioned as the cloud's. The band shares the cloud's frames, weights and measures
+and searches no neighbours: cutting it costs a pass over the mask and work in proportion
+to the band.
 
 Its operators are the cloud's restricted to the band wherever an element's stencil lies
 in the band (every element but those on the band's edge, :attr:`PointCloudBand.cut`):
