@@ -28,7 +28,7 @@ from .band import (
     extend_outside,
     growth_rate,
 )
-from .boundary import element_boundary, vertex_boundary
+from .boundary import Boundary, element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
 from .heat import diffuse
@@ -178,14 +178,16 @@ class Relaxer:
 
         key = _labels_key(region1, on, bool(pad))
         auto = p["band"] == "auto"
+        zeta = None
         if p["band"] is not None and not (
             auto and (band_width(p, domain) is None or domain.n_vertices < AUTO_BAND_MIN_VERTICES)
         ):
             result = self._relax_band(key, region1, classes, h, p, pad, verbose, t0)
-            if result is not None:
+            if not isinstance(result, Boundary):
                 result.timings["total"] = time.perf_counter() - t0
                 return result
-        boundary, padded = self._padded(key, region1, on, bool(pad))
+            zeta = result  # the band would hold (nearly) everything: the whole domain, with its zeta
+        boundary, padded = self._padded(key, region1, on, bool(pad), zeta)
         prog.step("pad")
         u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
         Xs = smooth(padded.work, X, p["smoothing"])
@@ -244,9 +246,10 @@ class Relaxer:
         return RegionsResult(phi, classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
 
     def _relax_band(self, key, region1, classes, h, p, pad, verbose, start):
-        """Relax on the elements near zeta and extend phi outside them; None when the band
-        holds every element (the whole-domain relaxation is then the same) or, for
-        ``band="auto"``, most of them (the whole domain then costs no more).
+        """Relax on the elements near zeta and extend phi outside them; zeta alone (a
+        :class:`~ndboundary.pipeline.boundary.Boundary`, for the whole-domain relaxation)
+        when the band holds every element (the whole-domain relaxation is then the same)
+        or, for ``band="auto"``, most of them (the whole domain then costs no more).
 
         The edge graph serves every labelling, and the band's relaxer (its operators,
         orderings and factor) every labelling whose band is the same. ``start`` is when the
@@ -276,9 +279,13 @@ class Relaxer:
             # the narrowest band auto can choose first: when it already holds most of the
             # domain, the whole domain costs no more
             width = band_width(p, domain)
+            if boundary.sources.size * 2 * width > AUTO_BAND_MAX_SHARE * domain.n_vertices:
+                # zeta's vertices times the band's thickness in layers (at least one layer
+                # per h) already exceed the share: no need to search the band
+                return boundary
             mask, dist = band_of(width)
             if mask.mean() > AUTO_BAND_MAX_SHARE:
-                return None
+                return boundary
             if scale is None:
                 scale = self._boundary_weight_scale(region1, boundary, on, pad, h)
             wider = band_width(p, domain, scale)
@@ -286,11 +293,11 @@ class Relaxer:
                 width = wider
                 mask, dist = band_of(width)
             if mask.mean() > AUTO_BAND_MAX_SHARE:
-                return None
+                return boundary
         else:
             mask, dist = band_of(width)
         if mask.all():
-            return None
+            return boundary
         mask_key = digest("band", mask)
         if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
             relaxer, vertices = self._band_relaxer[1:]
@@ -338,13 +345,16 @@ class Relaxer:
         padded = pad_domain(sub, labels, zeta, on, pad)
         return boundary_weight_scale(padded.work, h, zeta.sources)
 
-    def _padded(self, key, region1, on, pad):
-        """Zeta and the padded domain of a labelling, kept for the next call."""
+    def _padded(self, key, region1, on, pad, boundary=None):
+        """Zeta (``boundary`` when already found) and the padded domain of a labelling, kept
+        for the next call.
+        """
         if self._labelling is not None and self._labelling[0] == key:
             return self._labelling[1:]
         self._labelling = self._heat = None
         domain = self.domain
-        boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
+        if boundary is None:
+            boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
         check_element_shapes(domain, stacklevel=5)
