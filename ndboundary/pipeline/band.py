@@ -40,6 +40,7 @@ __all__ = [
     "band_graph",
     "band_width",
     "can_cut",
+    "element_rings",
     "extend_outside",
     "growth_rate",
 ]
@@ -77,6 +78,26 @@ def can_cut(domain):
     True
     """
     return type(domain).subdomain is not Domain.subdomain
+
+
+def element_rings(domain, vertices, rings=1):
+    """The elements within ``rings`` rings of the ``vertices``: those touching them, then
+    those touching the vertices of those, and so on (a boolean mask over the elements).
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import element_rings
+    >>> grid = kuhn_grid(10, 2)  # the centre vertex 60 is shared by six triangles
+    >>> int(element_rings(grid, [60]).sum()), int(element_rings(grid, [60], rings=2).sum())
+    (6, 24)
+    """
+    inc = domain.incidence
+    near = np.zeros(domain.n_vertices)
+    near[np.asarray(vertices, dtype=np.intp)] = 1.0
+    for _ in range(rings - 1):
+        near = ((inc @ ((inc.T @ near) > 0).astype(np.float64)) > 0).astype(np.float64)
+    return (inc.T @ near) > 0
 
 
 def band_graph(domain, h):

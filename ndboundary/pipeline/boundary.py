@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .band import can_cut
+from .band import can_cut, element_rings
 
 __all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary"]
 
@@ -77,9 +77,7 @@ def element_boundary(domain, region1):
 
 def _interface_facets(domain, region1, sources):
     """``domain.interface_facets(region1)``, sought among the elements touching ``sources``."""
-    touched = np.zeros(domain.n_vertices)
-    touched[sources] = 1.0
-    near = (domain.incidence.T @ touched) > 0
+    near = element_rings(domain, sources)
     n_near = np.count_nonzero(near)
     if n_near == 0 or 2 * n_near > domain.n_elements or not can_cut(domain):
         return domain.interface_facets(region1)

@@ -25,6 +25,7 @@ from .band import (
     band_elements,
     band_graph,
     band_width,
+    element_rings,
     extend_outside,
     growth_rate,
 )
@@ -333,12 +334,7 @@ class Relaxer:
         of elements around zeta, padded: they hold the stiffness and mass it reads.
         """
         domain = self.domain
-        inc = domain.incidence
-        near = np.zeros(domain.n_vertices)
-        near[boundary.sources] = 1.0
-        for _ in range(2):
-            ring = (inc.T @ near) > 0
-            near = (inc @ ring.astype(np.float64)) > 0
+        ring = element_rings(domain, boundary.sources, rings=2)
         sub, vertices = domain.subdomain(ring)
         labels = region1[ring] if on == "elements" else region1[vertices]
         zeta = (element_boundary if on == "elements" else vertex_boundary)(sub, labels)
