@@ -71,3 +71,75 @@ def test_regions_on_vertices_and_tetrahedra():
     res = relax(mesh, labels, on="vertices")
     assert res.region_measures().sum() == pytest.approx(8.0, rel=1e-9)
     assert len(res.interfaces().junctions()) > 0  # a junction curve along the z axis
+
+
+def _t_labels(x):
+    """Three regions meeting like a T: x < 0, then x >= 0 split by y."""
+    return np.where(x[:, 0] < 0, 0, np.where(x[:, 1] < 0, 1, 2))
+
+
+def _kinds():
+    from ndboundary.datasets import hex_grid, icosphere, quad_grid, voronoi_polygons
+
+    return {
+        "triangles": (lambda: kuhn_grid(24, 2, jitter=0.2, random_state=0), 1),
+        "surface": (lambda: icosphere(3), 2),  # the T meets the sphere's poles (0, 0, +-1)
+        "quads": (lambda: quad_grid(20, jitter=0.2, random_state=0), 1),
+        "polygons": (lambda: voronoi_polygons(20, random_state=0), 1),
+        "tetrahedra": (lambda: kuhn_grid(8, 3, jitter=0.2, random_state=0), None),
+        "hexahedra": (lambda: hex_grid(8, jitter=0.2, random_state=0), None),
+        "4-simplices": (lambda: kuhn_grid(4, 4, jitter=0.1, random_state=0), None),
+    }
+
+
+@pytest.mark.parametrize("kind", list(_kinds()))
+@pytest.mark.parametrize("on", ["elements", "vertices"])
+def test_every_domain_kind(kind, on):
+    """A T of three regions on every kind of domain, labelled on elements or vertices: the
+    partition covers the domain exactly, each region stays one piece, the interfaces pair
+    only regions that touch, and the junction is where the T's strokes meet."""
+    make, n_junctions = _kinds()[kind]
+    mesh = make()
+    x = mesh.element_centroids() if on == "elements" else mesh.points
+    labels = _t_labels(x)
+    res = relax(mesh, labels, on=on)
+    assert res.phi.shape == (mesh.n_vertices, 3) and np.isfinite(res.phi).all()
+    measure = float(mesh.A.sum()) if mesh.element_dim == mesh.dim else float(res.partition().input_measure)
+    assert res.region_measures().sum() == pytest.approx(measure, rel=1e-9)
+    assert (res.region_measures() > 0.15 * measure).all()
+    faces = res.interfaces()
+    assert {tuple(p) for p in faces.pairs.tolist()} == {(0, 1), (0, 2), (1, 2)}
+    if mesh.element_dim <= 3:
+        for r in range(3):
+            boundary = res.region_boundary(r)
+            assert boundary.n_components() == 1
+            assert boundary.is_closed() == (kind == "surface")  # elsewhere every region meets the border
+    junctions = faces.junctions()
+    if n_junctions is not None:
+        assert len(junctions.points) == n_junctions
+    else:  # a curve (3-D) or a surface (4-D) along the T's stem, x = y = 0
+        assert len(junctions) > 0
+        h = mesh.mean_edge_length()
+        assert np.abs(junctions.points[:, :2]).max() < 1.5 * h
+
+
+def test_band_partition_needs_no_fill():
+    """On a mesh large enough for the band, the partition is built from each region's band
+    alone; it is the partition of the filled functions, which are read only when asked for."""
+    from ndboundary.partition import partition
+
+    mesh = kuhn_grid(150, 2, jitter=0.25, random_state=0)  # 22 801 vertices: the band is used
+    sites = np.array([[-0.5, -0.4], [0.5, -0.5], [0.1, 0.6], [-0.6, 0.5], [0.7, 0.3]])
+    c = mesh.element_centroids()
+    labels = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+    res = relax(mesh, labels, on="elements")
+    assert "band" in res.regions[0].params
+    bounded = res.region_measures()
+    faces = res.interfaces()
+    filled = partition(*mesh.level_set_complex(res.phi))
+    np.testing.assert_allclose(filled.region_measures(), bounded, rtol=1e-12)
+    assert len(filled.interfaces()) == len(faces)
+    # the filled functions: finite, on the right side of 1/2 in each region away from zeta
+    assert np.isfinite(res.phi).all()
+    far = np.linalg.norm(mesh.points - sites[2], axis=1) < 0.1  # deep inside region 2
+    assert far.any() and (res.phi[far, 2] > 0.5).all() and (res.phi[far][:, [0, 1, 3, 4]] < 0.5).all()

@@ -40,9 +40,8 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ..domains import DelaunayComplex, PointCloud
 from ..domains.delaunay import DELAUNAY_MAX_DIM
-from ..pipeline import relax
 from .band import classifier_band
-from .extrema import impose_extrema
+from .extrema import relax_classes
 from .params import check_classifier_params
 from .probability import logistic_slope
 from .propagation import harmonic_labels, vote
@@ -293,18 +292,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         votes = codes
         if self.vote:
             votes = vote(self.domain_.vertex_neighborhoods(), codes, n_cls, self.vote, self.vote_threshold)
-        targets = [votes == 1] if n_cls == 2 else [votes == c for c in range(n_cls)]
-        phis = []
-        for c, target in enumerate(targets):
-            if target.all() or not target.any():
-                phis.append(np.full(X.shape[0], 1.0 if target.all() else 0.0))
-                continue
-            res = relax(
-                self.domain_, target, on="vertices", lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_
-            )
-            phis.append(impose_extrema(self.domain_, res.phi, target))
-            self._log(f"relaxed class {c + 1}/{len(targets)}", t0)
-        self.phi_ = np.stack(phis, axis=1)
+        self.phi_ = relax_classes(
+            self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_
+        )
+        self._log(f"relaxed {n_cls} classes", t0)
         self.extension_ = self.domain_.extension(
             self.phi_, n_neighbors=self.extension_neighbors, power=self.extension_power, labels=codes, labelled=labelled
         )

@@ -24,7 +24,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
 
-__all__ = ["impose_extrema"]
+from ..pipeline import relax
+
+__all__ = ["impose_extrema", "relax_classes"]
 
 
 def _cut_peaks(edges, phi, markers):
@@ -89,3 +91,50 @@ def impose_extrema(domain, phi, region1):
     edges = np.asarray(domain.edges)
     psi = _cut_peaks(edges, phi, region1)
     return -_cut_peaks(edges, -psi, ~region1)
+
+
+def relax_classes(domain, votes, n_classes, **params):
+    """The relaxed function of every class over ``domain``, its extrema imposed.
+
+    Parameters
+    ----------
+    domain : Domain
+    votes : ndarray of int of shape (n_vertices,)
+        Each vertex's class, in ``range(n_classes)``.
+    n_classes : int
+    **params
+        Passed to :func:`~ndboundary.relax` (with ``on="vertices"``).
+
+    Returns
+    -------
+    ndarray of shape (n_vertices, 1) for two classes (class 1's function), else (n_vertices, n_classes)
+        A class that no vertex votes for gets 0, one that every vertex votes for gets 1.
+        Three or more classes present are relaxed together, as one partition (each
+        against the rest, sharing the domain's operators and band graph), the same
+        functions as one relaxation per class.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.learn.extrema import relax_classes
+    >>> grid = kuhn_grid(12, 2)
+    >>> votes = np.digitize(grid.points[:, 0], [-0.3, 0.3])  # three bands of columns
+    >>> phi = relax_classes(grid, votes, 4)
+    >>> phi.shape, bool((phi[:, 3] == 0).all()), bool((phi.argmax(axis=1) == votes).mean() > 0.9)
+    ((169, 4), True, True)
+    """
+    params = {**params, "on": "vertices"}
+    targets = [votes == 1] if n_classes == 2 else [votes == c for c in range(n_classes)]
+    columns = {}
+    if n_classes > 2 and np.unique(votes).size > 2:
+        res = relax(domain, votes, **params)
+        columns = dict(zip(res.classes.tolist(), res.phi.T, strict=True))
+    phis = []
+    for c, target in enumerate(targets):
+        if target.all() or not target.any():
+            phis.append(np.full(votes.size, 1.0 if target.all() else 0.0))
+            continue
+        phi = columns[c] if columns else relax(domain, target, **params).phi
+        phis.append(impose_extrema(domain, phi, target))
+    return np.stack(phis, axis=1)

@@ -36,7 +36,7 @@ from .heat import diffuse
 from .integration import boundary_weight_scale, integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, check_params
-from .result import RegionsResult, RelaxResult
+from .result import DeferredFill, RegionsResult, RelaxResult
 from .smoothing import smooth
 
 __all__ = ["Relaxer", "relax"]
@@ -127,6 +127,7 @@ class Relaxer:
         self._band_relaxer = None  # (digest of the band's mask, relaxer of the band, its vertices)
         self._graph = None  # the edge graph of the band's searches: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
+        self._fill = True  # False: phi outside the band is filled when first read (many regions)
 
     @property
     def nbytes(self) -> int:
@@ -234,6 +235,7 @@ class Relaxer:
         for r in range(classes.size):
             relaxer = Relaxer(self.domain, _keep=False, _h=h)
             relaxer._graph = graph  # the band's edge graph serves every region
+            relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
             results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
             graph = relaxer._graph
         if self._keep:
@@ -243,8 +245,7 @@ class Relaxer:
             for step, seconds in res.timings.items():
                 timings[step] = timings.get(step, 0.0) + seconds
         timings["total"] = time.perf_counter() - t0
-        phi = np.stack([res.phi for res in results], axis=1)
-        return RegionsResult(phi, classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
+        return RegionsResult(classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
 
     def _relax_band(self, key, region1, classes, h, p, pad, verbose, start):
         """Relax on the elements near zeta and extend phi outside them; zeta alone (a
@@ -318,7 +319,10 @@ class Relaxer:
         tick = time.perf_counter()
         vert_region1 = region1 if on == "vertices" else (domain.incidence @ region1.astype(np.float64)) > 0
         rate = growth_rate(res.phi, dist[vertices], width)
-        res.phi = extend_outside(domain, vertices, res.phi, vert_region1, graph, rate)
+        if self._fill:
+            res.phi = extend_outside(domain, vertices, res.phi, vert_region1, graph, rate)
+        else:
+            res.phi = DeferredFill(vertices, res.phi, vert_region1, graph, rate)
         u = np.zeros(domain.n_vertices)
         u[vertices] = res.u
         res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain

@@ -8,9 +8,41 @@ import numpy as np
 
 from ..levelset import LevelSet, marching_simplices
 from ..partition import partition
+from .band import extend_outside
 from .boundary import Boundary
 
-__all__ = ["RegionsResult", "RelaxResult"]
+__all__ = ["DeferredFill", "RegionsResult", "RelaxResult"]
+
+
+class DeferredFill:
+    """A region's phi on its band, filled outside it (:func:`~ndboundary.pipeline.band.extend_outside`)
+    only when it is read.
+
+    The partition of many regions needs no fill (see :meth:`RegionsResult.region_values`),
+    and the fill is a pass over the whole domain per region: deferring it makes the cost
+    of a many-region relaxation follow its bands.
+    """
+
+    def __init__(self, vertices, phi_band, side, graph, rate):
+        self.vertices, self.phi_band, self.side, self.graph, self.rate = vertices, phi_band, side, graph, rate
+
+    def filled(self, domain):
+        """Phi on every vertex of ``domain``."""
+        return extend_outside(domain, self.vertices, self.phi_band, self.side, self.graph, self.rate)
+
+    def bounded(self, n_vertices):
+        """Phi on the band, and outside it ``1/2 +- c`` (``+`` on the region's side), with
+        ``c`` one more than the largest ``|phi - 1/2|`` on the band.
+
+        Outside its band a region is either the only one whose function exceeds 1/2 (the
+        vertex is inside it, farther from its boundary than the band reaches, so no other
+        band reaches it either) or below every function that competes there: the argmax
+        is the filled one's.
+        """
+        c = float(np.abs(self.phi_band - 0.5).max()) + 1.0
+        values = np.where(self.side, 0.5 + c, 0.5 - c)
+        values[self.vertices] = self.phi_band
+        return values
 
 
 class _RegionMethods:
@@ -109,7 +141,6 @@ class RelaxResult(_RegionMethods):
         return marching_simplices(points, simplices, values, value)
 
 
-@dataclass
 class RegionsResult(_RegionMethods):
     """What :func:`~ndboundary.relax` returns for three or more labels.
 
@@ -118,11 +149,11 @@ class RegionsResult(_RegionMethods):
     phi : ndarray of shape (n_vertices, n_regions)
         One relaxed function per region, columns in ``classes`` order: region ``r``'s
         function is above 1/2 in region ``r``. A point belongs to the region whose
-        function is largest there.
+        function is largest there. Outside a region's band it is filled when first read.
     classes : ndarray of shape (n_regions,)
     domain : Domain
     regions : list of RelaxResult
-        Region ``r`` relaxed against the rest.
+        Region ``r`` relaxed against the rest (each filled when the list is first read).
     timings : dict
         Seconds per step, summed over the regions, and ``total``.
     params : dict
@@ -142,13 +173,39 @@ class RegionsResult(_RegionMethods):
     1
     """
 
-    phi: np.ndarray
-    classes: np.ndarray
-    domain: object
-    regions: list
-    timings: dict = field(default_factory=dict)
-    params: dict = field(default_factory=dict)
+    def __init__(self, classes, domain, regions, timings=None, params=None):
+        self.classes = classes
+        self.domain = domain
+        self._regions = regions
+        self.timings = {} if timings is None else timings
+        self.params = {} if params is None else params
+
+    def __repr__(self):
+        return f"RegionsResult(n_regions={self.classes.size}, n_vertices={self.domain.n_vertices})"
+
+    @property
+    def regions(self):
+        """Every region relaxed against the rest, as a list of :class:`RelaxResult`."""
+        for res in self._regions:
+            if isinstance(res.phi, DeferredFill):
+                res.phi = res.phi.filled(self.domain)
+        return self._regions
+
+    @property
+    def phi(self):
+        """The region functions, shape (n_vertices, n_regions) (built once)."""
+        cached = self.__dict__.get("_phi")
+        if cached is None:
+            cached = self.__dict__["_phi"] = np.stack([res.phi for res in self.regions], axis=1)
+        return cached
 
     def region_values(self):
-        """The region functions ``phi``."""
-        return self.phi
+        """The region functions as the partition needs them: ``phi`` on each region's band,
+        and beyond it a bound that leaves the largest function unchanged
+        (:meth:`DeferredFill.bounded`), with no pass over the domain per region.
+        """
+        if "_phi" in self.__dict__:
+            return self.__dict__["_phi"]
+        V = self.domain.n_vertices
+        columns = [r.phi.bounded(V) if isinstance(r.phi, DeferredFill) else r.phi for r in self._regions]
+        return np.stack(columns, axis=1)
