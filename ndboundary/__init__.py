@@ -21,7 +21,16 @@ from .domains import (
     SimplicialComplex,
     delaunay_complex,
 )
-from .io import read_labels, read_mesh, write_labels, write_level_set, write_mesh, write_phi
+from .io import (
+    read_labels,
+    read_mesh,
+    write_interfaces,
+    write_labels,
+    write_level_set,
+    write_mesh,
+    write_partition,
+    write_phi,
+)
 from .learn import LevelSetClassifier
 from .levelset import LevelSet, marching_simplices
 from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, Relaxer, RelaxResult, relax
@@ -52,8 +61,10 @@ __all__ = [
     "read_labels",
     "read_mesh",
     "relax",
+    "write_interfaces",
     "write_labels",
     "write_level_set",
     "write_mesh",
+    "write_partition",
     "write_phi",
 ]

@@ -1,4 +1,6 @@
-"""Compiled loops (numba) for the hot spots of the field smoothing."""
+"""Compiled loops (numba) for the hot spots: the field smoothing, and the edges and incidence
+of simplicial complexes.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +8,9 @@ import numba
 import numpy as np
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, parallel=True)
 def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
-    for i in range(A.shape[0]):
+    for i in numba.prange(A.shape[0]):
         x = 0.0
         y = 0.0
         z = 0.0
@@ -26,10 +28,10 @@ def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
         B[i, 2] = z * s
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, parallel=True)
 def _sweep(indptr, indices, data, A, B):  # pragma: no cover - compiled
     d = A.shape[1]
-    for i in range(A.shape[0]):
+    for i in numba.prange(A.shape[0]):
         for c in range(d):
             B[i, c] = 0.0
         for p in range(indptr[i], indptr[i + 1]):
@@ -68,3 +70,101 @@ def smooth_rows_compiled(W, X, passes):
         sweep(indptr, indices, data, A, B)
         A, B = B, A
     return A[:, :d].copy() if d == 2 else A
+
+
+@numba.njit(cache=True, nogil=True)
+def _unique_pairs(first, second, n):  # pragma: no cover - compiled
+    m = first.size
+    starts = np.zeros(n + 1, dtype=np.int64)
+    for p in range(m):
+        starts[first[p] + 1] += 1
+    for a in range(n):
+        starts[a + 1] += starts[a]
+    fill = starts[:-1].copy()
+    bucket = np.empty(m, dtype=np.int64)  # pair ids grouped by their first vertex
+    for p in range(m):
+        a = first[p]
+        bucket[fill[a]] = p
+        fill[a] += 1
+    mark = np.full(n, -1, dtype=np.int64)
+    local = np.zeros(n, dtype=np.int64)
+    unique = np.empty(n, dtype=np.int64)
+    edges = np.empty((m, 2), dtype=first.dtype)
+    pair_edge = np.empty(m, dtype=np.intp)
+    n_edges = 0
+    for a in range(n):
+        count = 0
+        for q in range(starts[a], starts[a + 1]):
+            b = second[bucket[q]]
+            if mark[b] != a:
+                mark[b] = a
+                # insertion into the sorted list of a's neighbours: a few per vertex
+                t = count
+                while t > 0 and unique[t - 1] > b:
+                    unique[t] = unique[t - 1]
+                    t -= 1
+                unique[t] = b
+                count += 1
+        for t in range(count):
+            local[unique[t]] = n_edges + t
+            edges[n_edges + t, 0] = a
+            edges[n_edges + t, 1] = unique[t]
+        for q in range(starts[a], starts[a + 1]):
+            p = bucket[q]
+            pair_edge[p] = local[second[p]]
+        n_edges += count
+    return edges[:n_edges].copy(), pair_edge
+
+
+def unique_pairs(first, second, n):
+    """The distinct pairs ``(first[i], second[i])`` (values in ``0..n-1``), sorted
+    lexicographically, and the index of each input pair among them, in linear time.
+
+    A counting sort by ``first``, then within each value of ``first`` its distinct
+    ``second`` values kept in order as they are met (a vertex has a few neighbours).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled import unique_pairs
+    >>> edges, which = unique_pairs(np.array([2, 0, 0, 2, 0]), np.array([3, 2, 1, 3, 2]), 4)
+    >>> edges.tolist(), which.tolist()
+    ([[0, 1], [0, 2], [2, 3]], [2, 1, 0, 2, 1])
+    """
+    return _unique_pairs(np.ascontiguousarray(first), np.ascontiguousarray(second), int(n))
+
+
+@numba.njit(cache=True, nogil=True)
+def _rows_by_value(rows, n, indptr, indices):  # pragma: no cover - compiled
+    m, width = rows.shape
+    for r in range(m):
+        for c in range(width):
+            indptr[rows[r, c] + 1] += 1
+    for v in range(n):
+        indptr[v + 1] += indptr[v]
+    fill = indptr[:-1].copy()
+    for r in range(m):
+        for c in range(width):
+            v = rows[r, c]
+            indices[fill[v]] = r
+            fill[v] += 1
+
+
+def rows_by_value(rows, n, dtype):
+    """The transpose of a fixed-width integer array as CSR structure: for every value
+    ``v`` in ``0..n-1``, the rows holding it, in increasing order (``indptr``, ``indices``
+    of ``dtype``), in one counting pass.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled import rows_by_value
+    >>> indptr, indices = rows_by_value(np.array([[0, 1], [1, 2]]), 3, np.int32)
+    >>> indptr.tolist(), indices.tolist()
+    ([0, 1, 3, 4], [0, 0, 1, 1])
+    """
+    rows = np.ascontiguousarray(rows)
+    indptr = np.zeros(int(n) + 1, dtype=dtype)
+    indices = np.empty(rows.size, dtype=dtype)
+    _rows_by_value(rows, int(n), indptr, indices)
+    return indptr, indices

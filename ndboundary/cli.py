@@ -1,14 +1,19 @@
-"""The ``ndboundary`` command line."""
+"""The ``ndboundary`` command line: the parser, ``ndboundary relax`` and :func:`main`.
+
+``ndboundary demo`` is in :mod:`ndboundary.cli_demo`; the checks and atomic writes of
+the files in :mod:`ndboundary.cli_files`, those of several regions' outputs in
+:mod:`ndboundary.cli_regions`.
+"""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
-from pathlib import Path
 
 import numpy as np
 
+from .cli_demo import DEMO_DIR, cmd_demo
 from .cli_files import (
     BOUNDARY_EXTENSIONS,
     PHI_EXTENSIONS,
@@ -20,11 +25,10 @@ from .cli_files import (
     reading,
     writable_labels,
 )
+from .cli_regions import SURFACE_FORMATS, RegionProgress, check_folder, region_surface_paths
 
 __all__ = ["main"]
 
-#: Where ``ndboundary demo`` writes its files without ``--out``, relative to the current directory.
-DEMO_DIR = "ndboundary-demo"
 #: The largest ``--smoothing`` accepted (passes of the field smoothing).
 MAX_SMOOTHING = 10_000
 #: The largest ``--lam`` accepted (weight of the boundary term), as the messages write it.
@@ -98,85 +102,6 @@ def _lam_weight(text):
     return value
 
 
-def _demo_cases():
-    from . import datasets as ds
-
-    yield "2-D flower, jittered triangles 80x80", ds.kuhn_grid(80, 2, jitter=0.25, random_state=0), ds.flower, 2 / 80
-    yield "3-D ball, jittered tetrahedra 24^3", ds.kuhn_grid(24, 3, jitter=0.25, random_state=0), ds.ball, 2 / 24
-
-
-def _flower_truth():
-    """Distance to the flower curve and the curve's length."""
-    from .datasets import flower_curve
-    from .metrics import closed_curve_length, curve_distance
-
-    c = flower_curve()
-    return curve_distance(c), closed_curve_length(c)
-
-
-def _write_files(out, stem, result, labels, relaxed, jagged):
-    from . import io
-
-    io.write_level_set(out / f"{stem}_relaxed.obj", relaxed)
-    io.write_level_set(out / f"{stem}_jagged.obj", jagged)
-    try:
-        io.write_phi(out / f"{stem}_phi.vtu", result, labels=labels)
-    except ImportError:
-        print("meshio is not installed: no VTU file (pip install 'ndboundary[io]')", file=sys.stderr)
-
-
-def _save_picture(result, labels, path):
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-    except ImportError:
-        print("matplotlib is not installed: no picture (pip install 'ndboundary[plot]')", file=sys.stderr)
-        return
-    from .plot import figure_relaxation
-
-    fig = figure_relaxation(result, labels, zoom=(-0.75, 0.75, -0.75, 0.75))
-    fig.savefig(path, dpi=110)
-    print(f"wrote {path}")
-
-
-def cmd_demo(args):
-    from . import datasets as ds
-    from .metrics import as_complex, fidelity
-    from .pipeline import relax
-
-    out = Path(args.out) if args.out else Path(DEMO_DIR)
-    out.mkdir(parents=True, exist_ok=True)
-    pictures = []
-    print(f"{'case':<38s} {'':>9s} {'mean/h':>7s} {'max/h':>7s} {'excess':>8s} {'time':>7s}")
-    for name, dom, truth, s in _demo_cases():
-        labels = ds.label_by(dom, truth)
-        res = relax(dom, labels, on="elements", verbose=args.verbose)
-        ls = res.level_set()
-        jag = as_complex(dom.points, res.boundary.facets)
-        if truth is ds.flower:
-            dist, true_measure = _flower_truth()
-        else:
-            dist, true_measure = truth, 4 * np.pi * 0.6**2
-        for tag, cx in (("jagged", jag), ("relaxed", ls)):
-            f = fidelity(cx, dist, s)
-            excess = 100 * (cx.measure() / true_measure - 1)
-            t = f"{res.timings['total']:6.2f}s" if tag == "relaxed" else ""
-            print(
-                f"{name if tag == 'jagged' else '':<38s} {tag:>9s} {f['mean']:7.3f} {f['max']:7.3f} "
-                f"{excess:+7.2f}% {t:>7s}"
-            )
-        stem = "flower2d" if dom.dim == 2 else "ball3d"
-        _write_files(out, stem, res, labels, ls, jag)
-        if dom.dim == 2:
-            pictures.append((res, labels, out / f"{stem}.png"))
-    print("h = grid cell size; excess = length (2-D) or area (3-D) over the true boundary's")
-    print(f"wrote phi (VTU) and the jagged and relaxed boundaries (OBJ) to {out}/")
-    for job in pictures:
-        _save_picture(*job)
-    return 0
-
-
 def _labels_on(args, domain, n):
     """Whether the ``n`` labels are on elements or vertices: by ``--on``, else by their count."""
     counts = {"elements": domain.n_elements, "vertices": domain.n_vertices}
@@ -201,49 +126,110 @@ def cmd_relax(args):
     wanted = [("-o", args.output, PHI_EXTENSIONS)]
     if args.boundary:
         wanted.append(("--boundary", args.boundary, BOUNDARY_EXTENSIONS))
-    outputs = check_outputs(wanted, [("the mesh", args.mesh), ("the labels", args.labels)])
+    if args.partition:
+        wanted.append(("--partition", args.partition, PHI_EXTENSIONS))
+    inputs = [("the mesh", args.mesh), ("the labels", args.labels)]
+    outputs = check_outputs(wanted, inputs)
+    folders = check_folder("--region-surfaces", args.region_surfaces) if args.region_surfaces else []
     with reading(args.labels):
         labels = io.read_labels(args.labels)
-    n_classes = np.unique(labels).size
-    if n_classes > 2:
+    classes = np.unique(labels)
+    if classes.size == 1 and not (classes.dtype.kind == "f" and np.isnan(classes[0])):  # NaN: relax says so
         raise CLIError(
-            f"{args.labels} holds {n_classes} classes; the command line relaxes two, and three or more "
-            "are relaxed by ndboundary.relax in Python"
+            f"{args.labels}: the labels hold one class only ({classes[0].tolist()!r}); two or more are needed "
+            "to have a boundary"
         )
-    data = writable_labels(labels)  # what the VTK writers store: booleans and strings become 0/1
+    if args.region_surfaces:
+        paths = region_surface_paths(args.region_surfaces, io.region_names(classes), args.surface_format)
+        wanted = [("--region-surfaces", str(p), (f".{args.surface_format}",)) for p in paths]
+        outputs += check_outputs(wanted, inputs + [(out.option, out.given) for out in outputs], folders)
+    data = writable_labels(labels)  # what the VTK writers store: booleans and strings become region indices
     with reading(args.mesh):
         domain = io.read_mesh(args.mesh)
     on = _labels_on(args, domain, len(labels))
     if args.boundary and domain.element_dim < 2:
         raise CLIError(f"--boundary {args.boundary}: the boundary on a curve is points, which no format holds")
+    if args.region_surfaces and domain.element_dim < 2:
+        raise CLIError(
+            f"--region-surfaces {args.region_surfaces}: the region boundaries on a curve are points, which no "
+            "format holds"
+        )
+    if args.region_surfaces and args.surface_format == "stl" and domain.element_dim == 2:
+        where = "a 2-D mesh" if domain.dim == 2 else "a surface"
+        raise CLIError(
+            f"--surface-format stl: STL holds triangles, and the region boundaries on {where} are curves; "
+            "use obj, ply or vtk"
+        )
     show = not args.quiet and sys.stderr.isatty() and domain.n_vertices >= PROGRESS_VERTICES
     kwargs = {}
     if args.lam is not None:
         kwargs["lam"] = args.lam
     if args.smoothing is not None:
         kwargs["smoothing"] = args.smoothing
-    res = relax(domain, labels, on=on, verbose=show, band=args.band, **kwargs)
-    ls = res.level_set()
-    with atomic_outputs(outputs) as temporary:  # both outputs written, or neither
+    with RegionProgress([str(c) for c in classes.tolist()], enabled=show and classes.size > 2):
+        res = relax(domain, labels, on=on, verbose=show, band=args.band, **kwargs)
+    two = res.classes.size == 2
+    ls = res.level_set() if two else None
+    regional = not two or args.partition or args.region_surfaces  # the partition is made: report its regions
+    boundaries = [res.region_boundary(r) for r in range(res.classes.size)] if regional else []
+    with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
         io.write_phi(temporary[0], res, labels=data if on == "elements" else None)
+        rest = iter(temporary[1:])
         if args.boundary:
-            io.write_level_set(temporary[1], ls)
+            if two:
+                io.write_level_set(next(rest), ls)
+            else:
+                io.write_interfaces(next(rest), res)
+        if args.partition:
+            io.write_partition(next(rest), res)
+        if args.region_surfaces:
+            for boundary in boundaries:
+                io.write_level_set(next(rest), boundary)
     t = res.timings
-    print(
-        f"{args.mesh}: {domain.n_vertices} vertices, {domain.n_elements} elements, labels on {on}\n"
-        f"jagged boundary: {res.boundary.S.shape[0]} points; relaxed boundary: {ls.n_points} points, "
-        f"{ls.n_simplices} simplices, {ls.n_components()} component(s)\n"
-        f"time: heat {t['heat']:.3f} s, field {t['field']:.3f} s, smoothing {t['smoothing']:.3f} s, "
-        f"integration {t['integration']:.3f} s, total {t['total']:.3f} s"
-        + (
-            f" (on the band of {res.params['band']:.3g} h around the jagged boundary: "
-            f"{res.params['band_vertices']} vertices)\n"
-            if "band" in res.params
-            else " (on the whole mesh)\n"
+    lines = [f"{args.mesh}: {domain.n_vertices} vertices, {domain.n_elements} elements, labels on {on}"]
+    if two:
+        lines.append(
+            f"jagged boundary: {res.boundary.S.shape[0]} points; relaxed boundary: {ls.n_points} points, "
+            f"{ls.n_simplices} simplices, {ls.n_components()} component(s)"
         )
-        + f"wrote {args.output}"
-        + (f" and {args.boundary}" if args.boundary else "")
+        banded = [res] if "band" in res.params else []
+    else:
+        lines[0] += f", {res.classes.size} regions"
+        banded = [r for r in res.regions if "band" in r.params]
+    measure = {1: "length", 2: "area", 3: "volume"}.get(domain.element_dim, "measure")
+    pieces = {1: "points", 2: "segments", 3: "triangles", 4: "tetrahedra"}
+    for r, (value, boundary) in enumerate(zip(res.region_measures() if regional else [], boundaries, strict=True)):
+        closed = "" if boundary.simplices.shape[1] < 2 else ", closed" if boundary.is_closed() else ", open"
+        lines.append(
+            f"region {r} ({res.classes[r]}): {measure} {value:.6g}, boundary of {boundary.n_simplices} "
+            f"{pieces.get(boundary.simplices.shape[1], 'simplices')}{closed}"
+        )
+    if not two:
+        faces = res.interfaces()
+        n_pairs = np.unique(faces.pairs, axis=0).shape[0] if len(faces) else 0
+        lines.append(
+            f"relaxed interfaces: {faces.points.shape[0]} points, {len(faces)} simplices between {n_pairs} "
+            f"pair(s) of regions"
+        )
+    widths = sorted({float(r.params["band"]) for r in banded})
+    if not banded:
+        where = " (on the whole mesh)"
+    elif two:
+        where = (
+            f" (on the band of {widths[0]:.3g} h around the jagged boundary: {res.params['band_vertices']} vertices)"
+        )
+    else:
+        span = f"{widths[0]:.3g}" if len(widths) == 1 else f"{widths[0]:.3g} to {widths[-1]:.3g}"
+        where = f" ({len(banded)} of {res.classes.size} regions on a band of {span} h around their jagged boundary)"
+    lines.append(
+        f"time: heat {t['heat']:.3f} s, field {t['field']:.3f} s, smoothing {t['smoothing']:.3f} s, "
+        f"integration {t['integration']:.3f} s, total {t['total']:.3f} s{where}"
     )
+    written = [args.output] + [p for p in (args.boundary, args.partition) if p]
+    if args.region_surfaces:
+        written.append(f"{len(boundaries)} region boundaries to {args.region_surfaces}")
+    lines.append("wrote " + (f"{', '.join(written[:-1])} and {written[-1]}" if len(written) > 1 else written[0]))
+    print("\n".join(lines))
     return 0
 
 
@@ -270,19 +256,52 @@ def build_parser():
 
     rel = sub.add_parser(
         "relax",
-        help="relax the boundary of a labelled mesh read from files",
-        description="Read a mesh and one label per element (or per vertex), relax the boundary "
-        "between the two labels, write phi and the labels (VTU for ParaView) and the smooth boundary. "
-        "No output may be an input; each is written whole or not at all.",
-        usage="%(prog)s MESH LABELS -o OUT.vtu [--boundary OUT.obj] [options]",
+        help="relax the boundaries between the labelled regions of a mesh read from files",
+        description="Read a mesh and one label per element (or per vertex), relax the boundaries "
+        "between the regions of its two or more labels, write phi and the labels (VTU for ParaView), and "
+        "optionally the smooth boundary, the exact partition into regions and each region's boundary. "
+        "No output may be an input or another output; existing outputs are replaced, and all of them are "
+        "written together, whole, or none.",
+        usage="%(prog)s MESH LABELS -o OUT.vtu [--boundary OUT.obj] [--partition OUT.vtu] "
+        "[--region-surfaces DIR] [options]",
     )
     rel.add_argument("mesh", help="OBJ, OFF, PLY, STL, MEDIT .mesh, VTK/VTU, Gmsh .msh or .hedra file")
-    rel.add_argument("labels", help="one label per line (optionally after 'SCALAR_FIELD n'), or .npy")
     rel.add_argument(
-        "-o", "--output", required=True, metavar="OUT.vtu", help="where to write phi and the labels (.vtu or .vtk)"
+        "labels", help="one label per line (optionally after 'SCALAR_FIELD n'), or .npy; two or more distinct labels"
     )
     rel.add_argument(
-        "--boundary", metavar="OUT.obj", help="where to write the relaxed boundary (.obj, .ply, .vtk or .vtu)"
+        "-o",
+        "--output",
+        required=True,
+        metavar="OUT.vtu",
+        help="where to write phi and the labels (.vtu or .vtk): for two labels the point data phi; for more, "
+        "one array phi_NAME per region (NAME: the label, made safe for names, or the region's index)",
+    )
+    rel.add_argument(
+        "--boundary",
+        metavar="OUT.obj",
+        help="where to write the relaxed boundary (.obj, .ply, .vtk or .vtu); for three or more labels the "
+        "interfaces between the regions, each piece with its pair of regions: an OBJ group 'A|B' per pair, "
+        "PLY face (or edge) properties and VTK cell data region_a and region_b",
+    )
+    rel.add_argument(
+        "--partition",
+        metavar="OUT.vtu",
+        help="where to write the exact partition (.vtu or .vtk): the mesh refined along the relaxed "
+        "boundaries, with cell data region (index) and label (the label, when labels are numbers)",
+    )
+    rel.add_argument(
+        "--region-surfaces",
+        metavar="DIR",
+        help="write each region's relaxed boundary, oriented outward, to DIR/region_NAME.FORMAT (DIR is made "
+        "when missing); closed where the region does not touch the border of the mesh",
+    )
+    rel.add_argument(
+        "--surface-format",
+        choices=SURFACE_FORMATS,
+        default="obj",
+        help="format of --region-surfaces (default obj); stl (binary, for 3-D printing) holds triangles, so "
+        "it needs a solid mesh: on 2-D meshes and surfaces the boundaries are curves",
     )
     rel.add_argument("--lam", type=_lam_weight, help=f"weight of the boundary term, in (0, {MAX_LAM}] (default 2.0)")
     rel.add_argument(
@@ -301,10 +320,13 @@ def build_parser():
         default="auto",
         metavar="{auto,none,WIDTH}",
         help="relax only within this graph distance of the jagged boundary, in mean edge lengths, and fill phi "
-        "outside without a solve (default auto: 30 on surfaces, 16 on solids, the whole mesh when small); "
-        "none relaxes the whole mesh",
+        "outside without a solve (default auto: 12 mean edge lengths in every dimension, wider for a weak "
+        "boundary term (small --lam) or few smoothing passes, the whole mesh when it is small or the band "
+        "would hold most of it); none relaxes the whole mesh",
     )
-    rel.add_argument("--quiet", action="store_true", help="no progress display")
+    rel.add_argument(
+        "--quiet", action="store_true", help="no progress display (shown per region and step on large meshes)"
+    )
     rel.set_defaults(func=cmd_relax)
     return parser
 

@@ -1,8 +1,10 @@
 """The files of the ``ndboundary`` command: input and output checks, atomic writes, labels as data.
 
 Everything here runs before the relaxation (the checks) or around the writing (the
-temporary files), so that a run either writes all its outputs or leaves every file as
-it was.
+temporary files, the folders made for them), so that a run either writes all its
+outputs or leaves every file as it was. The outputs of several regions (the folder of
+``--region-surfaces``, its file names, the progress per region) are in
+:mod:`ndboundary.cli_regions`.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ __all__ = [
 
 #: The extensions ``write_phi`` writes.
 PHI_EXTENSIONS = (".vtk", ".vtu")
-#: The extensions ``write_level_set`` writes.
+#: The extensions ``write_level_set`` and ``write_interfaces`` write.
 BOUNDARY_EXTENSIONS = (".obj", ".ply", ".vtk", ".vtu")
 #: The extensions written through meshio.
 _MESHIO_EXTENSIONS = (".vtk", ".vtu")
@@ -85,8 +87,11 @@ def _same_file(a, b):
         return False
 
 
-def check_outputs(outputs, inputs):
+def check_outputs(outputs, inputs, folders=()):
     """Check the outputs before any work: known extension, writable folder, no clash.
+
+    An existing output file is replaced (when the run succeeds), as long as it is not
+    one of the inputs or another output.
 
     Parameters
     ----------
@@ -94,6 +99,10 @@ def check_outputs(outputs, inputs):
         Each output's option (``"-o"``), path as given and accepted extensions.
     inputs : list of (role, path)
         The files read (``("the mesh", "m.obj")``), which no output may overwrite.
+    folders : collection of Path, optional
+        Folders that do not exist yet and are made before the writing (what
+        :func:`~ndboundary.cli_regions.check_folder` returns): outputs in them need
+        no existing folder.
 
     Returns
     -------
@@ -122,6 +131,7 @@ def check_outputs(outputs, inputs):
     ndboundary.cli_files.CLIError: -o phi.txt: cannot write '.txt' files; use .vtk or .vtu
     """
     taken = [(role, str(path), Path(path).resolve()) for role, path in inputs]
+    made = {Path(f) for f in folders}
     checked = []
     for option, path, extensions in outputs:
         path = str(path)
@@ -133,10 +143,12 @@ def check_outputs(outputs, inputs):
             raise CLIError(f"{option} {path}: writing {ext} needs meshio (pip install 'ndboundary[io]')")
         target = Path(path).resolve()
         folder = os.path.dirname(path) or "."
-        if not target.parent.is_dir():
+        if target.parent in made:
+            pass  # made before the writing; nothing in it can exist yet
+        elif not target.parent.is_dir():
             exists = target.parent.exists()
             raise CLIError(f"{option} {path}: {f'{folder} is not a folder' if exists else f'no such folder: {folder}'}")
-        if not os.access(target.parent, os.W_OK | os.X_OK):
+        elif not os.access(target.parent, os.W_OK | os.X_OK):
             raise CLIError(f"{option} {path}: the folder {folder} is not writable")
         if target.is_dir():
             raise CLIError(f"{option} {path} is a directory")
@@ -153,14 +165,16 @@ def check_outputs(outputs, inputs):
 
 
 @contextlib.contextmanager
-def atomic_outputs(outputs):
+def atomic_outputs(outputs, folders=()):
     r"""Temporary files beside the outputs, moved onto them when the block succeeds.
 
-    Yields one temporary path per output, in the output's folder, named
-    ``.NAME.tmp-RANDOM.EXT`` (the extension last, since the writers read the format
-    from it). When the block ends normally every temporary replaces its output
-    (``os.replace``); on any exception (``KeyboardInterrupt`` too) they are removed and
-    no output is touched. Errors whose message names a temporary name the output.
+    Makes ``folders`` (outermost first, as :func:`~ndboundary.cli_regions.check_folder`
+    gives them), then yields one temporary path per output, in the output's folder,
+    named ``.NAME.tmp-RANDOM.EXT`` (the extension last, since the writers read the
+    format from it). When the block ends normally every temporary replaces its output
+    (``os.replace``); on any exception (``KeyboardInterrupt`` too) they are removed, the
+    folders made are removed again, and no output is touched. Errors whose message
+    names a temporary name the output.
 
     Examples
     --------
@@ -172,8 +186,15 @@ def atomic_outputs(outputs):
     ...     os.listdir(tmp)
     ['a.obj']
     """
-    temps = []
+    temps, made, done = [], [], False
     try:
+        for folder in folders:
+            try:
+                Path(folder).mkdir()
+                made.append(Path(folder))
+            except FileExistsError:
+                if not Path(folder).is_dir():
+                    raise
         for out in outputs:
             fd, name = tempfile.mkstemp(
                 prefix=f".{out.target.name}.tmp-", suffix=out.target.suffix, dir=out.target.parent
@@ -196,10 +217,15 @@ def atomic_outputs(outputs):
             os.chmod(tmp, mode)
         for tmp, out in zip(temps, outputs, strict=True):
             os.replace(tmp, out.target)
+        done = True
     finally:
         for tmp in temps:
             with contextlib.suppress(OSError):
                 tmp.unlink()
+        if not done:
+            for folder in reversed(made):
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
 
 
 def one_line(exc):

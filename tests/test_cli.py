@@ -1,6 +1,7 @@
 """The command line: the demo, help and errors."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -16,11 +17,20 @@ def test_demo_writes_boundaries_and_reports_fidelity(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "relaxed" in out and "jagged" in out
     for name in ("flower2d_relaxed.obj", "flower2d_jagged.obj", "ball3d_relaxed.obj", "flower2d.png",
-                 "flower2d_phi.vtu", "ball3d_phi.vtu"):
+                 "flower2d_phi.vtu", "ball3d_phi.vtu", "regions2d_interfaces.obj", "regions2d_phi.vtu",
+                 "regions2d.png"):
         assert (tmp_path / name).stat().st_size > 0
     lines = (tmp_path / "flower2d_relaxed.obj").read_text().splitlines()
     assert any(line.startswith("l ") for line in lines) and any(line.startswith("v ") for line in lines)
     assert any(line.startswith("f ") for line in (tmp_path / "ball3d_relaxed.obj").read_text().splitlines())
+    assert any(line.startswith("l ") for line in (tmp_path / "regions2d_interfaces.obj").read_text().splitlines())
+    # the many-region case: interfaces near the true bisectors, every true junction found, areas close
+    (line,) = [line for line in out.splitlines() if line.startswith("7 Voronoi regions")]
+    mean, worst = (float(x) for x in re.search(r"interfaces ([\d.]+) h .*max ([\d.]+) h", line).groups())
+    found, true = (int(x) for x in re.search(r"junctions (\d+) found, (\d+) true", line).groups())
+    area = float(re.search(r"areas within ([\d.]+)%", line).group(1))
+    assert mean < 0.12 and worst < 0.5 and found == true == 7 and area < 0.5
+    assert str(tmp_path / "regions2d.png") in out
 
 
 def test_demo_without_out_writes_to_ndboundary_demo(tmp_path, monkeypatch, capsys):
@@ -29,7 +39,8 @@ def test_demo_without_out_writes_to_ndboundary_demo(tmp_path, monkeypatch, capsy
     out = capsys.readouterr().out
     folder = tmp_path / "ndboundary-demo"
     for name in ("flower2d_relaxed.obj", "flower2d_jagged.obj", "ball3d_relaxed.obj", "ball3d_jagged.obj",
-                 "flower2d.png", "flower2d_phi.vtu", "ball3d_phi.vtu"):
+                 "flower2d.png", "flower2d_phi.vtu", "ball3d_phi.vtu", "regions2d_interfaces.obj", "regions2d_phi.vtu",
+                 "regions2d.png"):
         assert (folder / name).stat().st_size > 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ndboundary-demo"]  # nothing beside the folder
     assert f"to {Path('ndboundary-demo')}/" in out
@@ -519,7 +530,7 @@ def _write(name, content):
         ("m.obj", "comments.txt", _write("comments.txt", "# nothing\n\n"), "comments.txt: no labels in the file"),
         ("m.obj", "empty.npy", _write("empty.npy", b""), "empty.npy: could not read as .npy"),
         ("m.obj", "short.txt", _write("short.txt", "0\n1\n0\n"), "short.txt holds 3 labels but m.obj has 64 elements"),
-        ("m.obj", "three.txt", _write("three.txt", "0\n1\n2\n" * 21 + "0\n"), "holds 3 classes; the command line relaxes two"),
+        ("m.obj", "one.txt", _write("one.txt", "7\n" * 64), "one.txt: the labels hold one class only (7); two or more"),
         ("m.obj", "nan.txt", _write("nan.txt", "nan\n" + "1.0\n" * 63), "labels contain NaN"),
         ("m.obj", "bin.txt", _write("bin.txt", b"\xff\xfe\x00\x81" * 16), "bin.txt: not a text file of labels"),
         ("bad.vtu", "el.txt", _write("bad.vtu", "not xml"), "bad.vtu"),
@@ -528,7 +539,7 @@ def _write(name, content):
         ("m.xyz", "el.txt", _write("m.xyz", "v 0 0 0\n"), "unknown mesh format '.xyz'"),
     ],
     ids=["mesh-is-dot", "mesh-is-a-directory", "labels-is-a-directory", "empty-labels", "comment-only-labels",
-         "empty-npy", "wrong-count", "three-classes", "nan-labels", "binary-labels", "corrupt-vtu", "bad-obj-index",
+         "empty-npy", "wrong-count", "one-class", "nan-labels", "binary-labels", "corrupt-vtu", "bad-obj-index",
          "binary-obj", "unknown-mesh-format"],
 )
 def test_relax_user_errors_are_one_line(work, capsys, mesh, labels, setup, message):
@@ -625,3 +636,262 @@ def test_relax_band_option_reaches_relax_and_the_report(work, capsys):
     assert code == 0 and "on the band of 2 h around the jagged boundary" in out
     code, out, _ = _relax(capsys, "m.obj", "el.txt", "-o", "o.vtu", "--band", "none")
     assert code == 0 and "(on the whole mesh)" in out
+
+
+# 9. three or more labels: phi per region, the interfaces, the partition and every region's boundary
+
+
+def _sector_labels(domain, names):
+    """Three sectors around the origin, by element centroid, labelled ``names``."""
+    c = domain.element_centroids()
+    sector = np.floor((np.arctan2(c[:, 1], c[:, 0]) + np.pi) / (2 * np.pi / 3)).astype(int) % 3
+    return np.asarray(names)[sector]
+
+
+def _ball_in_halves(domain):
+    """A ball (label 2) inside the two halves x < 0 (label 0) and x > 0 (label 1), by element centroid."""
+    c = domain.element_centroids()
+    return np.where(np.linalg.norm(c, axis=1) < 0.5, 2, np.where(c[:, 0] < 0, 0, 1))
+
+
+def _obj_groups(path):
+    """The groups of an OBJ file and how many ``f`` or ``l`` lines each holds, in file order."""
+    groups = []
+    for line in Path(path).read_text().splitlines():
+        if line.startswith("g "):
+            groups.append([line.split()[1], 0])
+        elif line.startswith(("f ", "l ")):
+            groups[-1][1] += 1
+    return [tuple(g) for g in groups]
+
+
+def _every_edge_twice(triangles):
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    return bool(np.all(np.unique(edges, axis=0, return_counts=True)[1] == 2))
+
+
+def _enclosed_volume(points, triangles):
+    p = points[triangles]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+
+
+def _triangle_areas(points, triangles):
+    (x0, y0), (x1, y1), (x2, y2) = (points[triangles[:, i]].T for i in range(3))
+    return 0.5 * np.abs((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0))
+
+
+def _region_lines(out):
+    return [line for line in out.splitlines() if line.startswith("region ")]
+
+
+@pytest.fixture
+def regions(tmp_path, monkeypatch):
+    """A folder, made the current one, holding m.obj (jittered triangles 30x30 of [-1, 1]^2) with tissue.txt
+    (three sectors: air, soft tissue, bone), and m3.vtu (jittered tetrahedra 10^3) with ball.txt (a ball
+    inside two halves).
+    """
+    pytest.importorskip("meshio")
+    from ndboundary import io
+    from ndboundary.datasets import kuhn_grid
+
+    monkeypatch.chdir(tmp_path)
+    grid = kuhn_grid(30, 2, jitter=0.2, random_state=0)
+    io.write_mesh("m.obj", grid)
+    io.write_labels("tissue.txt", _sector_labels(grid, ["air", "soft tissue", "bone"]))
+    solid = kuhn_grid(10, 3, jitter=0.2, random_state=0)
+    io.write_mesh("m3.vtu", solid)
+    io.write_labels("ball.txt", _ball_in_halves(solid))
+    return tmp_path
+
+
+def test_relax_three_labels_writes_phi_interfaces_partition_and_region_boundaries(regions, capsys):
+    import meshio
+
+    from ndboundary import read_labels, read_mesh, relax
+
+    code, out, err = _relax(capsys, "m.obj", "tissue.txt", "-o", "phi.vtu", "--boundary", "b.obj",
+                            "--partition", "p.vtu", "--region-surfaces", "new/out")
+    assert code == 0 and err == ""
+    res = relax(read_mesh("m.obj"), read_labels("tissue.txt"), on="elements")
+    names = ["air", "bone", "soft_tissue"]  # the classes in order, made safe for names
+    # -o: one phi per region, the labels as their region index
+    back = meshio.read("phi.vtu")
+    assert sorted(back.point_data) == [f"phi_{n}" for n in names]
+    for r, name in enumerate(names):
+        np.testing.assert_allclose(back.point_data[f"phi_{name}"], res.phi[:, r], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(back.cell_data["labels"][0], np.searchsorted(res.classes, read_labels("tissue.txt")))
+    # --partition: the refined cells, whose measures per region sum to the domain's
+    part = meshio.read("p.vtu")
+    tri = part.cells[0].data
+    area = _triangle_areas(part.points[:, :2], tri)
+    by_region = np.bincount(part.cell_data["region"][0], weights=area, minlength=3)
+    np.testing.assert_allclose(by_region, res.region_measures(), rtol=1e-9)
+    assert by_region.sum() == pytest.approx(4.0, rel=1e-12)  # the square [-1, 1]^2
+    # --boundary: one OBJ group per pair of regions, named after the two classes
+    pairs, counts = np.unique(res.interfaces().pairs, axis=0, return_counts=True)
+    assert _obj_groups("b.obj") == [(f"{names[i]}|{names[j]}", int(n)) for (i, j), n in zip(pairs, counts, strict=True)]
+    # --region-surfaces: one curve per region, in the folder made for them
+    assert sorted(os.listdir("new/out")) == [f"region_{n}.obj" for n in names]
+    for r, name in enumerate(names):
+        curve, boundary = read_mesh(f"new/out/region_{name}.obj"), res.region_boundary(r)
+        assert curve.simplex_dim == 1 and curve.n_elements == boundary.n_simplices
+        assert curve.A.sum() == pytest.approx(boundary.measure(), rel=1e-12)
+    assert "961 vertices, 1800 elements, labels on elements, 3 regions" in out
+    lines = _region_lines(out)
+    assert [line.split(":")[0] for line in lines] == ["region 0 (air)", "region 1 (bone)", "region 2 (soft tissue)"]
+    assert all(line.endswith(", open") for line in lines)  # every sector meets the border of the square
+    for line, measure in zip(lines, res.region_measures(), strict=True):
+        assert float(line.split("area ")[1].split(",")[0]) == pytest.approx(measure, rel=1e-5)
+    assert "wrote phi.vtu, b.obj, p.vtu and 3 region boundaries to new/out" in out
+
+
+def test_relax_three_labels_on_a_solid_region_surfaces_are_closed_and_enclose_their_volume(regions, capsys):
+    from ndboundary import read_labels, read_mesh, relax
+
+    code, out, err = _relax(capsys, "m3.vtu", "ball.txt", "-o", "phi.vtu", "--boundary", "b.obj",
+                            "--region-surfaces", "obj")
+    assert code == 0 and err == ""
+    res = relax(read_mesh("m3.vtu"), read_labels("ball.txt"), on="elements")
+    volumes = res.region_measures()
+    ball = read_mesh("obj/region_2.obj")
+    assert ball.simplex_dim == 2 and _every_edge_twice(ball.simplices)
+    assert _enclosed_volume(ball.points, ball.simplices) == pytest.approx(volumes[2], rel=1e-9)  # outward
+    for r in (0, 1):  # the halves meet the border of the cube: their boundaries are open
+        assert not _every_edge_twice(read_mesh(f"obj/region_{r}.obj").simplices)
+    lines = _region_lines(out)
+    assert lines[2].startswith("region 2 (2): volume ") and lines[2].endswith(", closed")
+    assert lines[0].endswith(", open") and lines[1].endswith(", open")
+    pairs, counts = np.unique(res.interfaces().pairs, axis=0, return_counts=True)
+    assert _obj_groups("b.obj") == [(f"{i}|{j}", int(n)) for (i, j), n in zip(pairs, counts, strict=True)]
+    # STL, for 3-D printing: binary float32 corners, welded on reading into the same closed surface
+    code, _, _ = _relax(capsys, "m3.vtu", "ball.txt", "-o", "phi.vtu", "--region-surfaces", "stl",
+                        "--surface-format", "stl")
+    assert code == 0 and sorted(os.listdir("stl")) == ["region_0.stl", "region_1.stl", "region_2.stl"]
+    printed = read_mesh("stl/region_2.stl")
+    assert printed.n_elements == ball.n_elements and _every_edge_twice(printed.simplices)
+    assert _enclosed_volume(printed.points, printed.simplices) == pytest.approx(volumes[2], rel=1e-6)
+
+
+@pytest.mark.parametrize("fmt", ["ply", "vtk"])
+def test_relax_region_surfaces_in_other_formats(regions, capsys, fmt):
+    import meshio
+
+    code, _, _ = _relax(capsys, "m3.vtu", "ball.txt", "-o", "phi.vtu", "--region-surfaces", "s",
+                        "--surface-format", fmt)
+    assert code == 0 and sorted(os.listdir("s")) == [f"region_{r}.{fmt}" for r in range(3)]
+    assert meshio.read(f"s/region_2.{fmt}").cells[0].type == "triangle"
+
+
+def test_relax_two_labels_writes_the_partition_and_both_region_boundaries(work, capsys):
+    import meshio
+
+    code, out, _ = _relax(capsys, "m.obj", "el.txt", "-o", "o.vtu", "--boundary", "b.obj", "--partition", "p.vtu",
+                          "--region-surfaces", "out")
+    assert code == 0 and "1 component" in out and len(_region_lines(out)) == 2
+    assert sorted(os.listdir("out")) == ["region_0.obj", "region_1.obj"]
+    part = meshio.read("p.vtu")
+    tri = part.cells[0].data
+    assert _triangle_areas(part.points[:, :2], tri).sum() == pytest.approx(4.0, rel=1e-12)
+    assert set(part.cell_data["region"][0]) == {0, 1}
+    assert "g " not in (work / "b.obj").read_text()  # two labels: the relaxed level set, as before
+
+
+def _copy(src, dst):
+    def setup(folder):
+        (folder / dst).parent.mkdir(parents=True, exist_ok=True)
+        (folder / dst).write_bytes((folder / src).read_bytes())
+
+    return setup
+
+
+@pytest.mark.parametrize(
+    "mesh, extra, setup, message",
+    [
+        ("m.obj", ["--region-surfaces", "out", "--surface-format", "stl"], None,
+         "--surface-format stl: STL holds triangles, and the region boundaries on a 2-D mesh are curves; use obj"),
+        ("out/region_air.obj", ["--region-surfaces", "out"], _copy("m.obj", "out/region_air.obj"),
+         "--region-surfaces out/region_air.obj is the same file as the mesh out/region_air.obj"),
+        ("m.obj", ["--region-surfaces", "out"], lambda f: (f / "out" / "region_bone.obj").mkdir(parents=True),
+         "--region-surfaces out/region_bone.obj is a directory"),
+        ("m.obj", ["--region-surfaces", "tissue.txt"], None, ("--region-surfaces tissue.txt: ", "is not a folder")),
+        ("m.obj", ["--boundary", "out/region_air.obj", "--region-surfaces", "out"], lambda f: (f / "out").mkdir(),
+         "--region-surfaces out/region_air.obj is the same file as --boundary out/region_air.obj"),
+        ("m.obj", ["--region-surfaces", "out", "--surface-format", "vtk", "--partition", "p.obj"], None,
+         "--partition p.obj: cannot write '.obj' files; use .vtk or .vtu"),
+    ],
+    ids=["stl-in-2d", "region-file-is-the-mesh", "region-file-is-a-folder", "folder-is-a-file",
+         "region-file-is-the-boundary", "partition-extension"],
+)
+def test_relax_region_surfaces_errors_write_nothing(regions, capsys, monkeypatch, mesh, extra, setup, message):
+    import ndboundary.pipeline
+
+    if setup:
+        setup(regions)
+    before = _snapshot(regions)
+    relaxed = _spy(monkeypatch, ndboundary.pipeline, "relax")
+    code, out, err = _relax(capsys, mesh, "tissue.txt", "-o", "o.vtu", *extra)
+    assert code == 1 and out == "" and not relaxed
+    _one_error(err, *([message] if isinstance(message, str) else message))
+    assert _snapshot(regions) == before  # no file, no folder made
+
+
+def test_relax_region_surfaces_of_a_curve_are_points(tmp_path, capsys, monkeypatch):
+    from ndboundary import io
+
+    monkeypatch.chdir(tmp_path)
+    ring = _ring()
+    io.write_mesh("ring.obj", ring)
+    io.write_labels("v.txt", np.digitize(ring.points[:, 0], [-0.3, 0.3]))
+    code, _, err = _relax(capsys, "ring.obj", "v.txt", "-o", "o.vtu", "--on", "vertices", "--region-surfaces", "out")
+    assert code == 1 and sorted(os.listdir(tmp_path)) == ["ring.obj", "v.txt"]
+    _one_error(err, "--region-surfaces out: the region boundaries on a curve are points, which no format holds")
+
+
+def test_relax_region_surfaces_replace_existing_files_like_every_output(regions, capsys):
+    (regions / "out").mkdir()
+    (regions / "out" / "region_air.obj").write_text("old")
+    (regions / "out" / "notes.txt").write_text("mine")
+    code, _, _ = _relax(capsys, "m.obj", "tissue.txt", "-o", "o.vtu", "--region-surfaces", "out")
+    assert code == 0
+    assert (regions / "out" / "region_air.obj").read_text().startswith("# written by ndboundary")
+    assert sorted(os.listdir(regions / "out")) == ["notes.txt", "region_air.obj", "region_bone.obj",
+                                                   "region_soft_tissue.obj"]
+
+
+@pytest.mark.parametrize("error, code", [(lambda p: ValueError(f"{p}: cannot write"), 1),
+                                         (lambda p: KeyboardInterrupt(), 130)], ids=["error", "interrupt"])
+def test_relax_failure_while_writing_a_region_boundary_leaves_nothing(regions, capsys, monkeypatch, error, code):
+    from ndboundary import io
+
+    before = _snapshot(regions)
+    monkeypatch.setattr(io, "write_level_set", _fail_midway(error))
+    got, out, err = _relax(capsys, "m.obj", "tissue.txt", "-o", "o.vtu", "--boundary", "b.obj",
+                           "--partition", "p.vtu", "--region-surfaces", "a/b")
+    assert got == code and out == ""
+    if code == 1:
+        _one_error(err, "a/b/region_air.obj: cannot write")
+    assert _snapshot(regions) == before  # no output, no temporary, and the folders made for them removed
+
+
+@pytest.mark.parametrize("band", ["auto", "3"])
+def test_relax_three_labels_progress_per_region(regions, capsys, monkeypatch, band):
+    import ndboundary.cli
+
+    monkeypatch.setattr(ndboundary.cli, "PROGRESS_VERTICES", 50)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    code, _, err = _relax(capsys, "m.obj", "tissue.txt", "-o", "o.vtu", "--band", band)
+    assert code == 0
+    chunks = re.split(r"\[ndboundary\] region (\d)/3: (.*)\n", err)
+    assert chunks[0] == "" and chunks[1::3] == ["1", "2", "3"] and chunks[2::3] == ["air", "bone", "soft tissue"]
+    for steps in chunks[3::3]:  # each region's own steps, up to its total (and, on a band, its fill)
+        assert steps.count("[ndboundary] heat") == 1 and steps.count("[ndboundary] total") == 1
+        assert ("[ndboundary] fill" in steps) == (band == "3")
+
+
+def test_relax_help_states_the_auto_band(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["relax", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert exc.value.code == 0 and "--region-surfaces DIR" in text and "--partition OUT.vtu" in text
+    assert "default auto: 12 mean edge lengths in every dimension, wider for a weak boundary term" in text
+    assert "30 on surfaces" not in text

@@ -13,9 +13,11 @@ from ndboundary import (
     read_labels,
     read_mesh,
     relax,
+    write_interfaces,
     write_labels,
     write_level_set,
     write_mesh,
+    write_partition,
     write_phi,
 )
 from ndboundary import datasets as ds
@@ -244,8 +246,10 @@ ERRORS = [
     pytest.param(lambda d: read_labels(d / "two.npy"), ValueError, "one-dimensional", id="labels-npy-2d"),
     pytest.param(lambda d: write_labels(d / "w.txt", np.zeros((2, 2))), ValueError, "one-dimensional",
                  id="write-labels-2d"),
-    pytest.param(lambda d: write_level_set(d / "l.stl", level_set_of_x()), ValueError, "unknown level set format",
-                 id="level-set-to-stl"),
+    pytest.param(lambda d: write_level_set(d / "l.stl", level_set_of_x()), ValueError,
+                 r"l\.stl: STL holds triangles, not a curve", id="curve-to-stl"),
+    pytest.param(lambda d: write_level_set(d / "l.off", level_set_of_x()), ValueError, "unknown level set format",
+                 id="level-set-to-off"),
 ]
 
 
@@ -290,3 +294,187 @@ def test_shared_mesh_kinds(name):
         kind = PolyhedralMesh
     assert isinstance(domain, kind)
     assert domain.mass.min() > 0
+
+
+# -- results of three or more regions: phi per region, the partition, the interfaces ---------------------------
+
+
+def _sectors(domain, names=None):
+    """Labels of three sectors around the origin, by element centroid (names: the labels of the sectors)."""
+    c = domain.element_centroids()
+    sector = np.floor((np.arctan2(c[:, 1], c[:, 0]) + np.pi) / (2 * np.pi / 3)).astype(int) % 3
+    return sector if names is None else np.asarray(names)[sector]
+
+
+def _obj_groups(path):
+    """The groups of an OBJ file and how many ``f`` or ``l`` lines each holds, in file order."""
+    groups = []
+    for line in Path(path).read_text().splitlines():
+        if line.startswith("g "):
+            groups.append([line.split()[1], 0])
+        elif line.startswith(("f ", "l ")):
+            groups[-1][1] += 1
+    return [tuple(g) for g in groups]
+
+
+def _simplex_measures(points, simplices):
+    """Length, area or volume of every simplex (points of any dimension)."""
+    edges = points[simplices[:, 1:]] - points[simplices[:, :1]]
+    gram = np.einsum("nij,nkj->nik", edges, edges)
+    k = simplices.shape[1] - 1
+    return np.sqrt(np.maximum(np.linalg.det(gram), 0)) / np.prod(np.arange(1, k + 1))
+
+
+REGIONS2 = ds.kuhn_grid(30, 2, jitter=0.2, random_state=0)
+
+
+def test_regions_phi_writer_one_array_per_region(tmp_path):
+    import meshio
+
+    labels = _sectors(REGIONS2, ["air", "soft tissue", "bone"])
+    res = relax(REGIONS2, labels, on="elements")
+    assert res.classes.tolist() == ["air", "bone", "soft tissue"]
+    write_phi(tmp_path / "phi.vtu", res, labels=labels)
+    back = meshio.read(tmp_path / "phi.vtu")
+    assert sorted(back.point_data) == ["phi_air", "phi_bone", "phi_soft_tissue"]
+    for r, name in enumerate(["air", "bone", "soft_tissue"]):
+        np.testing.assert_array_equal(back.point_data[f"phi_{name}"], res.phi[:, r])
+    np.testing.assert_array_equal(back.cell_data["labels"][0], np.searchsorted(res.classes, labels))
+    with pytest.raises(ValueError, match=r"labels\[0\] = 'water' is not one of the result's classes"):
+        write_phi(tmp_path / "bad.vtu", res, labels=np.r_[["water"], labels[1:]])
+
+
+def test_partition_writer_cells_per_region_sum_to_the_domain(tmp_path):
+    import meshio
+
+    labels = _sectors(REGIONS2) * 10 - 5  # numeric classes -5, 5, 15
+    res = relax(REGIONS2, labels, on="elements")
+    write_partition(tmp_path / "p.vtu", res)
+    back = meshio.read(tmp_path / "p.vtu")
+    cells = res.partition().cells
+    (block,) = back.cells
+    assert block.type == "triangle" and block.data.shape == cells.simplices.shape
+    region = back.cell_data["region"][0]
+    np.testing.assert_array_equal(region, cells.regions)
+    np.testing.assert_array_equal(back.cell_data["label"][0], res.classes[region])
+    measures = np.bincount(region, weights=_simplex_measures(back.points[:, :2], block.data), minlength=3)
+    np.testing.assert_allclose(measures, res.region_measures(), rtol=1e-12)
+    assert np.isclose(measures.sum(), REGIONS2.A.sum(), rtol=1e-12)  # the square [-1, 1]^2: 4
+    write_partition(tmp_path / "p.vtk", res)
+    assert meshio.read(tmp_path / "p.vtk").cells[0].data.shape == cells.simplices.shape
+    with pytest.raises(ValueError, match="unknown partition"):
+        write_partition(tmp_path / "p.obj", res)
+
+
+def test_interfaces_writer_groups_and_pairs(tmp_path):
+    import meshio
+
+    res = relax(REGIONS2, _sectors(REGIONS2, ["air", "soft tissue", "bone"]), on="elements")
+    faces = res.interfaces()
+    pairs, counts = np.unique(faces.pairs, axis=0, return_counts=True)
+    names = ["air", "bone", "soft_tissue"]
+    write_interfaces(tmp_path / "i.obj", res)
+    assert _obj_groups(tmp_path / "i.obj") == [
+        (f"{names[a]}|{names[b]}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)
+    ]
+    back = read_mesh(tmp_path / "i.obj")  # the groups' segments on the shared points
+    assert back.n_elements == len(faces) and np.isclose(back.A.sum(), faces.measure(), rtol=1e-12)
+    for ext in (".vtu", ".vtk"):
+        write_interfaces(tmp_path / f"i{ext}", res)
+        m = meshio.read(tmp_path / f"i{ext}")
+        np.testing.assert_array_equal(np.c_[m.cell_data["region_a"][0], m.cell_data["region_b"][0]], faces.pairs)
+        assert "label_a" not in m.cell_data  # string classes: no label values
+    write_interfaces(tmp_path / "i.ply", res)
+    text = (tmp_path / "i.ply").read_text().splitlines()
+    assert "element edge 121" in text[: text.index("end_header")] and "property int region_b" in text
+    rows = np.array([line.split() for line in text[-len(faces):]], dtype=int)
+    np.testing.assert_array_equal(rows[:, 2:], faces.pairs)
+    with pytest.raises(ValueError, match="unknown interfaces format"):
+        write_interfaces(tmp_path / "i.stl", res)
+    with pytest.raises(TypeError, match="what ndboundary.relax returns"):
+        write_interfaces(tmp_path / "i.obj", faces)
+
+
+def test_interfaces_writer_on_a_solid_numeric_classes(tmp_path):
+    import meshio
+
+    res = relax(TET3, _ball_in_halves(TET3), on="elements")
+    faces = res.interfaces()
+    write_interfaces(tmp_path / "i.vtu", res)
+    m = meshio.read(tmp_path / "i.vtu")
+    assert m.cells[0].type == "triangle"
+    np.testing.assert_array_equal(m.cell_data["label_a"][0], res.classes[faces.pairs[:, 0]])
+    np.testing.assert_array_equal(m.cell_data["label_b"][0], res.classes[faces.pairs[:, 1]])
+    write_interfaces(tmp_path / "i.ply", res)
+    back = meshio.read(tmp_path / "i.ply")  # face properties, as meshio reads them
+    np.testing.assert_array_equal(back.cell_data["region_a"][0], faces.pairs[:, 0])
+    np.testing.assert_array_equal(back.cell_data["region_b"][0], faces.pairs[:, 1])
+    pairs, counts = np.unique(faces.pairs, axis=0, return_counts=True)
+    write_interfaces(tmp_path / "i.obj", res)
+    assert _obj_groups(tmp_path / "i.obj") == [(f"{a}|{b}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)]
+
+
+def test_two_region_interfaces_are_the_level_set_with_its_pair(tmp_path):
+    import meshio
+
+    res = relax(REGIONS2, ds.label_by(REGIONS2, ds.circle), on="elements")
+    write_level_set(tmp_path / "ls.obj", res.level_set())
+    write_interfaces(tmp_path / "i.obj", res)
+
+    def body(name):
+        return [line for line in (tmp_path / name).read_text().splitlines() if not line.startswith(("#", "g "))]
+
+    assert body("i.obj") == body("ls.obj")
+    assert _obj_groups(tmp_path / "i.obj") == [("0|1", res.level_set().n_simplices)]
+    write_interfaces(tmp_path / "i.vtu", res)
+    m = meshio.read(tmp_path / "i.vtu")
+    assert set(m.cell_data["region_a"][0]) == {0} and set(m.cell_data["region_b"][0]) == {1}
+    np.testing.assert_array_equal(m.cells[0].data, res.level_set().simplices)
+
+
+TET3 = ds.kuhn_grid(10, 3, jitter=0.2, random_state=0)
+
+
+def _ball_in_halves(domain):
+    """A ball (label 2) inside the two halves x < 0 (label 0) and x > 0 (label 1), by element centroid."""
+    c = domain.element_centroids()
+    return np.where(np.linalg.norm(c, axis=1) < 0.5, 2, np.where(c[:, 0] < 0, 0, 1))
+
+
+def _enclosed_volume(points, triangles):
+    """The volume a closed triangulated surface encloses (divergence theorem; sign by orientation)."""
+    p = points[triangles]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+
+
+def _every_edge_twice(triangles):
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    return bool(np.all(np.unique(edges, axis=0, return_counts=True)[1] == 2))
+
+
+def test_region_boundary_to_stl_is_closed_and_encloses_the_region(tmp_path):
+    import meshio
+
+    res = relax(TET3, _ball_in_halves(TET3), on="elements")
+    ball = res.region_boundary(2)
+    assert ball.is_closed()
+    write_level_set(tmp_path / "ball.stl", ball)
+    assert (tmp_path / "ball.stl").read_bytes()[:6] != b"solid "  # binary STL
+    soup = meshio.read(tmp_path / "ball.stl")
+    assert soup.cells[0].data.shape == (ball.n_simplices, 3)
+    volume = res.region_measures()[2]
+    assert np.isclose(_enclosed_volume(soup.points.astype(np.float64), soup.cells[0].data), volume, rtol=1e-6)
+    welded = read_mesh(tmp_path / "ball.stl")  # STL is welded: the float32 corners of a vertex are equal
+    assert welded.n_vertices == ball.n_points and _every_edge_twice(welded.simplices)
+    with pytest.raises(ValueError, match="STL holds triangles, not a curve"):
+        write_level_set(tmp_path / "c.stl", relax(REGIONS2, _sectors(REGIONS2), on="elements").region_boundary(0))
+
+
+def test_region_names_are_safe_and_distinct():
+    from ndboundary.io import region_names
+
+    assert region_names(np.array([-1, 0, 7])) == ["-1", "0", "7"]
+    assert region_names(np.array(["air", "soft tissue", "bone/marrow"])) == ["air", "soft_tissue", "bone_marrow"]
+    assert region_names(np.array(["a", "***", "c"])) == ["a", "1", "c"]  # nothing left: the index
+    assert region_names(np.array(["Bone", "bone"])) == ["0", "1"]  # equal but for case: indices throughout
+    assert region_names(np.array(["x" * 100, "y"])) == ["x" * 64, "y"]

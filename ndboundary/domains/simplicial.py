@@ -218,14 +218,13 @@ class SimplicialComplex(Domain):
 
     def build_incidence(self):
         """The vertex-element incidence."""
-        # the element-vertex matrix, one row per simplex, transposed
+        # the element-vertex matrix, one row per simplex, transposed by a counting pass
+        from .._compiled import rows_by_value
+
         E, k1 = self.simplices.shape
         idx = index_dtype(max(E * k1, self.n_vertices))
-        by_element = sp.csr_matrix(
-            (np.ones(E * k1), self.sorted_simplices.astype(idx).ravel(), np.arange(E + 1, dtype=idx) * k1),
-            shape=(E, self.n_vertices),
-        )
-        return by_element.T.tocsr()
+        indptr, indices = rows_by_value(self.simplices, self.n_vertices, idx)
+        return sp.csr_matrix((np.ones(E * k1), indices, indptr), shape=(self.n_vertices, E))
 
     def element_max(self, f):
         """Per element, the largest value of the vertex function ``f`` over its vertices."""
@@ -250,14 +249,10 @@ class SimplicialComplex(Domain):
         idx = index_dtype(max(V, E * iu.size))
         s = srt.astype(idx, copy=False)
         first, second = np.take(s, iu, axis=1).ravel(), np.take(s, ju, axis=1).ravel()
-        order, new = pair_groups(first, second, V)
-        pair_edge = np.empty(first.size, dtype=np.intp)
-        pair_edge[order] = np.cumsum(new, dtype=np.intp) - 1
-        head = order[new]
-        edges = np.empty((head.size, 2), dtype=srt.dtype)
-        edges[:, 0] = first[head]
-        edges[:, 1] = second[head]
-        return edges, pair_edge
+        from .._compiled import unique_pairs
+
+        edges, pair_edge = unique_pairs(first, second, V)
+        return edges.astype(srt.dtype, copy=False), pair_edge
 
     @cached_property
     def _facets(self):

@@ -49,12 +49,17 @@ module                          holds
 ==============================  ===========================================================
 :mod:`.meshes`                  :func:`read_mesh`, :func:`write_mesh`: dispatch by extension
 :mod:`.results`                 :func:`write_phi`, :func:`write_level_set`
+:mod:`.regions`                 :func:`region_names`, :func:`write_partition`,
+                                :func:`write_interfaces`: several regions' names, cells
+                                and interfaces
 :mod:`.labels`                  :func:`read_labels`, :func:`write_labels`
 :mod:`.cell_blocks`             cell blocks (the form between files and domains) to domains
                                 and back
 :mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, PLY (its
-:mod:`.hedra`, :mod:`.ply`      common layouts, and the ASCII level-set writer)
-:mod:`.meshio_formats`          PLY, STL, MEDIT, Gmsh, VTK and VTU through meshio
+:mod:`.hedra`, :mod:`.ply`,     common layouts, and the ASCII level-set writer), binary STL
+:mod:`.stl`                     (the level-set writer)
+:mod:`.meshio_formats`          PLY, STL, MEDIT, Gmsh, VTK and VTU through meshio; VTK data
+                                types
 :mod:`.text_scan`,              compiled (numba) scans of OBJ, OFF and PLY text; decimal
 :mod:`.text_numbers`            tokens, correctly rounded
 :mod:`.text_format`             compiled ``%.17g`` and integer text of the writers
@@ -65,7 +70,19 @@ module                          holds
 
 from .labels import read_labels, write_labels
 from .meshes import read_mesh, write_mesh
+from .regions import region_names, write_interfaces, write_partition
 from .results import write_level_set, write_phi
 from .weld import WeldReport
 
-__all__ = ["read_mesh", "write_mesh", "write_phi", "write_level_set", "read_labels", "write_labels", "WeldReport"]
+__all__ = [
+    "read_mesh",
+    "write_mesh",
+    "write_phi",
+    "write_partition",
+    "write_interfaces",
+    "write_level_set",
+    "region_names",
+    "read_labels",
+    "write_labels",
+    "WeldReport",
+]

@@ -1,7 +1,9 @@
 """The formats read and written through meshio: PLY, STL, MEDIT, Gmsh, VTK and VTU.
 
 meshio (``meshio>=5.3``, the ``io`` extra) is imported on the first use of one of
-these formats, so that OBJ, OFF and HEDRA work without it.
+these formats, so that OBJ, OFF and HEDRA work without it. :func:`vtk_values` gives
+data arrays the types VTK files hold, and :data:`SIMPLEX_KINDS` the cell type of a
+simplex, for the writers of results.
 """
 
 from __future__ import annotations
@@ -17,7 +19,14 @@ import numpy as np
 from .cell_blocks import CELL_DIMENSIONS
 from .common import non_finite_error, plural, points_3d
 
-__all__ = ["MESHIO_EXTENSIONS", "WRITABLE_KINDS", "read_with_meshio", "write_with_meshio"]
+__all__ = [
+    "MESHIO_EXTENSIONS",
+    "SIMPLEX_KINDS",
+    "WRITABLE_KINDS",
+    "read_with_meshio",
+    "vtk_values",
+    "write_with_meshio",
+]
 
 #: The block kinds every meshio format can hold (``"polyhedron"`` for any ``"polyhedron<n>"``).
 WRITABLE_KINDS = {
@@ -30,6 +39,8 @@ WRITABLE_KINDS = {
 }
 #: The extensions of the formats read and written through meshio.
 MESHIO_EXTENSIONS = set(WRITABLE_KINDS)
+#: The block kind of a simplex of k + 1 vertices, by k + 1.
+SIMPLEX_KINDS = {2: "line", 3: "triangle", 4: "tetra"}
 
 
 def _import_meshio():
@@ -156,6 +167,29 @@ def _in_order(values, order):
     if order.size == values.shape[0] and np.array_equal(order, np.arange(order.size)):
         return values
     return values[order]
+
+
+def vtk_values(values):
+    """Numbers as an array of a type VTK files hold (native-order (u)int8..64, float32 or float64), else None.
+
+    Booleans become uint8; arrays that are not numbers (strings, objects) give None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> vtk_values(np.array([True, False])).dtype, vtk_values(np.array([1.5], dtype=np.float16)).dtype
+    (dtype('uint8'), dtype('float32'))
+    >>> vtk_values(np.array(["air"])) is None
+    True
+    """
+    kind = values.dtype.kind
+    if kind == "b":
+        return values.astype(np.uint8)
+    if kind in "iu":
+        return values.astype(np.dtype(f"{kind}{values.dtype.itemsize}"))
+    if kind == "f":
+        return values.astype(np.float32 if values.dtype.itemsize <= 4 else np.float64)
+    return None
 
 
 def write_with_meshio(path, points, blocks, *, order=None, point_data=None, cell_data=None):

@@ -449,11 +449,14 @@ def relax(
         and fill phi outside them with the band-edge value plus the signed graph distance
         in units of ``h`` (:mod:`ndboundary.pipeline.band`): beyond linear passes to find
         zeta and the band, the cost follows the band, not the domain. ``"auto"``
-        (:func:`~ndboundary.pipeline.band.band_width`): 30 on curves, planar meshes and
-        surfaces, 16 on solids, where the level set matches the whole-domain solve within
-        0.01 h on average; the whole domain when ``mu = 0`` (nothing screens phi) or when
-        the domain cannot be cut (:meth:`~ndboundary.Domain.subdomain`). None relaxes the
-        whole domain.
+        (:func:`~ndboundary.pipeline.band.band_width`): 12 mean edge lengths in every
+        dimension with the default parameters, wider for a weaker boundary term (times
+        ``(2 / (lam * lam_scale))^(3/4)`` when the boundary weight falls below the
+        default's) or fewer smoothing passes (times ``(60 / smoothing)^(1/2)`` below 60);
+        the whole domain when it has fewer than 20 000 vertices, when the band would hold
+        over 70 % of the elements, when ``mu = 0`` (nothing screens phi), with fewer than
+        10 smoothing passes, or when the domain cannot be cut
+        (:meth:`~ndboundary.Domain.subdomain`). None relaxes the whole domain.
     verbose : bool, default=False
         Print each step's time to stderr as it ends.
 
