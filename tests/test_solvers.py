@@ -544,3 +544,27 @@ def test_tuning_constants_set_on_the_package_reach_the_solvers(monkeypatch):
     _skip_unless_available("cvxopt")
     solvers.factorize_spd(_spd(), backend="cvxopt")
     assert seen == [2]
+
+
+def test_auto_factorises_nearly_dense_matrices_by_lapack(monkeypatch):
+    """A matrix of a few thousand unknowns with most entries nonzero (the squared operator
+    of a neighbour graph) is factorised dense: no sparse backend is asked, and the solution
+    is the dense solve's; one that is not positive definite goes to the sparse backends."""
+    n = cholesky.DENSE_MIN
+    rng = np.random.default_rng(0)
+    B = rng.standard_normal((n, n // 4))
+    A = sp.csr_matrix(B @ B.T + n * np.eye(n))
+    b = rng.standard_normal(n)
+    calls = []
+
+    def broken(M, **kwargs):
+        calls.append(M.shape)
+        raise RuntimeError("a sparse backend was asked")
+
+    for name in ("pardiso", "cvxopt", "cholmod"):
+        monkeypatch.setitem(cholesky.FACTORISERS, name, broken)
+    x = solvers.factorize_spd(A)(b)
+    assert calls == [] and _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-12
+    indefinite = sp.csr_matrix(B @ B.T - np.eye(n))
+    solvers.factorize_spd(indefinite)
+    assert len(calls) == sum(common.load_optional(cholesky.BACKENDS[k]) is not None for k in ("pardiso", "cvxopt", "cholmod"))

@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from .._arrays import DEGENERATE_RTOL, counting_sort, index_dtype
 
-__all__ = ["simplex_geometry", "stiffness_terms", "symmetric_csr", "symmetric_inverse"]
+__all__ = ["aspect_ratios", "simplex_geometry", "stiffness_terms", "symmetric_csr", "symmetric_inverse"]
 
 # Entries of the per-block temporaries of the geometry (simplices x vertices x dim).
 _BLOCK = 1 << 16
@@ -220,3 +220,22 @@ def symmetric_csr(edges, off, diag, has_diag):
     indices[pos] = j
     data[pos] = off
     return sp.csr_matrix((data, indices, indptr), shape=(n, n))
+
+
+def aspect_ratios(points, simplices, volumes):
+    """``L^k / (k! V)`` per simplex, ``L`` its longest edge and ``V`` its volume, divided
+    by the regular simplex's value (1 for a regular simplex).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    >>> round(float(aspect_ratios(tri, np.array([[0, 1, 2]]), np.array([np.sqrt(3) / 4]))[0]), 12)
+    1.0
+    """
+    k = simplices.shape[1] - 1
+    longest = np.zeros(simplices.shape[0])
+    for i, j in zip(*np.triu_indices(k + 1, 1), strict=True):
+        d = points[simplices[:, i]] - points[simplices[:, j]]
+        np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
+    return np.sqrt(longest) ** k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * volumes)

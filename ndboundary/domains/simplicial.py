@@ -18,7 +18,6 @@ Incidences (edges, facets, adjacency) are built by the linear-time sorts of
 from __future__ import annotations
 
 from functools import cached_property
-from math import factorial
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,7 +36,7 @@ from .._arrays import (
 )
 from .._validation import check_cells, check_points
 from .base import Domain
-from .simplex_geometry import simplex_geometry, stiffness_terms, symmetric_csr
+from .simplex_geometry import aspect_ratios, simplex_geometry, stiffness_terms, symmetric_csr
 from .simplicial_split import SplitOperators
 
 __all__ = ["SimplicialComplex"]
@@ -134,16 +133,6 @@ class SimplicialComplex(Domain):
             )
         return grads, vol
 
-    @cached_property
-    def _aspect_ratios(self):
-        X = self.points[self.simplices]
-        k = self.simplex_dim
-        longest = np.zeros(X.shape[0])
-        for i, j in zip(*np.triu_indices(k + 1, 1), strict=True):
-            d = X[:, i] - X[:, j]
-            np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
-        return np.sqrt(longest) ** k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * self.volumes)
-
     def aspect_ratios(self):
         """``L^k / (k! V)`` per simplex, ``L`` its longest edge and ``V`` its volume, divided
         by the regular simplex's value: 1 for a regular simplex, about ``L / w`` for a
@@ -156,7 +145,7 @@ class SimplicialComplex(Domain):
         >>> round(float(flat.aspect_ratios()[0]), 1)
         86.6
         """
-        return self._aspect_ratios
+        return aspect_ratios(self.points, self.simplices, self.volumes)
 
     def element_centroids(self) -> np.ndarray:
         """Element centroids, shape (n_elements, dim)."""

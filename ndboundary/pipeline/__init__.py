@@ -12,8 +12,8 @@ module            step
 :mod:`.smoothing` 3. the field averaged over neighbouring elements
 :mod:`.integration` 4. least squares integrate the field into phi
 :mod:`.result`    what a relaxation returns
-:mod:`.relaxer`   :class:`Relaxer` runs the steps and keeps what calls share;
-                  :func:`relax` is its one-shot form
+:mod:`.relaxer`   :class:`Relaxer` runs the steps and keeps what calls share
+:mod:`.oneshot`   :func:`relax`, its one-shot form
 ================  ===========================================================
 
 The steps use only the domain protocol (:mod:`ndboundary.domains.base`), never the kind
@@ -22,7 +22,8 @@ of domain.
 
 from .boundary import Boundary
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER
-from .relaxer import Relaxer, relax
+from .oneshot import relax
+from .relaxer import Relaxer
 from .result import RelaxResult
 
 __all__ = ["DEFAULT_LAM", "DEFAULT_MU", "DEFAULT_SMOOTHING", "PAPER", "Boundary", "RelaxResult", "Relaxer", "relax"]

@@ -13,6 +13,7 @@ import importlib
 import threading
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -22,6 +23,9 @@ from .pardiso import PardisoFactor
 
 __all__ = [
     "BACKENDS",
+    "DENSE_MAX",
+    "DENSE_MIN",
+    "DENSE_SHARE",
     "FACTORISERS",
     "LARGE_SYSTEM",
     "auto_order",
@@ -44,6 +48,28 @@ BACKENDS = {
     "cholmod": "sksparse_minimal",
     "superlu": None,
 }
+
+
+#: ``backend="auto"`` factorises a matrix of :data:`DENSE_MIN` to this many unknowns
+#: whose nonzeros exceed :data:`DENSE_SHARE` of its entries as a dense one (LAPACK), at
+#: most 8 n^2 bytes.
+DENSE_MAX = 8000
+#: See :data:`DENSE_MAX`: below, every backend is fast.
+DENSE_MIN = 1000
+#: See :data:`DENSE_MAX`. The squared operator of a neighbour graph couples 4-ring
+#: neighbours: on a few thousand samples it is close to dense, where a sparse
+#: factorisation spends seconds building its structure for the same dense fronts.
+DENSE_SHARE = 0.2
+
+
+def _dense(A):
+    """LAPACK's Cholesky of the dense matrix (``scipy.linalg.cho_factor``)."""
+    factor = sla.cho_factor(sp.csr_matrix(A).toarray(), lower=True, check_finite=False)
+
+    def solve(b):
+        return sla.cho_solve(factor, np.asarray(b, dtype=np.float64), check_finite=False)
+
+    return solve
 
 
 def _superlu(A):
@@ -132,7 +158,9 @@ def factorize_spd(A, backend="auto", orderings=None):
         diagonal pivots). ``"auto"``: the first backend that is installed and accepts
         the matrix, in the order of :data:`BACKENDS` (cvxopt, pardiso, cholmod, superlu),
         PARDISO first from :data:`LARGE_SYSTEM` unknowns; an error of one backend (a
-        missing runtime library, a pivot that is not positive) moves on to the next.
+        missing runtime library, a pivot that is not positive) moves on to the next. A
+        matrix of :data:`DENSE_MIN` to :data:`DENSE_MAX` unknowns with more than
+        :data:`DENSE_SHARE` of its entries nonzero is factorised dense, by LAPACK, first.
     orderings : dict, optional
         Where PARDISO keeps its METIS ordering for the next matrix of the same sparsity
         pattern, and finds the one kept (:attr:`~ndboundary.solvers.FactorCache.orderings`).
@@ -171,6 +199,12 @@ def factorize_spd(A, backend="auto", orderings=None):
         if mod is not None and load_optional(mod) is None:
             raise ImportError(f"backend={backend!r} needs the package {_PACKAGE[backend]}")
         return _factorise(backend, A, orderings)
+    n = A.shape[0]
+    if DENSE_MIN <= n <= DENSE_MAX and A.nnz > DENSE_SHARE * n * n:
+        try:
+            return _dense(A)
+        except np.linalg.LinAlgError:  # not numerically positive definite: the sparse backends decide
+            pass
     for name in auto_order(A.shape[0]):
         mod = BACKENDS[name]
         if mod is None or load_optional(mod) is None:
