@@ -568,3 +568,25 @@ def test_auto_factorises_nearly_dense_matrices_by_lapack(monkeypatch):
     indefinite = sp.csr_matrix(B @ B.T - np.eye(n))
     solvers.factorize_spd(indefinite)
     assert len(calls) == sum(common.load_optional(cholesky.BACKENDS[k]) is not None for k in ("pardiso", "cvxopt", "cholmod"))
+
+
+def test_factor_cache_keeps_the_squared_operator_for_every_labelling():
+    """The squared operator is built once per stiffness, mass and mu (compared by content),
+    kept when factors are not, and freed by clear()."""
+    cache = solvers.FactorCache(keep_factor=False)
+    K = sp.csr_matrix([[1.0, -1.0], [-1.0, 1.0]])
+    built = []
+
+    def build():
+        built.append(1)
+        return K @ K
+
+    first = cache.squared(K, [1.0, 1.0], 0.1, build)
+    assert cache.squared(K.copy(), np.ones(2), 0.1, build) is first and len(built) == 1
+    cache.squared(K, [1.0, 2.0], 0.1, build)  # another mass
+    cache.squared(K, [1.0, 2.0], 0.2, build)  # another mu
+    assert len(built) == 3
+    assert cache.get("x", K, lambda A: object()) is not cache.get("x", K, lambda A: object())  # no factor kept
+    cache.clear()
+    cache.squared(K, [1.0, 2.0], 0.2, build)
+    assert len(built) == 4

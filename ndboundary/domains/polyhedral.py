@@ -35,12 +35,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._arrays import (
-    DEGENERATE_RTOL,
     expand_ranges,
     fill_unused_mass,
     group_rows,
     mixed_facets,
-    ragged_next,
     ragged_rows,
     row_groups,
     shared_facet_adjacency,
@@ -58,6 +56,7 @@ from .polyhedral_cells import (
     pyramid_split,
     tetrahedral_refinement,
 )
+from .polyhedral_geometry import cell_geometry, face_geometry
 from .simplicial import SimplicialComplex
 
 __all__ = ["PolyhedralMesh"]
@@ -208,24 +207,9 @@ class PolyhedralMesh(Domain):
     # -- geometry ------------------------------------------------------------------------
     def _face_geometry(self):
         """Face vertex means, fan-triangle vector areas (per face corner) and face vector areas."""
-        owner, nxt, _ = ragged_next(self.face_offsets)
-        self.face_owner, self.face_next = owner, nxt
-        sizes = np.diff(self.face_offsets)
-        X = self.points[self.face_indices]
-        c = np.stack([np.bincount(owner, weights=X[:, d], minlength=sizes.size) for d in range(3)], 1)
-        c /= sizes[:, None]
-        Xc = X - c[owner]
-        Nt = 0.5 * np.cross(Xc, Xc[nxt])  # fan triangle (c_f, x_j, x_j+1)
-        Nf = np.stack([np.bincount(owner, weights=Nt[:, d], minlength=sizes.size) for d in range(3)], 1)
-        scale = np.bincount(owner, weights=((Xc[nxt] - Xc) ** 2).sum(axis=1)) / sizes
-        bad = ~(np.linalg.norm(Nf, axis=1) > DEGENERATE_RTOL * scale)
-        if bad.any():
-            f = int(np.flatnonzero(bad)[0])
-            raise ValueError(
-                f"face {f} (vertices {self.face_indices[self.face_offsets[f] : self.face_offsets[f + 1]].tolist()}) "
-                "is degenerate: zero area"
-            )
-        self.face_centres, self.fan_areas, self.face_areas = c, Nt, Nf
+        self.face_owner, self.face_next, self.face_centres, self.fan_areas, self.face_areas = face_geometry(
+            self.points, self.face_indices, self.face_offsets
+        )
 
     @cached_property
     def cell_face_entries(self):
@@ -255,47 +239,7 @@ class PolyhedralMesh(Domain):
 
     def _cell_geometry(self):
         """Volumes and per (cell, vertex) Green-Gauss coefficients; flips inward cells."""
-        cell_of_entry, entry_of_corner, corner = self.cell_face_entries
-        E = self.n_elements
-        centre = self.element_centroids()
-        fo = self.face_owner[corner]
-        s = self.cell_face_signs[entry_of_corner].astype(np.float64)
-        cell = cell_of_entry[entry_of_corner]
-        Nt = self.fan_areas[corner] * s[:, None]
-        # signed volume of the fan surface: sum over triangles of (c_f - centre) . N_t / 3
-        vol = np.bincount(
-            cell, weights=np.einsum("ij,ij->i", self.face_centres[fo] - centre[cell], Nt) / 3.0, minlength=E
-        )
-        inward = vol < 0
-        if inward.any():
-            self.cell_face_signs[inward[cell_of_entry]] *= -1
-            vol[inward] *= -1
-            s = self.cell_face_signs[entry_of_corner].astype(np.float64)
-            Nt = self.fan_areas[corner] * s[:, None]
-        cv, vv = self.cell_vertices
-        ext = np.maximum.reduceat(
-            self.points[vv], np.r_[0, np.flatnonzero(np.diff(cv)) + 1], axis=0
-        ) - np.minimum.reduceat(self.points[vv], np.r_[0, np.flatnonzero(np.diff(cv)) + 1], axis=0)
-        scale = np.linalg.norm(ext, axis=1) ** 3
-        bad = ~(vol > DEGENERATE_RTOL * scale)
-        if bad.any():
-            c = int(np.flatnonzero(bad)[0])
-            more = "" if bad.sum() == 1 else f" ({int(bad.sum())} degenerate cells in all)"
-            raise ValueError(
-                f"cell {c} (faces {self.cell_faces[self.cell_offsets[c] : self.cell_offsets[c + 1]].tolist()}) "
-                f"is degenerate: zero volume{more}"
-            )
-        # vertex j of a face gets (N_{t,j-1} + N_{t,j}) / 3 + N_f / (3 m)
-        prev_corner = np.empty_like(self.face_next)
-        prev_corner[self.face_next] = np.arange(self.face_next.size)
-        m = np.diff(self.face_offsets)[fo]
-        Nf = self.face_areas[fo] * s[:, None]
-        coef = (Nt + self.fan_areas[prev_corner[corner]] * s[:, None]) / 3.0 + Nf / (3.0 * m[:, None])
-        coef /= vol[cell, None]
-        inv, n_pairs = group_rows(np.stack([cell, self.face_indices[corner]], axis=1))
-        g = np.stack([np.bincount(inv, weights=coef[:, d], minlength=n_pairs) for d in range(3)], 1)
-        self._volumes = vol
-        self._pair_grads = g  # aligned with self.cell_vertices
+        self._volumes, self._pair_grads = cell_geometry(self)  # pair grads aligned with self.cell_vertices
 
     # -- operators -------------------------------------------------------------------------
     def build_gradient(self):

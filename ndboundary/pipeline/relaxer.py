@@ -128,6 +128,7 @@ class Relaxer:
         self._graph = None  # the edge graph of the band's searches: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
+        self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
 
     @property
     def nbytes(self) -> int:
@@ -202,7 +203,7 @@ class Relaxer:
             self.clear()
             padded = None
         phi, int_info = integrate(
-            system, rtol=p["rtol"], solver=p["solver"], cache=self._factors if self._keep else None
+            system, rtol=p["rtol"], solver=p["solver"], cache=self._factors if self._keep else self._shared
         )
         prog.step("integration")
 
@@ -232,10 +233,13 @@ class Relaxer:
         h = self.domain.mean_edge_length() if self._h is None else self._h
         params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
         results, graph = [], self._graph
+        # the squared operator and PARDISO's ordering serve every region; each factor its own
+        shared = self._factors if self._keep else FactorCache(keep_factor=False)
         for r in range(classes.size):
             relaxer = Relaxer(self.domain, _keep=False, _h=h)
             relaxer._graph = graph  # the band's edge graph serves every region
             relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
+            relaxer._shared = shared
             results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
             graph = relaxer._graph
         if self._keep:

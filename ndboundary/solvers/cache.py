@@ -10,7 +10,7 @@ import os
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["FactorCache", "digest"]
+__all__ = ["FactorCache", "cached", "digest", "orderings_of"]
 
 
 class FactorCache:
@@ -43,8 +43,10 @@ class FactorCache:
     True
     """
 
-    def __init__(self):
+    def __init__(self, keep_factor=True):
+        self.keep_factor = keep_factor  # False: only the squared operator and orderings are kept
         self._entry = None
+        self._squared = None  # (key, K M^-1 K + mu K): the part of Q that no labelling changes
         self.orderings = {}
         self.nbytes = 0
 
@@ -52,21 +54,40 @@ class FactorCache:
         return int(self._entry is not None)
 
     def get(self, kind, A, build):
-        """The cached value for ``(kind, A)``, or ``build(A)`` cached in its place."""
+        """The cached value for ``(kind, A)``, or ``build(A)`` cached in its place (not
+        cached, and ``A`` not even compared, without ``keep_factor``).
+        """
+        if not self.keep_factor:
+            return build(A)
         key = _key(kind, A)
         entry = self._entry  # one (key, value) tuple: safe to read from any thread
         if entry is not None and entry[0] == key:
             return entry[1]
-        self.clear(orderings=False)  # free the old one before building the new one
+        self._entry, self.nbytes = None, 0  # free the old factor before building the new one
         before = _resident_bytes()
         value = build(A)
         self.nbytes = _factor_bytes(value, max(0, _resident_bytes() - before))
         self._entry = (key, value)
         return value
 
+    def squared(self, K, mass, mu, build):
+        """``build()``, the integration matrix's ``K M^{-1} K + mu K``, or the one kept for
+        the same ``K``, ``mass`` and ``mu`` (compared by content): the relaxations of
+        several labellings of one domain share it, and only their constraint rows differ.
+        """
+        K = sp.csr_matrix(K)
+        key = digest(("squared", K.shape, float(mu)), K.indptr, K.indices, K.data, np.asarray(mass))
+        kept = self._squared
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        value = build()
+        self._squared = (key, value)
+        return value
+
     def clear(self, orderings=True):
-        """Free the kept factorisation (and, by default, the kept ordering)."""
+        """Free the kept factorisation and squared operator (and, by default, the kept ordering)."""
         self._entry = None
+        self._squared = None
         self.nbytes = 0
         if orderings:
             self.orderings.clear()
@@ -114,3 +135,26 @@ def _factor_bytes(solve, measured):
     """
     nbytes = getattr(getattr(solve, "__self__", None), "factor_nbytes", None)
     return measured if nbytes is None else nbytes
+
+
+def cached(kind, A, build, cache):
+    """``cache.get(kind, A, build)``, or ``build(A)`` without a cache (None).
+
+    Examples
+    --------
+    >>> import scipy.sparse as sp
+    >>> cached("x", sp.identity(2, format="csr"), lambda A: A.nnz, None)
+    2
+    """
+    return build(A) if cache is None else cache.get(kind, A, build)
+
+
+def orderings_of(cache):
+    """Where PARDISO keeps its orderings in ``cache`` (None without a cache).
+
+    Examples
+    --------
+    >>> orderings_of(None) is None, orderings_of(FactorCache()) == {}
+    (True, True)
+    """
+    return None if cache is None else cache.orderings

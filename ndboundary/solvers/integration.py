@@ -36,6 +36,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .amg import amg_preconditioner, light_vertex_jacobi
+from .cache import cached, orderings_of
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
 from .common import (
     ConvergenceWarning,
@@ -211,7 +212,7 @@ def _solve_direct(system, rtol, *, refine_single, backend, cache):
         # stacklevel 5: past this function and solve_integration, at the pipeline's caller
         fallback_warning("cholesky", stacklevel=5)
     t0 = time.perf_counter()
-    Q = _assemble(system)
+    Q = _assemble(system, cache)
     single = None
     if (
         refine_single
@@ -228,11 +229,18 @@ def _solve_direct(system, rtol, *, refine_single, backend, cache):
     return phi, info
 
 
-def _assemble(system):
-    """``Q`` as a CSR matrix, symmetrised against rounding."""
+def _assemble(system, cache=None):
+    """``Q`` as a CSR matrix, symmetrised against rounding; ``K M^{-1} K + mu K`` taken
+    from ``cache`` when it holds it (:meth:`FactorCache.squared`).
+    """
     K, mass, S, lam, mu, _rhs = system
-    Q = (K @ sp.diags(1.0 / mass) @ K + mu * K + lam * (S.T @ S)).tocsr()
-    return ((Q + Q.T) * 0.5).tocsr()
+
+    def squared():
+        P = (K @ sp.diags(1.0 / mass) @ K + mu * K).tocsr()
+        return ((P + P.T) * 0.5).tocsr()
+
+    P = squared() if cache is None else cache.squared(K, mass, mu, squared)
+    return (P + lam * (S.T @ S)).tocsr()
 
 
 def _refined_single(Q, rhs, rtol, cache):
@@ -243,9 +251,9 @@ def _refined_single(Q, rhs, rtol, cache):
     t0 = time.perf_counter()
     try:
         with one_blas_thread():
-            solve = _cached(
+            solve = cached(
                 ("direct", "pardiso-single"), Q,
-                lambda A: PardisoFactor(A, single=True, orderings=_orderings_of(cache)).solve, cache,
+                lambda A: PardisoFactor(A, single=True, orderings=orderings_of(cache)).solve, cache,
             )  # fmt: skip
     except Exception:  # noqa: BLE001 - any failure of the optional path: factorise in double
         return None
@@ -265,8 +273,8 @@ def _factor_solve(Q, rhs, backend, cache, iters=0):
     """
     t0 = time.perf_counter()
     with one_blas_thread():
-        solve = _cached(
-            ("direct", backend), Q, lambda A: factorize_spd(A, backend=backend, orderings=_orderings_of(cache)), cache
+        solve = cached(
+            ("direct", backend), Q, lambda A: factorize_spd(A, backend=backend, orderings=orderings_of(cache)), cache
         )
         t1 = time.perf_counter()
         phi = solve(rhs)
@@ -294,11 +302,11 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     name = "pcg-amg" if use_amg else "pcg-cholesky"
     with one_blas_thread():
         if use_amg:  # the hierarchy is kept; the light vertices' step is rebuilt from the mass
-            solve = light_vertex_jacobi(A, mass, _cached("amg", A, amg_preconditioner, cache))
+            solve = light_vertex_jacobi(A, mass, cached("amg", A, amg_preconditioner, cache))
         else:
-            solve = _cached(
+            solve = cached(
                 ("factor", backend), A,
-                lambda B: factorize_spd(B, backend=backend, orderings=_orderings_of(cache)), cache,
+                lambda B: factorize_spd(B, backend=backend, orderings=orderings_of(cache)), cache,
             )  # fmt: skip
 
     def apply(r):
@@ -321,7 +329,7 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
             )
             return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
         if sparse_rows or n <= DIRECT_FALLBACK_MAX:
-            phi, info2 = _factor_solve(_assemble(system), rhs, backend, cache, iters)
+            phi, info2 = _factor_solve(_assemble(system, cache), rhs, backend, cache, iters)
             info2.setup_time += t2 - t0
             return phi, info2
         phi, iters, res = _iterate_on(Q, P, system, phi, iters, rtol, maxiter)
@@ -389,11 +397,3 @@ def _iterate_on(Q, P, system, phi, iters, rtol, maxiter):
 def _is_sparse_rows(K):
     n = K.shape[0]
     return n <= SMALL_SYSTEM or K.nnz / max(n, 1) <= DENSE_ROW_THRESHOLD
-
-
-def _cached(kind, A, build, cache):
-    return build(A) if cache is None else cache.get(kind, A, build)
-
-
-def _orderings_of(cache):
-    return None if cache is None else cache.orderings

@@ -1,0 +1,53 @@
+"""Helpers shared by :mod:`ndboundary.plot` and :mod:`ndboundary.plot_regions`: the lazy
+matplotlib import, the element polygons of a domain and line segments of vertex pairs.
+
+matplotlib is imported by :func:`pyplot` when it is called, not when this module is imported.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["pyplot", "element_faces", "edge_segments"]
+
+
+def pyplot():
+    """``matplotlib.pyplot``, imported now; an ImportError saying how to install it otherwise."""
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError("ndboundary.plot needs matplotlib: pip install 'ndboundary[plot]'") from exc
+    return plt
+
+
+def element_faces(domain):
+    """Element polygons as lists of vertex indices (triangles for a simplicial complex).
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.plot_common import element_faces
+    >>> faces = element_faces(kuhn_grid(2, 2))
+    >>> len(faces), len(faces[0])
+    (8, 3)
+    """
+    polys = getattr(domain, "polygons", None)
+    if polys is not None:
+        return [np.asarray(p) for p in polys]
+    simplices = getattr(domain, "simplices", None)
+    if simplices is None or simplices.shape[1] != 3:
+        raise ValueError("plotting needs a domain of triangles or polygons")
+    return list(simplices)
+
+
+def edge_segments(points, simplices):
+    """The segments between the first two vertices of each row of ``simplices``, shape (n, 2, dim).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.plot_common import edge_segments
+    >>> edge_segments(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]), [[0, 1], [1, 2]]).tolist()
+    [[[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [1.0, 1.0]]]
+    """
+    return points[np.asarray(simplices)[:, :2]]
