@@ -101,11 +101,16 @@ def test_auto_picks_by_row_density(monkeypatch):
     K2, m2, S2 = _system(12, 2)
     K3, m3, S3 = _system(6, 3)
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX", 0)
     _, info2 = solvers.solve_integration(K2, m2, S2, 2.0, np.ones(K2.shape[0]), mu=0.03)
     _, info3 = solvers.solve_integration(K3, m3, S3, 2.0, np.ones(K3.shape[0]), mu=0.03)
     assert info2.method == "cholesky"
     expected = "pcg-amg" if "amg" in solvers.available_backends() else "pcg-cholesky"
     assert info3.method == expected
+    # up to PCG_FACTOR_MAX unknowns, dense rows are preconditioned by a factor of K + D
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX", K3.shape[0])
+    phi3, info3 = solvers.solve_integration(K3, m3, S3, 2.0, np.ones(K3.shape[0]), mu=0.03)
+    assert info3.method == "pcg-cholesky" and info3.residual < 1e-9
 
 
 def _knn_graph_operator(n, k, seed=0):
@@ -231,6 +236,7 @@ def test_fallback_without_optional_packages(system, monkeypatch):
     for mod in ("pypardiso", "cvxopt", "cvxopt.cholmod", "sksparse_minimal", "pyamg"):
         monkeypatch.setitem(sys.modules, mod, None)
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX", 0)
     common._warned.clear()
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
@@ -275,6 +281,7 @@ def test_nonconvergence_warns_with_residual(system):
 def test_auto_falls_back_to_direct_when_pcg_stalls(system, monkeypatch):
     K, mass, S, lam, mu, rhs, exact = system
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX", 0)
     monkeypatch.setattr(solvers, "DENSE_ROW_THRESHOLD", 0.0)  # force the pcg path
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
@@ -479,6 +486,7 @@ def test_pardiso_reuses_the_ordering_of_the_same_pattern():
 def test_auto_iterates_on_instead_of_factorising_a_large_3d_system(system, monkeypatch):
     K, mass, S, lam, mu, rhs, exact = system
     monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX", 0)
     monkeypatch.setattr(solvers, "DENSE_ROW_THRESHOLD", 0.0)  # force the pcg path
     monkeypatch.setattr(solvers, "DIRECT_FALLBACK_MAX", 0)  # "too large to factorise"
     # a few iterations more than the first round allows are enough here: no factorisation

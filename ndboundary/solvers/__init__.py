@@ -56,6 +56,7 @@ __all__ = [
 _TUNING = {
     "DENSE_ROW_THRESHOLD": integration,
     "SMALL_SYSTEM": integration,
+    "PCG_FACTOR_MAX": integration,
     "SINGLE_PRECISION_MIN": integration,
     "SINGLE_REFINE_MAXITER": integration,
     "DIRECT_FALLBACK_MAX": integration,

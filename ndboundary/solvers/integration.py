@@ -55,6 +55,7 @@ __all__ = [
     "DIRECT_FALLBACK_MAX",
     "SINGLE_PRECISION_MIN",
     "SINGLE_REFINE_MAXITER",
+    "PCG_FACTOR_MAX",
     "SMALL_SYSTEM",
     "solve_integration",
 ]
@@ -63,9 +64,16 @@ __all__ = [
 #: integration then iterates instead of factorising ``Q`` (whose fill grows as n^2).
 #: Triangle meshes and surfaces have about 7 entries per row, tetrahedral meshes 14.
 DENSE_ROW_THRESHOLD = 10.0
-#: Below this many unknowns the integration system is always factorised: the
-#: factorisation of a small system is cheap whatever its fill.
-SMALL_SYSTEM = 3000
+#: Up to this many unknowns the integration system is always factorised: the
+#: factorisation of a small system is cheap whatever its fill. Above, dense rows iterate:
+#: on a neighbour graph of 3 000 samples (400 entries per row of ``K``, ``Q`` nearly
+#: dense) assembling and factorising ``Q`` took 1.2 s, 28 preconditioned iterations 0.5 s.
+SMALL_SYSTEM = 1000
+#: Up to this many unknowns, pcg on dense rows is preconditioned by a Cholesky factor of
+#: ``K + D`` rather than an AMG V-cycle: at this size the factor is cheap even where it
+#: fills in (neighbour graphs: 28 iterations and 0.5 s against 36 and 0.7 s at 3 000
+#: samples).
+PCG_FACTOR_MAX = 4000
 #: From this many unknowns, ``method="auto"`` factorises the integration matrix of a
 #: triangle mesh with PARDISO in single precision (half the factor's memory, a faster
 #: factorisation) and refines the solution by conjugate gradients preconditioned with
@@ -298,7 +306,7 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     sts = np.asarray(abs(S).T @ abs(S) @ np.ones(S.shape[1])).ravel()
     d = 0.5 * mu * mass + np.sqrt(lam * sts * mass)
     A = (K + sp.diags(d)).tocsr()
-    use_amg = _use_amg(preconditioner, sparse_rows)
+    use_amg = _use_amg(preconditioner, sparse_rows, K.shape[0])
     name = "pcg-amg" if use_amg else "pcg-cholesky"
     with one_blas_thread():
         if use_amg:  # the hierarchy is kept; the light vertices' step is rebuilt from the mass
@@ -337,10 +345,10 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
 
 
-def _use_amg(preconditioner, sparse_rows):
+def _use_amg(preconditioner, sparse_rows, n):
     """Whether pcg's preconditioner is an AMG V-cycle (else a Cholesky factor)."""
     if preconditioner == "auto":
-        use_amg = not sparse_rows
+        use_amg = not sparse_rows and n > PCG_FACTOR_MAX
         if use_amg and load_optional("pyamg") is None:
             # stacklevel 6: past this function, _solve_pcg and solve_integration
             fallback_warning("pyamg", stacklevel=6)
