@@ -52,6 +52,10 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   once (not timed): the domain's cached operators are shared by the calls, and an
   untimed warm-up call builds them. Target: the ratio <= 3.
 
+``--independent`` relaxes every region against the rest on its own, its field smoothed
+as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline that
+smoothing within sectors is measured against.
+
 Columns: ``mean/h``, ``max/h`` over the interface points; ``away``, ``away max`` over
 those farther than 2 h from every true junction and from the border (where the largest
 errors are not); ``t>f`` the largest distance from a true junction to the found ones,
@@ -361,7 +365,16 @@ def main():
     parser.add_argument("--seed", type=int, default=0, help="random state of the sites")
     parser.add_argument("--speed", action="store_true", help="add the speed case")
     parser.add_argument("--cases", default=None, help="comma-separated case names (default: every fidelity case)")
+    parser.add_argument(
+        "--independent",
+        action="store_true",
+        help="smooth every region's field as one (the independent one-vs-rest relaxations), not within sectors",
+    )
     args = parser.parse_args()
+    if args.independent:
+        from ndboundary.pipeline import sectors
+
+        sectors.SECTOR_SMOOTHING = False
     table = cases(args)
     names = args.cases.split(",") if args.cases else [n for n in table if n != "speed"]
     if args.speed and "speed" not in names:

@@ -386,7 +386,7 @@ def test_interfaces_writer_groups_and_pairs(tmp_path):
         assert "label_a" not in m.cell_data  # string classes: no label values
     write_interfaces(tmp_path / "i.ply", res)
     text = (tmp_path / "i.ply").read_text().splitlines()
-    assert "element edge 121" in text[: text.index("end_header")] and "property int region_b" in text
+    assert f"element edge {len(faces)}" in text[: text.index("end_header")] and "property int region_b" in text
     rows = np.array([line.split() for line in text[-len(faces):]], dtype=int)
     np.testing.assert_array_equal(rows[:, 2:], faces.pairs)
     with pytest.raises(ValueError, match="unknown interfaces format"):

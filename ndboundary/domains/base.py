@@ -265,10 +265,15 @@ class Domain:
         """
         return float(np.percentile(np.diff(self.adjacency.indptr), 90))
 
-    def smooth_field(self, X, passes):
+    def smooth_field(self, X, passes, groups=None):
         """Step 3 of the paper: ``passes`` sweeps of averaging each element's vector with its
         neighbours', renormalised after each sweep, in Jacobi order so that the result does
         not depend on the element order.
+
+        With ``groups`` (one integer per element), an element does not average a neighbour
+        of another group; a negative group belongs to none and averages every neighbour.
+        The relaxation of one region among several smooths its field within the sectors of
+        its neighbouring regions so (see :mod:`ndboundary.pipeline.sectors`).
 
         The weights are the paper's uniform ones, except that an element's weight in its
         neighbours' averages is capped at that of an element of the usual degree,
@@ -288,6 +293,7 @@ class Domain:
         X : ndarray of shape (n_elements, dim)
             Unit vectors (or zero rows); not modified.
         passes : int
+        groups : ndarray of int of shape (n_elements,), optional
 
         Returns
         -------
@@ -298,6 +304,12 @@ class Domain:
         adjacency = self.adjacency
         degree = np.diff(adjacency.indptr)
         cap = np.minimum(1.0, self.usual_degree / np.maximum(degree, 1))
+        if groups is not None:
+            groups = np.asarray(groups)
+            rows = np.repeat(np.arange(self.n_elements), degree)
+            a, b = groups[rows], groups[adjacency.indices]
+            same = (a == b) | (a < 0) | (b < 0)
+            adjacency = sp.csr_matrix((adjacency.data * same, adjacency.indices, adjacency.indptr), adjacency.shape)
         if (cap < 1.0).any():
             adjacency = (adjacency @ sp.diags(cap)).tocsr()
         W = (adjacency + sp.identity(self.n_elements, format="csr")).tocsr()

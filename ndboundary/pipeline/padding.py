@@ -28,6 +28,8 @@ class Padded:
         The padded domain (the input domain itself when nothing was split).
     split : ndarray of int
         The input elements that were split, increasing.
+    parent : ndarray of int of shape (work.n_elements,)
+        The input element each padded element lies in.
     elem_region1 : ndarray of bool of shape (work.n_elements,)
         Elements of region 1 (for vertex labels: holding a region-1 vertex).
     straddle : ndarray of bool of shape (work.n_elements,)
@@ -52,6 +54,7 @@ class Padded:
 
     work: object
     split: np.ndarray
+    parent: np.ndarray
     elem_region1: np.ndarray
     straddle: np.ndarray
     S: sp.csr_matrix
@@ -114,4 +117,4 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
         vert_region1 = region1
     S, targets = pinned_rows(domain, boundary.S, vert_region1)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()
-    return Padded(work, split, elem_region1, straddle, S, targets)
+    return Padded(work, split, parent, elem_region1, straddle, S, targets)

@@ -37,6 +37,8 @@ from .integration import boundary_weight_scale, integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, check_params
 from .result import DeferredFill, RegionsResult, RelaxResult
+from . import sectors
+from .sectors import region_sectors
 from .smoothing import smooth
 
 __all__ = ["Relaxer"]
@@ -129,6 +131,7 @@ class Relaxer:
         self._h = _h  # the mesh size of the domain this one is a band of
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
+        self._sectors = None  # (every element's region, this region): smooth within sectors
 
     @property
     def nbytes(self) -> int:
@@ -193,7 +196,10 @@ class Relaxer:
         boundary, padded = self._padded(key, region1, on, bool(pad), zeta)
         prog.step("pad")
         u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
-        Xs = smooth(padded.work, X, p["smoothing"])
+        groups = None
+        if self._sectors is not None:
+            groups = region_sectors(self.domain, *self._sectors)[padded.parent]
+        Xs = smooth(padded.work, X, p["smoothing"], groups)
         prog.step("smoothing")
         system = integration_system(
             padded.work, Xs, h, padded, boundary.sources, lam=p["lam"], mu=p["mu"], form=p["form"]
@@ -240,6 +246,8 @@ class Relaxer:
             relaxer._graph = graph  # the band's edge graph serves every region
             relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
             relaxer._shared = shared
+            if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
+                relaxer._sectors = (codes, r)
             results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
             graph = relaxer._graph
         if self._keep:
@@ -318,6 +326,7 @@ class Relaxer:
             print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
         locate = time.perf_counter() - tick
         sub_labels = region1[mask] if on == "elements" else region1[vertices]
+        relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
         res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
         tick = time.perf_counter()

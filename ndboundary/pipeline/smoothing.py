@@ -12,8 +12,9 @@ from __future__ import annotations
 __all__ = ["smooth"]
 
 
-def smooth(work, X, passes):
-    """``passes`` smoothing passes of the field ``X`` (not modified) on the padded domain.
+def smooth(work, X, passes, groups=None):
+    """``passes`` smoothing passes of the field ``X`` (not modified) on the padded domain;
+    with ``groups``, within each group of elements only (:meth:`~ndboundary.Domain.smooth_field`).
 
     Examples
     --------
@@ -26,4 +27,6 @@ def smooth(work, X, passes):
     >>> Xs.shape, bool(np.allclose(np.linalg.norm(Xs, axis=1), 1.0)), smooth(mesh, X, 0) is X
     ((200, 2), True, True)
     """
-    return work.smooth_field(X, passes) if passes else X
+    if not passes:
+        return X
+    return work.smooth_field(X, passes) if groups is None else work.smooth_field(X, passes, groups=groups)
