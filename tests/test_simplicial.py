@@ -131,3 +131,24 @@ def test_split_elements_matches_a_fresh_build(dim):
     np.testing.assert_allclose(split.A, fresh.A)
     assert split.A.sum() == pytest.approx(dom.A.sum())
     np.testing.assert_array_equal(np.bincount(parent, minlength=dom.n_elements), np.where(mask, dim + 1, 1))
+
+
+@pytest.mark.parametrize("dim", [2, 3, 4])
+def test_compiled_edges_and_incidence_equal_numpys(dim, monkeypatch):
+    """The compiled counting passes (tetrahedra and up) and numpy's sorts (triangles) give
+    the same edges, pair edges and incidence, whichever a simplex size uses."""
+    from ndboundary.domains import simplex_geometry as g
+    from ndboundary.datasets import kuhn_grid
+
+    mesh = kuhn_grid(6, dim, jitter=0.2, random_state=0)
+    results = []
+    for threshold in (1, 99):  # every size compiled, then none
+        monkeypatch.setattr(g, "COMPILED_MIN_VERTICES_PER_SIMPLEX", threshold)
+        edges, pair_edge = g.simplex_edges(mesh.sorted_simplices, mesh.n_vertices)
+        inc = g.simplex_incidence(mesh.simplices, mesh.sorted_simplices, mesh.n_vertices)
+        results.append((edges, pair_edge, inc))
+    (e1, p1, i1), (e2, p2, i2) = results
+    np.testing.assert_array_equal(e1, e2)
+    np.testing.assert_array_equal(p1, p2)
+    assert (i1 != i2).nnz == 0 and i1.has_sorted_indices and i2.has_sorted_indices
+    assert np.array_equal(e1[:, 0] < e1[:, 1], np.ones(len(e1), bool))

@@ -14,9 +14,23 @@ from math import factorial
 import numpy as np
 import scipy.sparse as sp
 
-from .._arrays import DEGENERATE_RTOL, counting_sort, index_dtype
+from .._arrays import DEGENERATE_RTOL, counting_sort, index_dtype, pair_groups
 
-__all__ = ["aspect_ratios", "simplex_geometry", "stiffness_terms", "symmetric_csr", "symmetric_inverse"]
+__all__ = [
+    "COMPILED_MIN_VERTICES_PER_SIMPLEX",
+    "aspect_ratios",
+    "simplex_edges",
+    "simplex_geometry",
+    "simplex_incidence",
+    "stiffness_terms",
+    "symmetric_csr",
+    "symmetric_inverse",
+]
+
+#: Simplices of at least this many vertices (tetrahedra and up: 6 vertex pairs each) get
+#: their edges and incidence from compiled counting passes; triangles keep numpy's, as
+#: fast for them without loading the compiled code in every process.
+COMPILED_MIN_VERTICES_PER_SIMPLEX = 4
 
 # Entries of the per-block temporaries of the geometry (simplices x vertices x dim).
 _BLOCK = 1 << 16
@@ -239,3 +253,60 @@ def aspect_ratios(points, simplices, volumes):
         d = points[simplices[:, i]] - points[simplices[:, j]]
         np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
     return np.sqrt(longest) ** k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * volumes)
+
+
+def simplex_edges(srt, n_vertices):
+    """The unique edges of simplices with sorted rows ``srt``, sorted, and the edge of every
+    vertex pair ``(srt[e, i], srt[e, j])``, ``i < j`` in ``triu_indices`` order, element-major.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> edges, pair_edge = simplex_edges(np.array([[0, 1, 2], [1, 2, 3]]), 4)
+    >>> edges.tolist(), pair_edge.tolist()
+    ([[0, 1], [0, 2], [1, 2], [1, 3], [2, 3]], [0, 1, 2, 2, 3, 4])
+    """
+    V = n_vertices
+    E, k1 = srt.shape
+    iu, ju = np.triu_indices(k1, 1)
+    idx = index_dtype(max(V, E * iu.size))
+    s = srt.astype(idx, copy=False)
+    first, second = np.take(s, iu, axis=1).ravel(), np.take(s, ju, axis=1).ravel()
+    if k1 >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
+        from .._compiled import unique_pairs
+
+        edges, pair_edge = unique_pairs(first, second, V)
+        return edges.astype(srt.dtype, copy=False), pair_edge
+    order, new = pair_groups(first, second, V)
+    pair_edge = np.empty(first.size, dtype=np.intp)
+    pair_edge[order] = np.cumsum(new, dtype=np.intp) - 1
+    head = order[new]
+    edges = np.empty((head.size, 2), dtype=srt.dtype)
+    edges[:, 0] = first[head]
+    edges[:, 1] = second[head]
+    return edges, pair_edge
+
+
+def simplex_incidence(simplices, sorted_simplices, n_vertices):
+    """The vertex-element incidence (n_vertices, n_elements) of simplices, ones where a
+    vertex belongs to an element.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> simplex_incidence(np.array([[0, 1, 2], [2, 1, 3]]), np.array([[0, 1, 2], [1, 2, 3]]), 4).toarray().tolist()
+    [[1.0, 0.0], [1.0, 1.0], [1.0, 1.0], [0.0, 1.0]]
+    """
+    E, k1 = simplices.shape
+    idx = index_dtype(max(E * k1, n_vertices))
+    if k1 < COMPILED_MIN_VERTICES_PER_SIMPLEX:
+        # the element-vertex matrix, one row per simplex, transposed
+        by_element = sp.csr_matrix(
+            (np.ones(E * k1), sorted_simplices.astype(idx).ravel(), np.arange(E + 1, dtype=idx) * k1),
+            shape=(E, n_vertices),
+        )
+        return by_element.T.tocsr()
+    from .._compiled import rows_by_value
+
+    indptr, indices = rows_by_value(simplices, n_vertices, idx)  # a counting pass
+    return sp.csr_matrix((np.ones(E * k1), indices, indptr), shape=(n_vertices, E))

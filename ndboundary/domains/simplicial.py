@@ -36,7 +36,14 @@ from .._arrays import (
 )
 from .._validation import check_cells, check_points
 from .base import Domain
-from .simplex_geometry import aspect_ratios, simplex_geometry, stiffness_terms, symmetric_csr
+from .simplex_geometry import (
+    aspect_ratios,
+    simplex_edges,
+    simplex_geometry,
+    simplex_incidence,
+    stiffness_terms,
+    symmetric_csr,
+)
 from .simplicial_split import SplitOperators
 
 __all__ = ["SimplicialComplex"]
@@ -207,13 +214,7 @@ class SimplicialComplex(Domain):
 
     def build_incidence(self):
         """The vertex-element incidence."""
-        # the element-vertex matrix, one row per simplex, transposed by a counting pass
-        from .._compiled import rows_by_value
-
-        E, k1 = self.simplices.shape
-        idx = index_dtype(max(E * k1, self.n_vertices))
-        indptr, indices = rows_by_value(self.simplices, self.n_vertices, idx)
-        return sp.csr_matrix((np.ones(E * k1), indices, indptr), shape=(self.n_vertices, E))
+        return simplex_incidence(self.simplices, self.sorted_simplices, self.n_vertices)
 
     def element_max(self, f):
         """Per element, the largest value of the vertex function ``f`` over its vertices."""
@@ -231,17 +232,7 @@ class SimplicialComplex(Domain):
         """
         if self.split_from is not None:
             return self.split_from.edge_index()
-        srt = self.sorted_simplices
-        E, k1 = srt.shape
-        iu, ju = np.triu_indices(k1, 1)
-        V = self.n_vertices
-        idx = index_dtype(max(V, E * iu.size))
-        s = srt.astype(idx, copy=False)
-        first, second = np.take(s, iu, axis=1).ravel(), np.take(s, ju, axis=1).ravel()
-        from .._compiled import unique_pairs
-
-        edges, pair_edge = unique_pairs(first, second, V)
-        return edges.astype(srt.dtype, copy=False), pair_edge
+        return simplex_edges(self.sorted_simplices, self.n_vertices)
 
     @cached_property
     def _facets(self):
