@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from _checks import obj_groups
 from ndboundary.cli import main
 
 
@@ -654,17 +655,6 @@ def _ball_in_halves(domain):
     return np.where(np.linalg.norm(c, axis=1) < 0.5, 2, np.where(c[:, 0] < 0, 0, 1))
 
 
-def _obj_groups(path):
-    """The groups of an OBJ file and how many ``f`` or ``l`` lines each holds, in file order."""
-    groups = []
-    for line in Path(path).read_text().splitlines():
-        if line.startswith("g "):
-            groups.append([line.split()[1], 0])
-        elif line.startswith(("f ", "l ")):
-            groups[-1][1] += 1
-    return [tuple(g) for g in groups]
-
-
 def _every_edge_twice(triangles):
     edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
     return bool(np.all(np.unique(edges, axis=0, return_counts=True)[1] == 2))
@@ -729,7 +719,7 @@ def test_relax_three_labels_writes_phi_interfaces_partition_and_region_boundarie
     assert by_region.sum() == pytest.approx(4.0, rel=1e-12)  # the square [-1, 1]^2
     # --boundary: one OBJ group per pair of regions, named after the two classes
     pairs, counts = np.unique(res.interfaces().pairs, axis=0, return_counts=True)
-    assert _obj_groups("b.obj") == [(f"{names[i]}|{names[j]}", int(n)) for (i, j), n in zip(pairs, counts, strict=True)]
+    assert obj_groups("b.obj") == [(f"{names[i]}|{names[j]}", int(n)) for (i, j), n in zip(pairs, counts, strict=True)]
     # --region-surfaces: one curve per region, in the folder made for them
     assert sorted(os.listdir("new/out")) == [f"region_{n}.obj" for n in names]
     for r, name in enumerate(names):
@@ -762,7 +752,7 @@ def test_relax_three_labels_on_a_solid_region_surfaces_are_closed_and_enclose_th
     assert lines[2].startswith("region 2 (2): volume ") and lines[2].endswith(", closed")
     assert lines[0].endswith(", open") and lines[1].endswith(", open")
     pairs, counts = np.unique(res.interfaces().pairs, axis=0, return_counts=True)
-    assert _obj_groups("b.obj") == [(f"{i}|{j}", int(n)) for (i, j), n in zip(pairs, counts, strict=True)]
+    assert obj_groups("b.obj") == [(f"{i}|{j}", int(n)) for (i, j), n in zip(pairs, counts, strict=True)]
     # STL, for 3-D printing: binary float32 corners, welded on reading into the same closed surface
     code, _, _ = _relax(capsys, "m3.vtu", "ball.txt", "-o", "phi.vtu", "--region-surfaces", "stl",
                         "--surface-format", "stl")

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from _checks import obj_groups
 from ndboundary import (
     PolygonMesh,
     PolyhedralMesh,
@@ -306,17 +307,6 @@ def _sectors(domain, names=None):
     return sector if names is None else np.asarray(names)[sector]
 
 
-def _obj_groups(path):
-    """The groups of an OBJ file and how many ``f`` or ``l`` lines each holds, in file order."""
-    groups = []
-    for line in Path(path).read_text().splitlines():
-        if line.startswith("g "):
-            groups.append([line.split()[1], 0])
-        elif line.startswith(("f ", "l ")):
-            groups[-1][1] += 1
-    return [tuple(g) for g in groups]
-
-
 def _simplex_measures(points, simplices):
     """Length, area or volume of every simplex (points of any dimension)."""
     edges = points[simplices[:, 1:]] - points[simplices[:, :1]]
@@ -374,7 +364,7 @@ def test_interfaces_writer_groups_and_pairs(tmp_path):
     pairs, counts = np.unique(faces.pairs, axis=0, return_counts=True)
     names = ["air", "bone", "soft_tissue"]
     write_interfaces(tmp_path / "i.obj", res)
-    assert _obj_groups(tmp_path / "i.obj") == [
+    assert obj_groups(tmp_path / "i.obj") == [
         (f"{names[a]}|{names[b]}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)
     ]
     back = read_mesh(tmp_path / "i.obj")  # the groups' segments on the shared points
@@ -411,7 +401,7 @@ def test_interfaces_writer_on_a_solid_numeric_classes(tmp_path):
     np.testing.assert_array_equal(back.cell_data["region_b"][0], faces.pairs[:, 1])
     pairs, counts = np.unique(faces.pairs, axis=0, return_counts=True)
     write_interfaces(tmp_path / "i.obj", res)
-    assert _obj_groups(tmp_path / "i.obj") == [(f"{a}|{b}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)]
+    assert obj_groups(tmp_path / "i.obj") == [(f"{a}|{b}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)]
 
 
 def test_two_region_interfaces_are_the_level_set_with_its_pair(tmp_path):
@@ -425,7 +415,7 @@ def test_two_region_interfaces_are_the_level_set_with_its_pair(tmp_path):
         return [line for line in (tmp_path / name).read_text().splitlines() if not line.startswith(("#", "g "))]
 
     assert body("i.obj") == body("ls.obj")
-    assert _obj_groups(tmp_path / "i.obj") == [("0|1", res.level_set().n_simplices)]
+    assert obj_groups(tmp_path / "i.obj") == [("0|1", res.level_set().n_simplices)]
     write_interfaces(tmp_path / "i.vtu", res)
     m = meshio.read(tmp_path / "i.vtu")
     assert set(m.cell_data["region_a"][0]) == {0} and set(m.cell_data["region_b"][0]) == {1}
