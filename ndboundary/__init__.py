@@ -14,6 +14,7 @@ from . import datasets, io
 from .domains import (
     DelaunayComplex,
     Domain,
+    ImageGrid,
     MeshQualityWarning,
     PointCloud,
     PolygonMesh,
@@ -31,6 +32,7 @@ from .io import (
     write_partition,
     write_phi,
 )
+from .images import relax_image
 from .learn import LevelSetClassifier
 from .levelset import LevelSet, marching_simplices
 from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, Relaxer, RelaxResult, relax
@@ -45,6 +47,7 @@ __all__ = [
     "Boundary",
     "DelaunayComplex",
     "Domain",
+    "ImageGrid",
     "LevelSet",
     "LevelSetClassifier",
     "MeshQualityWarning",
@@ -61,6 +64,7 @@ __all__ = [
     "read_labels",
     "read_mesh",
     "relax",
+    "relax_image",
     "write_interfaces",
     "write_labels",
     "write_level_set",

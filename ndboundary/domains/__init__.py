@@ -7,6 +7,7 @@ module                     domain
 :mod:`.simplicial`         :class:`SimplicialComplex`: simplices of any dimension
 :mod:`.polygon`            :class:`PolygonMesh`: quads and general polygons
 :mod:`.polyhedral`         :class:`PolyhedralMesh`: hexahedra and general polyhedra
+:mod:`.image`              :class:`ImageGrid`: the pixels or voxels of a label image
 :mod:`.pointcloud`         :class:`PointCloud`: a kNN graph over data points
 :mod:`.delaunay`           :class:`DelaunayComplex`: Delaunay simplices over data
 =========================  ===================================================
@@ -14,6 +15,7 @@ module                     domain
 
 from .base import Domain, MeshQualityWarning, kuhn_grid_stiffness
 from .delaunay import DelaunayComplex, delaunay_complex
+from .image import ImageGrid, PixelGrid, VoxelGrid
 from .pointcloud import PointCloud
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
@@ -22,11 +24,14 @@ from .simplicial import SimplicialComplex
 __all__ = [
     "DelaunayComplex",
     "Domain",
+    "ImageGrid",
     "MeshQualityWarning",
+    "PixelGrid",
     "PointCloud",
     "PolygonMesh",
     "PolyhedralMesh",
     "SimplicialComplex",
+    "VoxelGrid",
     "delaunay_complex",
     "kuhn_grid_stiffness",
 ]

@@ -1,0 +1,130 @@
+"""Pixel and voxel grids: :class:`ImageGrid`, the domain of a label image or volume.
+
+A label image of shape ``(n0, n1)`` or volume of shape ``(n0, n1, n2)`` has one element
+per pixel or voxel, in C order (the last index fastest, as ``labels.ravel()`` lists
+them), each centred at ``origin + index * spacing``: the NIfTI / ITK and scikit-image
+convention, so that what is relaxed lies where the scanner put it. The grid's vertices
+are the pixels' corners, half a spacing from the centres. Pixels are quadrilaterals of a
+:class:`~ndboundary.PolygonMesh`, voxels hexahedra of a
+:class:`~ndboundary.PolyhedralMesh`: every operator, padding and band of those meshes
+serves the grids unchanged, with anisotropic spacing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .polygon import PolygonMesh
+from .polyhedral import PolyhedralMesh
+from .polyhedral_cells import HEX_FACES, faces_from_cells
+
+__all__ = ["ImageGrid", "PixelGrid", "VoxelGrid"]
+
+
+def grid_geometry(shape, spacing, origin):
+    """``(shape, spacing, origin)`` checked, as tuples of one int / float per axis."""
+    try:
+        shape = tuple(int(n) for n in shape)
+    except TypeError:
+        raise TypeError(f"shape must be a sequence of integers, got {shape!r}") from None
+    dim = len(shape)
+    if dim not in (2, 3):
+        raise ValueError(f"an image grid is 2-D or 3-D, got shape {shape}")
+    if min(shape) < 1:
+        raise ValueError(f"shape must hold positive sizes, got {shape}")
+    out = []
+    for name, value in (("spacing", spacing), ("origin", origin)):
+        arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (dim,)) if np.ndim(value) == 0 else np.asarray(value)
+        if arr.shape != (dim,):
+            raise ValueError(f"{name} must be one number or one per axis ({dim}), got {value!r}")
+        arr = arr.astype(np.float64)
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite, got {value!r}")
+        out.append(tuple(float(v) for v in arr))
+    if min(out[0]) <= 0:
+        raise ValueError(f"spacing must be positive, got {spacing!r}")
+    return shape, out[0], out[1]
+
+
+def grid_points(shape, spacing, origin):
+    """The pixels' corners (C order over ``shape + 1``) and each pixel's lowest corner."""
+    corners = [origin[a] + spacing[a] * (np.arange(n + 1) - 0.5) for a, n in enumerate(shape)]
+    points = np.stack(np.meshgrid(*corners, indexing="ij"), axis=-1).reshape(-1, len(shape))
+    strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
+    index = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, len(shape))
+    return points, index @ strides, strides
+
+
+class ImageGrid:
+    """The pixels or voxels of an image as a domain: ``ImageGrid(shape, spacing=, origin=)``.
+
+    Calling ``ImageGrid`` builds a :class:`PixelGrid` (2-D, a
+    :class:`~ndboundary.PolygonMesh` of quadrilaterals) or a :class:`VoxelGrid` (3-D, a
+    :class:`~ndboundary.PolyhedralMesh` of hexahedra); both are ``ImageGrid`` instances.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The image's shape, 2 or 3 axes.
+    spacing : float or sequence of float, default=1.0
+        The distance between pixel centres along each axis (anisotropic allowed).
+    origin : float or sequence of float, default=0.0
+        The centre of pixel ``(0, 0[, 0])``.
+    **kwargs
+        Passed to the mesh (``laplacian``, ``stabilization``).
+
+    Attributes
+    ----------
+    shape, spacing, origin : tuple
+
+    Examples
+    --------
+    >>> from ndboundary import ImageGrid
+    >>> grid = ImageGrid((3, 4), spacing=(1.0, 0.5), origin=(10.0, 0.0))
+    >>> grid.n_elements, grid.n_vertices, float(grid.A.sum())
+    (12, 20, 6.0)
+    >>> grid.element_centroids()[5].tolist()  # pixel (1, 1)
+    [11.0, 0.5]
+    >>> isinstance(grid, ImageGrid), type(ImageGrid((2, 2, 2))).__name__
+    (True, 'VoxelGrid')
+    """
+
+    def __new__(cls, shape, *, spacing=1.0, origin=0.0, **kwargs):
+        """A :class:`PixelGrid` or :class:`VoxelGrid`, by the number of axes of ``shape``."""
+        if cls is ImageGrid:
+            shape = grid_geometry(shape, spacing, origin)[0]
+            cls = PixelGrid if len(shape) == 2 else VoxelGrid
+        return object.__new__(cls)
+
+    def __repr__(self):
+        return f"{type(self).__name__}(shape={self.shape}, spacing={self.spacing}, origin={self.origin})"
+
+    def element_index(self, element):
+        """The pixel index ``(i, j[, k])`` of element ``element`` (C order)."""
+        return np.unravel_index(element, self.shape)
+
+
+class PixelGrid(ImageGrid, PolygonMesh):
+    """The pixels of a 2-D image (see :class:`ImageGrid`)."""
+
+    def __init__(self, shape, *, spacing=1.0, origin=0.0, **kwargs):
+        self.shape, self.spacing, self.origin = grid_geometry(shape, spacing, origin)
+        if len(self.shape) != 2:
+            raise ValueError(f"a PixelGrid is 2-D, got shape {self.shape}")
+        points, o, (s0, s1) = grid_points(self.shape, self.spacing, self.origin)
+        quads = np.stack([o, o + s0, o + s0 + s1, o + s1], axis=1)  # counter-clockwise in (x0, x1)
+        PolygonMesh.__init__(self, points, quads, **kwargs)
+
+
+class VoxelGrid(ImageGrid, PolyhedralMesh):
+    """The voxels of a 3-D volume (see :class:`ImageGrid`)."""
+
+    def __init__(self, shape, *, spacing=1.0, origin=0.0, **kwargs):
+        self.shape, self.spacing, self.origin = grid_geometry(shape, spacing, origin)
+        if len(self.shape) != 3:
+            raise ValueError(f"a VoxelGrid is 3-D, got shape {self.shape}")
+        points, o, (s0, s1, s2) = grid_points(self.shape, self.spacing, self.origin)
+        bottom = [o, o + s0, o + s0 + s1, o + s1]
+        hexes = np.stack(bottom + [b + s2 for b in bottom], axis=1)
+        faces, cell_faces = faces_from_cells(hexes, HEX_FACES)
+        PolyhedralMesh.__init__(self, points, faces, cell_faces, **kwargs)
