@@ -23,8 +23,10 @@ from .domains import (
     delaunay_complex,
 )
 from .io import (
+    read_image,
     read_labels,
     read_mesh,
+    write_image,
     write_interfaces,
     write_labels,
     write_level_set,
@@ -61,10 +63,12 @@ __all__ = [
     "delaunay_complex",
     "io",
     "marching_simplices",
+    "read_image",
     "read_labels",
     "read_mesh",
     "relax",
     "relax_image",
+    "write_image",
     "write_interfaces",
     "write_labels",
     "write_level_set",

@@ -14,6 +14,7 @@ import sys
 import numpy as np
 
 from .cli_demo import DEMO_DIR, cmd_demo
+from .cli_image import cmd_relax_image, is_image
 from .cli_files import (
     BOUNDARY_EXTENSIONS,
     PHI_EXTENSIONS,
@@ -121,6 +122,17 @@ def cmd_relax(args):
     from . import io
     from .pipeline import relax
 
+    if args.labels is None:
+        if is_image(args.mesh):
+            check_input(args.mesh, "image")
+            return cmd_relax_image(args)
+        raise CLIError(f"{args.mesh} is a mesh: give its labels file too (MESH LABELS), or a label image alone")
+    if is_image(args.mesh):
+        raise CLIError(f"{args.mesh} is a label image, which holds its labels: give it alone")
+    if not args.output:
+        raise CLIError("-o OUT.vtu is needed for a mesh: where to write phi and the labels")
+    if args.background is not None:
+        raise CLIError("--background is for label images: a mesh's regions are all written")
     check_input(args.mesh, "mesh")
     check_input(args.labels, "labels")
     wanted = [("-o", args.output, PHI_EXTENSIONS)]
@@ -263,19 +275,29 @@ def build_parser():
         "No output may be an input or another output; existing outputs are replaced, and all of them are "
         "written together, whole, or none.",
         usage="%(prog)s MESH LABELS -o OUT.vtu [--boundary OUT.obj] [--partition OUT.vtu] "
-        "[--region-surfaces DIR] [options]",
+        "[--region-surfaces DIR] [options], or %(prog)s IMAGE [--surfaces DIR] [--boundary OUT.stl] "
+        "[-o PHI.nii.gz] [--background LABEL] [options]",
+        epilog="A label image (.nii, .nii.gz, .nrrd, .tif, .tiff, or .npy given alone) is relaxed on its "
+        "pixel or voxel grid, in the file's physical coordinates (spacing and origin).",
     )
-    rel.add_argument("mesh", help="OBJ, OFF, PLY, STL, MEDIT .mesh, VTK/VTU, Gmsh .msh or .hedra file")
     rel.add_argument(
-        "labels", help="one label per line (optionally after 'SCALAR_FIELD n'), or .npy; two or more distinct labels"
+        "mesh",
+        help="OBJ, OFF, PLY, STL, MEDIT .mesh, VTK/VTU, Gmsh .msh or .hedra file; or a label image "
+        "(NIfTI, NRRD, TIFF, .npy) alone",
+    )
+    rel.add_argument(
+        "labels",
+        nargs="?",
+        help="one label per line (optionally after 'SCALAR_FIELD n'), or .npy; two or more distinct labels "
+        "(none for a label image)",
     )
     rel.add_argument(
         "-o",
         "--output",
-        required=True,
         metavar="OUT.vtu",
-        help="where to write phi and the labels (.vtu or .vtk): for two labels the point data phi; for more, "
-        "one array phi_NAME per region (NAME: the label, made safe for names, or the region's index)",
+        help="where to write phi and the labels (.vtu or .vtk; needed for a mesh): for two labels the point "
+        "data phi; for more, one array phi_NAME per region (NAME: the label, made safe for names, or the "
+        "region's index). For a two-label image: phi at the pixel centres (.nii, .nii.gz, .nrrd, .tif, .npy)",
     )
     rel.add_argument(
         "--boundary",
@@ -292,6 +314,7 @@ def build_parser():
     )
     rel.add_argument(
         "--region-surfaces",
+        "--surfaces",
         metavar="DIR",
         help="write each region's relaxed boundary, oriented outward, to DIR/region_NAME.FORMAT (DIR is made "
         "when missing); closed where the region does not touch the border of the mesh",
@@ -302,6 +325,12 @@ def build_parser():
         default="obj",
         help="format of --region-surfaces (default obj); stl (binary, for 3-D printing) holds triangles, so "
         "it needs a solid mesh: on 2-D meshes and surfaces the boundaries are curves",
+    )
+    rel.add_argument(
+        "--background",
+        metavar="LABEL",
+        help="for a label image: the label whose boundary --surfaces leaves out (it stays a region); the image "
+        "is framed by a layer of it, so that every other region's surface is closed",
     )
     rel.add_argument("--lam", type=_lam_weight, help=f"weight of the boundary term, in (0, {MAX_LAM}] (default 2.0)")
     rel.add_argument(

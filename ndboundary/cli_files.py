@@ -196,9 +196,8 @@ def atomic_outputs(outputs, folders=()):
                 if not Path(folder).is_dir():
                     raise
         for out in outputs:
-            fd, name = tempfile.mkstemp(
-                prefix=f".{out.target.name}.tmp-", suffix=out.target.suffix, dir=out.target.parent
-            )
+            suffix = ".nii.gz" if out.target.name.lower().endswith(".nii.gz") else out.target.suffix
+            fd, name = tempfile.mkstemp(prefix=f".{out.target.name}.tmp-", suffix=suffix, dir=out.target.parent)
             os.close(fd)
             temps.append(Path(name))
         try:

@@ -10,7 +10,7 @@ from .pipeline import relax
 __all__ = ["relax_image"]
 
 
-def relax_image(labels, *, spacing=None, origin=None, background=None, **params):
+def relax_image(labels, *, spacing=None, origin=None, direction=None, background=None, **params):
     """Relax the staircase boundaries of a 2-D label image or 3-D label volume.
 
     Parameters
@@ -23,6 +23,9 @@ def relax_image(labels, *, spacing=None, origin=None, background=None, **params)
     origin : float or sequence of float, optional
         The centre of the first pixel (default 0): pixel ``index`` is centred at
         ``origin + index * spacing``, the NIfTI / ITK and scikit-image convention.
+    direction : array_like of shape (dim, dim), optional
+        The axes of an oblique scan (see :class:`~ndboundary.ImageGrid`): the outputs are
+        then in its world coordinates.
     background : label, optional
         A label that is one more region of the partition (every pixel belongs to a
         region) but whose own boundary is not wanted: recorded as
@@ -61,7 +64,10 @@ def relax_image(labels, *, spacing=None, origin=None, background=None, **params)
     if labels.ndim not in (2, 3):
         raise ValueError(f"labels must be a 2-D image or a 3-D volume, got shape {labels.shape}")
     grid = ImageGrid(
-        labels.shape, spacing=1.0 if spacing is None else spacing, origin=0.0 if origin is None else origin
+        labels.shape,
+        spacing=1.0 if spacing is None else spacing,
+        origin=0.0 if origin is None else origin,
+        direction=direction,
     )
     result = relax(grid, labels.reshape(-1), on="elements", **params)
     if background is not None:

@@ -46,10 +46,23 @@ def grid_geometry(shape, spacing, origin):
     return shape, out[0], out[1]
 
 
-def grid_points(shape, spacing, origin):
+def grid_direction(direction, dim):
+    """``direction`` checked: None, or a ``dim x dim`` orthonormal matrix (columns: the axes)."""
+    if direction is None:
+        return None
+    d = np.asarray(direction, dtype=np.float64)
+    if d.shape != (dim, dim) or not np.all(np.isfinite(d)):
+        raise ValueError(f"direction must be a finite {dim} x {dim} matrix, got shape {d.shape}")
+    if not np.allclose(d.T @ d, np.eye(dim), atol=1e-6):
+        raise ValueError("direction must be orthonormal (a rotation, or a rotation and a reflection); a shear is not")
+    return d
+
+
+def grid_points(shape, spacing, origin, direction=None):
     """The pixels' corners (C order over ``shape + 1``) and each pixel's lowest corner."""
-    corners = [origin[a] + spacing[a] * (np.arange(n + 1) - 0.5) for a, n in enumerate(shape)]
+    corners = [spacing[a] * (np.arange(n + 1) - 0.5) for a, n in enumerate(shape)]
     points = np.stack(np.meshgrid(*corners, indexing="ij"), axis=-1).reshape(-1, len(shape))
+    points = (points if direction is None else points @ direction.T) + np.asarray(origin)
     strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
     index = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, len(shape))
     return points, index @ strides, strides
@@ -70,12 +83,18 @@ class ImageGrid:
         The distance between pixel centres along each axis (anisotropic allowed).
     origin : float or sequence of float, default=0.0
         The centre of pixel ``(0, 0[, 0])``.
+    direction : array_like of shape (dim, dim), optional
+        For an oblique scan: the unit vectors of the image's axes as columns, orthonormal
+        (``ndboundary.io.read_image(path, oblique=True).direction``); pixel ``index`` is
+        then centred at ``origin + direction @ (index * spacing)``, and every output is in
+        those world coordinates.
     **kwargs
         Passed to the mesh (``laplacian``, ``stabilization``).
 
     Attributes
     ----------
     shape, spacing, origin : tuple
+    direction : ndarray or None
 
     Examples
     --------
@@ -89,7 +108,7 @@ class ImageGrid:
     (True, 'VoxelGrid')
     """
 
-    def __new__(cls, shape, *, spacing=1.0, origin=0.0, **kwargs):
+    def __new__(cls, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
         """A :class:`PixelGrid` or :class:`VoxelGrid`, by the number of axes of ``shape``."""
         if cls is ImageGrid:
             shape = grid_geometry(shape, spacing, origin)[0]
@@ -107,11 +126,14 @@ class ImageGrid:
 class PixelGrid(ImageGrid, PolygonMesh):
     """The pixels of a 2-D image (see :class:`ImageGrid`)."""
 
-    def __init__(self, shape, *, spacing=1.0, origin=0.0, **kwargs):
+    def __init__(self, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
         self.shape, self.spacing, self.origin = grid_geometry(shape, spacing, origin)
         if len(self.shape) != 2:
             raise ValueError(f"a PixelGrid is 2-D, got shape {self.shape}")
-        points, o, (s0, s1) = grid_points(self.shape, self.spacing, self.origin)
+        self.direction = grid_direction(direction, 2)
+        points, o, (s0, s1) = grid_points(self.shape, self.spacing, self.origin, self.direction)
+        if self.direction is not None and np.linalg.det(self.direction) < 0:
+            s0, s1 = s1, s0  # a reflection: keep the quads counter-clockwise
         quads = np.stack([o, o + s0, o + s0 + s1, o + s1], axis=1)  # counter-clockwise in (x0, x1)
         PolygonMesh.__init__(self, points, quads, **kwargs)
 
@@ -119,11 +141,12 @@ class PixelGrid(ImageGrid, PolygonMesh):
 class VoxelGrid(ImageGrid, PolyhedralMesh):
     """The voxels of a 3-D volume (see :class:`ImageGrid`)."""
 
-    def __init__(self, shape, *, spacing=1.0, origin=0.0, **kwargs):
+    def __init__(self, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
         self.shape, self.spacing, self.origin = grid_geometry(shape, spacing, origin)
         if len(self.shape) != 3:
             raise ValueError(f"a VoxelGrid is 3-D, got shape {self.shape}")
-        points, o, (s0, s1, s2) = grid_points(self.shape, self.spacing, self.origin)
+        self.direction = grid_direction(direction, 3)
+        points, o, (s0, s1, s2) = grid_points(self.shape, self.spacing, self.origin, self.direction)
         bottom = [o, o + s0, o + s0 + s1, o + s1]
         hexes = np.stack(bottom + [b + s2 for b in bottom], axis=1)
         faces, cell_faces = faces_from_cells(hexes, HEX_FACES)

@@ -53,6 +53,8 @@ module                          holds
                                 :func:`write_interfaces`: several regions' names, cells
                                 and interfaces
 :mod:`.labels`                  :func:`read_labels`, :func:`write_labels`
+:mod:`.images`                  :func:`read_image`, :func:`write_image`, :class:`Image`: label
+                                images and volumes (NIfTI, NRRD, TIFF, ``.npy``)
 :mod:`.cell_blocks`             cell blocks (the form between files and domains) to domains
                                 and back
 :mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, PLY (its
@@ -68,6 +70,7 @@ module                          holds
 ==============================  ===========================================================
 """
 
+from .images import Image, read_image, write_image
 from .labels import read_labels, write_labels
 from .meshes import read_mesh, write_mesh
 from .regions import region_names, write_interfaces, write_partition
@@ -84,5 +87,8 @@ __all__ = [
     "region_names",
     "read_labels",
     "write_labels",
+    "read_image",
+    "write_image",
+    "Image",
     "WeldReport",
 ]

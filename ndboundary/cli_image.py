@@ -1,0 +1,151 @@
+"""``ndboundary relax IMAGE``: a label image or volume relaxed from the shell.
+
+A NIfTI, NRRD, TIFF or ``.npy`` file given without a labels file is a label map
+(:func:`ndboundary.io.read_image`): it is relaxed on its pixel or voxel grid
+(:func:`ndboundary.relax_image`), in the file's physical coordinates, and its region
+boundaries, interfaces and phi are written as :mod:`ndboundary.cli` writes a mesh's.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from .cli_files import BOUNDARY_EXTENSIONS, CLIError, atomic_outputs, check_outputs, reading
+from .cli_regions import RegionProgress, check_folder, region_surface_paths
+
+__all__ = ["IMAGE_SUFFIXES", "PHI_IMAGE_EXTENSIONS", "cmd_relax_image", "is_image"]
+
+#: File names read as label images (the first argument of ``ndboundary relax`` alone).
+IMAGE_SUFFIXES = (".nii", ".nii.gz", ".nrrd", ".tif", ".tiff", ".npy")
+#: What ``-o`` writes phi to for an image: the last suffix of each (``.gz``: ``.nii.gz``).
+PHI_IMAGE_EXTENSIONS = (".nii", ".gz", ".nrrd", ".tif", ".tiff", ".npy")
+#: Images with at least this many pixels show per-step progress on a terminal.
+PROGRESS_PIXELS = 100_000
+
+
+def is_image(path):
+    """Whether ``path`` names a label image by its suffix (:data:`IMAGE_SUFFIXES`).
+
+    Examples
+    --------
+    >>> is_image("scan.nii.gz"), is_image("seg.SEG.NRRD"), is_image("mesh.obj")
+    (True, True, False)
+    """
+    return str(path).lower().endswith(IMAGE_SUFFIXES)
+
+
+def voxel_values(result):
+    """Phi of a two-region relaxation at the pixel centres, shape ``grid.shape``: the mean
+    of each pixel's corners (phi is linear along the grid's edges).
+    """
+    grid = result.domain
+    phi = result.phi.reshape(tuple(n + 1 for n in grid.shape))
+    out = np.zeros(grid.shape)
+    for corner in np.ndindex(*(2,) * len(grid.shape)):
+        out += phi[tuple(slice(c, c + n) for c, n in zip(corner, grid.shape, strict=True))]
+    return out / 2 ** len(grid.shape)
+
+
+def cmd_relax_image(args):
+    """Run ``ndboundary relax IMAGE [-o PHI] [--boundary OUT] [--surfaces DIR] [--background L]``.
+
+    With ``--background`` (and no ``-o``) the image is framed by one layer of background
+    first, so that every other region's surface is closed, also where the region meets
+    the image's border.
+    """
+    from . import io
+    from .images import relax_image
+
+    wanted = []
+    if args.output:
+        wanted.append(("-o", args.output, PHI_IMAGE_EXTENSIONS))
+    if args.boundary:
+        wanted.append(("--boundary", args.boundary, BOUNDARY_EXTENSIONS))
+    if args.partition:
+        raise CLIError("--partition writes a mesh's refined cells; for an image use --surfaces or --boundary")
+    inputs = [("the image", args.mesh)]
+    outputs = check_outputs(wanted, inputs)
+    folders = check_folder("--surfaces", args.region_surfaces) if args.region_surfaces else []
+    with reading(args.mesh):
+        image = io.read_image(args.mesh, oblique=True)  # a tilted scan is relaxed in its world coordinates
+    labels = image.labels
+    classes = np.unique(labels)
+    if classes.size < 2:
+        raise CLIError(f"{args.mesh}: the image holds one label only ({classes.tolist()}); two or more are needed")
+    background = None
+    if args.background is not None:
+        matches = [c for c in classes.tolist() if str(c) == args.background]
+        if not matches:
+            raise CLIError(f"--background {args.background}: not one of the labels {classes.tolist()}")
+        background = matches[0]
+    if args.output and classes.size > 2:
+        raise CLIError(
+            f"-o {args.output}: phi of an image is written for two labels; {args.mesh} holds {classes.size}, "
+            "whose boundaries --surfaces and --boundary write"
+        )
+    surfaces = [r for r in range(classes.size) if classes[r] != background]
+    if args.region_surfaces:
+        if args.surface_format == "stl" and labels.ndim == 2:
+            raise CLIError("--surface-format stl: STL holds triangles, and a 2-D image's boundaries are curves")
+        names = io.region_names(classes)
+        paths = region_surface_paths(args.region_surfaces, [names[r] for r in surfaces], args.surface_format)
+        more = [("--surfaces", str(p), (f".{args.surface_format}",)) for p in paths]
+        outputs += check_outputs(more, inputs + [(out.option, out.given) for out in outputs], folders)
+    origin = np.asarray(image.origin, dtype=np.float64)
+    if background is not None and not args.output:
+        # a layer of background around the image closes every other region's surface where
+        # it meets the image's border (phi, written per pixel, keeps the image's own grid)
+        labels = np.pad(labels, 1, constant_values=background)
+        step = np.asarray(image.spacing)
+        origin = origin - (step if image.direction is None else image.direction @ step)
+    show = not args.quiet and sys.stderr.isatty() and labels.size >= PROGRESS_PIXELS
+    kwargs = {k: v for k, v in (("lam", args.lam), ("smoothing", args.smoothing)) if v is not None}
+    with RegionProgress([str(c) for c in classes.tolist()], enabled=show and classes.size > 2):
+        res = relax_image(
+            labels, spacing=image.spacing, origin=origin, direction=image.direction, background=background,
+            band=args.band, verbose=show, **kwargs,
+        )  # fmt: skip
+    boundaries = {r: res.region_boundary(r) for r in surfaces} if args.region_surfaces else {}
+    with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
+        rest = iter(temporary)
+        if args.output:
+            io.write_image(next(rest), voxel_values(res).astype(np.float32), spacing=image.spacing,
+                           origin=image.origin, direction=image.direction, overwrite=True)  # fmt: skip
+        if args.boundary:
+            if classes.size == 2:
+                io.write_level_set(next(rest), res.level_set())
+            else:
+                io.write_interfaces(next(rest), res)
+        for r in boundaries:
+            io.write_level_set(next(rest), boundaries[r])
+    _report(args, image, res, classes, boundaries)
+    return 0
+
+
+def _report(args, image, res, classes, boundaries):
+    """The summary lines: the image, each region's measure against its pixels', the time."""
+    measure = "area" if image.labels.ndim == 2 else "volume"
+    pixel = float(np.prod(image.spacing))
+    lines = [
+        f"{args.mesh}: {' x '.join(map(str, image.labels.shape))} pixels of "
+        f"{' x '.join(f'{s:.4g}' for s in image.spacing)}, {classes.size} labels"
+    ]
+    counts = {c: int(n) for c, n in zip(*np.unique(image.labels, return_counts=True), strict=True)}
+    for r, value in enumerate(res.region_measures()):
+        given = counts[classes[r]] * pixel
+        closed = ""
+        if r in boundaries:
+            closed = ", boundary closed" if boundaries[r].is_closed() else ", boundary open (meets the image's border)"
+        lines.append(
+            f"region {r} ({classes[r]}): {measure} {value:.6g} against {given:.6g} for its pixels "
+            f"({100 * (value / given - 1):+.3f} %){closed}"
+        )
+    lines.append(f"time: {res.timings['total']:.2f} s")
+    written = [p for p in (args.output, args.boundary) if p]
+    if boundaries:
+        written.append(f"{len(boundaries)} region boundaries to {args.region_surfaces}")
+    if written:
+        lines.append("wrote " + ", ".join(written))
+    print("\n".join(lines))

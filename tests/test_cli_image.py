@@ -1,0 +1,91 @@
+"""``ndboundary relax IMAGE``: label images and volumes from the shell."""
+
+import numpy as np
+import pytest
+
+from ndboundary import read_mesh
+from ndboundary.cli import main
+
+
+def _two_balls(n=32):
+    """Background 0 with a ball of label 1 and a smaller one of label 2, apart."""
+    i, j, k = np.indices((n, n, n)) * (32 / n)
+    labels = np.zeros((n, n, n), dtype=np.int16)
+    labels[(i - 9) ** 2 + (j - 15.5) ** 2 + (k - 15.5) ** 2 < 49] = 1
+    labels[(i - 23) ** 2 + (j - 15.5) ** 2 + (k - 15.5) ** 2 < 36] = 2
+    return labels
+
+
+def _enclosed_volume(mesh):
+    """The volume a closed, outward triangle surface encloses (divergence theorem)."""
+    tri = mesh.points[mesh.simplices]
+    return float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6)
+
+
+def _run(capsys, *argv):
+    code = main(["relax", *map(str, argv)])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_volume_surfaces_per_region_without_the_background(tmp_path, capsys):
+    labels = _two_balls()
+    np.save(tmp_path / "seg.npy", labels)
+    code, out, err = _run(capsys, tmp_path / "seg.npy", "--surfaces", tmp_path / "parts", "--background", "0")
+    assert code == 0, err
+    files = sorted(p.name for p in (tmp_path / "parts").iterdir())
+    assert files == ["region_1.obj", "region_2.obj"]  # no surface for the background
+    for r, name in ((1, "region_1.obj"), (2, "region_2.obj")):
+        volume = _enclosed_volume(read_mesh(tmp_path / "parts" / name))  # closed and outward
+        assert volume == pytest.approx(float((labels == r).sum()), rel=0.015)
+    assert "boundary closed" in out and "wrote 2 region boundaries" in out
+
+
+def test_two_label_image_phi_at_the_pixel_centres(tmp_path, capsys):
+    i, j = np.indices((40, 30))
+    disc = ((i - 19.5) ** 2 + (j - 14.5) ** 2 < 100).astype(np.uint8)
+    np.save(tmp_path / "disc.npy", disc)
+    code, out, err = _run(capsys, tmp_path / "disc.npy", "-o", tmp_path / "phi.npy", "--boundary", tmp_path / "b.obj")
+    assert code == 0, err
+    phi = np.load(tmp_path / "phi.npy")
+    assert phi.shape == disc.shape and phi.dtype == np.float32
+    r = np.hypot(i - 19.5, j - 14.5)
+    assert (phi[r < 8] > 0.5).all() and (phi[r > 12] < 0.5).all()
+    curve = read_mesh(tmp_path / "b.obj")
+    assert curve.n_elements > 0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["seg.npy", "labels.txt", "-o", "o.vtu"], "a label image, which holds its labels"),
+        (["m.obj"], "give its labels file too"),
+        (["seg.npy", "-o", "phi.npy"], "written for two labels"),
+        (["seg.npy", "--surfaces", "out", "--background", "7"], "not one of the labels"),
+        (["flat.npy", "--surfaces", "out", "--surface-format", "stl"], "STL holds triangles"),
+    ],
+)
+def test_image_errors_write_nothing(tmp_path, capsys, monkeypatch, argv, message):
+    monkeypatch.chdir(tmp_path)
+    np.save("seg.npy", _two_balls(12))
+    np.save("flat.npy", np.eye(8, dtype=int))
+    (tmp_path / "labels.txt").write_text("0\n1\n")
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code, out, err = _run(capsys, *argv)
+    assert code == 1 and message in err and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_background_frames_the_image_so_that_surfaces_close(tmp_path, capsys):
+    """A region that meets the image's border: with --background its surface is closed by
+    the frame; it encloses a volume between its voxels' and the smooth cylinder's."""
+    labels = np.zeros((20, 20, 12), dtype=np.uint8)
+    i, j, k = np.indices(labels.shape)
+    labels[((i - 9.5) ** 2 + (j - 9.5) ** 2 < 30) & (k < 8)] = 1  # a cylinder standing on the border k = 0
+    np.save(tmp_path / "c.npy", labels)
+    code, out, err = _run(capsys, tmp_path / "c.npy", "--surfaces", tmp_path / "s", "--background", "0")
+    assert code == 0, err
+    surface = read_mesh(tmp_path / "s" / "region_1.obj")
+    assert "boundary closed" in out
+    assert labels.sum() < _enclosed_volume(surface) < np.pi * 30 * 8  # the voxels of the cylinder hold 6.6 % less
