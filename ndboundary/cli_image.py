@@ -120,26 +120,33 @@ def cmd_relax_image(args):
                 io.write_interfaces(next(rest), res)
         for r in boundaries:
             io.write_level_set(next(rest), boundaries[r])
-    _report(args, image, res, classes, boundaries)
+    _report(args, image, labels, res, classes, boundaries)
     return 0
 
 
-def _report(args, image, res, classes, boundaries):
-    """The summary lines: the image, each region's measure against its pixels', the time."""
+def _report(args, image, labels, res, classes, boundaries):
+    """The summary lines: the image, each region's measure against that of its pixels in the
+    ``labels`` relaxed (the image, framed by a layer of background), the time.
+    """
     measure = "area" if image.labels.ndim == 2 else "volume"
     pixel = float(np.prod(image.spacing))
     lines = [
         f"{args.mesh}: {' x '.join(map(str, image.labels.shape))} pixels of "
         f"{' x '.join(f'{s:.4g}' for s in image.spacing)}, {classes.size} labels"
     ]
-    counts = {c: int(n) for c, n in zip(*np.unique(image.labels, return_counts=True), strict=True)}
+    counts = {c: int(n) for c, n in zip(*np.unique(labels, return_counts=True), strict=True)}
     for r, value in enumerate(res.region_measures()):
         given = counts[classes[r]] * pixel
         closed = ""
         if r in boundaries:
             closed = ", boundary closed" if boundaries[r].is_closed() else ", boundary open (meets the image's border)"
+        framed = (
+            " (background, framed by one layer)"
+            if labels.shape != image.labels.shape and r in (res.params.get("background"),)
+            else ""
+        )
         lines.append(
-            f"region {r} ({classes[r]}): {measure} {value:.6g} against {given:.6g} for its pixels "
+            f"region {r} ({classes[r]}){framed}: {measure} {value:.6g} against {given:.6g} for its pixels "
             f"({100 * (value / given - 1):+.3f} %){closed}"
         )
     lines.append(f"time: {res.timings['total']:.2f} s")
