@@ -12,14 +12,15 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 def test_readme_python_blocks_run():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
-    assert len(blocks) == 3
+    assert len(blocks) == 4
     spaces = []
     for code in blocks:
         namespace = {}
         exec(compile(code, str(README), "exec"), namespace)
         spaces.append(namespace)
-    mesh, reuse, data = spaces
+    mesh, image, reuse, data = spaces
     assert mesh["curve"].is_closed()
+    assert image["surface"].is_closed() and image["surface"].n_components() == 1
     # the relaxer's first result is the one-shot result; the memory it holds is freed on request
     np.testing.assert_array_equal(reuse["smooth"].phi, relax(reuse["mesh"], reuse["labels"], on="elements").phi)
     assert reuse["relaxer"].nbytes > 0
