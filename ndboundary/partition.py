@@ -187,7 +187,8 @@ class Partition:
     cells : Cells
     n_regions : int
     input_measure : float
-        Total measure of the input complex.
+        Total measure of the input complex (computed when first read: a check, which the
+        partition itself does not need).
 
     Examples
     --------
@@ -202,8 +203,15 @@ class Partition:
     def __init__(self, cells, n_regions, input_measure):
         self.cells = cells
         self.n_regions = int(n_regions)
-        self.input_measure = float(input_measure)
+        self._input_measure = input_measure  # a float, or a function that computes it
         self._interfaces = None
+
+    @property
+    def input_measure(self) -> float:
+        """Total measure of the input complex."""
+        if callable(self._input_measure):
+            self._input_measure = self._input_measure()
+        return float(self._input_measure)
 
     def region_measures(self) -> np.ndarray:
         """Length / area / volume of each region, shape (L,): the cell measures summed."""
@@ -297,5 +305,6 @@ def partition(points, simplices, values) -> Partition:
     if simplices.size and (simplices.min() < 0 or simplices.max() >= V):
         raise ValueError("simplices refer to vertices that do not exist")
     X, S, regions, F, parents = sweep(points, simplices, values)
-    total = float(simplex_measures(points, simplices).sum())
-    return Partition(Cells(X, S, regions, F, parents), values.shape[1], total)
+    return Partition(
+        Cells(X, S, regions, F, parents), values.shape[1], lambda: float(simplex_measures(points, simplices).sum())
+    )

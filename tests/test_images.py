@@ -107,3 +107,15 @@ def test_oblique_grid_relaxes_like_the_straight_one_rotated():
     np.testing.assert_allclose(b.points, (2.0, 1.0) + a.points @ rotation.T, atol=1e-8)
     with pytest.raises(ValueError, match="orthonormal"):
         ImageGrid((3, 3), direction=[[1.0, 0.5], [0.0, 1.0]])
+
+
+@pytest.mark.parametrize("reflect", [False, True])
+def test_voxel_grid_face_signs_are_the_oriented_ones(reflect):
+    """The face orientation a voxel grid states equals the one the polyhedral mesh works out."""
+    from ndboundary import PolyhedralMesh
+
+    direction = np.diag([1.0, 1.0, -1.0]) if reflect else None
+    grid = ImageGrid((3, 2, 4), spacing=(1.0, 0.5, 2.0), origin=1.0, direction=direction)
+    general = PolyhedralMesh(grid.points, grid.faces, np.split(grid.cell_faces, grid.cell_offsets[1:-1]))
+    np.testing.assert_array_equal(grid.cell_face_signs, general.cell_face_signs)
+    np.testing.assert_allclose(grid.A, general.A)

@@ -150,4 +150,11 @@ class VoxelGrid(ImageGrid, PolyhedralMesh):
         bottom = [o, o + s0, o + s0 + s1, o + s1]
         hexes = np.stack(bottom + [b + s2 for b in bottom], axis=1)
         faces, cell_faces = faces_from_cells(hexes, HEX_FACES)
-        PolyhedralMesh.__init__(self, points, faces, cell_faces, **kwargs)
+        # every local face of a hexahedron points out of it, and a face is listed as its
+        # first cell sees it: the other cell sees it reversed (and a reflection reverses all)
+        _, first = np.unique(cell_faces.ravel(), return_index=True)
+        signs = np.full(cell_faces.size, -1, dtype=np.int8)
+        signs[first] = 1
+        if self.direction is not None and np.linalg.det(self.direction) < 0:
+            signs = -signs
+        PolyhedralMesh.__init__(self, points, faces, cell_faces, face_signs=signs, **kwargs)

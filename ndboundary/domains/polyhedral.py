@@ -78,6 +78,10 @@ class PolyhedralMesh(Domain):
         See :class:`~ndboundary.PolygonMesh`.
     stabilization : float, default=4.0
         See :class:`~ndboundary.PolygonMesh`.
+    face_signs : array-like of +1 / -1, optional
+        The orientation of every cell-face entry (see ``cell_face_signs``) when the
+        caller knows it (a generated grid): the faces are then not oriented, nor the
+        cells checked for closure.
 
     Attributes
     ----------
@@ -111,13 +115,17 @@ class PolyhedralMesh(Domain):
     [[0.0, 0.0, 1.0]]
     """
 
-    def __init__(self, points, faces, cells, *, laplacian="consistent", stabilization=4.0):
+    def __init__(self, points, faces, cells, *, laplacian="consistent", stabilization=4.0, face_signs=None):
         points = check_points(points)
         if points.shape[1] != 3:
             raise ValueError(f"points has shape {points.shape}; a PolyhedralMesh needs 3-D points")
         fi, fo = check_ragged(faces, points.shape[0], name="faces", min_size=3)
         ci, co = check_ragged(cells, fo.size - 1, name="cells", min_size=4, what="face")
-        self._init(points, fi, fo, ci, co, laplacian, stabilization)
+        if face_signs is not None:
+            face_signs = np.asarray(face_signs, dtype=np.int8)
+            if face_signs.shape != ci.shape or not np.isin(face_signs, (-1, 1)).all():
+                raise ValueError(f"face_signs must hold one +1 or -1 per cell face ({ci.size}), got {face_signs.shape}")
+        self._init(points, fi, fo, ci, co, laplacian, stabilization, face_signs)
 
     @classmethod
     def _from_flat(cls, points, fi, fo, ci, co, laplacian, stabilization):
@@ -125,14 +133,14 @@ class PolyhedralMesh(Domain):
         self._init(points, fi, fo, ci, co, laplacian, stabilization)
         return self
 
-    def _init(self, points, fi, fo, ci, co, laplacian, stabilization):
+    def _init(self, points, fi, fo, ci, co, laplacian, stabilization, face_signs=None):
         self.stabilization = check_laplacian_options(laplacian, stabilization)
         self.laplacian = laplacian
         self.points = points
         self.face_indices, self.face_offsets = fi, fo
         self.cell_faces, self.cell_offsets = ci, co
         self._face_geometry()
-        self.cell_face_signs = orient_faces(self)
+        self.cell_face_signs = orient_faces(self) if face_signs is None else face_signs
         self._cell_geometry()
 
     @classmethod
