@@ -179,3 +179,20 @@ def test_sector_smoothing_brings_volume_interfaces_nearer(monkeypatch):
     monkeypatch.setattr(sectors, "SECTOR_SMOOTHING", False)
     independent = mean_distance()
     assert coupled < 0.12 and coupled < 0.9 * independent, (coupled, independent)
+
+
+@pytest.mark.parametrize("kind", ["triangles", "hexahedra"])
+def test_only_the_elements_where_the_largest_function_changes_are_cut(kind):
+    """Measures, interfaces and boundaries from the cut of the mixed elements alone equal
+    those of the whole domain's partition."""
+    from ndboundary.datasets import hex_grid
+
+    mesh = kuhn_grid(40, 2, jitter=0.2, random_state=0) if kind == "triangles" else hex_grid(10, jitter=0.2, random_state=0)
+    c = mesh.element_centroids()
+    res = relax(mesh, _t_labels(c), on="elements")
+    full = res.partition()
+    np.testing.assert_allclose(res.region_measures(), full.region_measures(), rtol=1e-9)
+    assert res.interfaces().measure() == pytest.approx(full.interfaces().measure(), rel=1e-9)
+    assert len(res.interfaces().junctions()) == len(full.interfaces().junctions())
+    for r in range(3):
+        assert res.region_boundary(r).measure() == pytest.approx(full.region_boundary(r).measure(), rel=1e-9)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..levelset import LevelSet, marching_simplices
 from ..partition import partition
-from .band import extend_outside
+from .band import can_cut, extend_outside
 from .boundary import Boundary
 
 __all__ = ["DeferredFill", "RegionsResult", "RelaxResult"]
@@ -62,19 +62,48 @@ class _RegionMethods:
             cached = self.__dict__["_partition"] = partition(points, simplices, values)
         return cached
 
+    def _cut(self):
+        """The partition of the elements where the largest function changes between their
+        vertices, and each region's measure of the other elements (built once).
+
+        Where every vertex of an element has the same largest function, it is the largest
+        over the whole element (the functions are linear on each simplex of the
+        refinement, whose points are averages of the element's vertices): the element
+        lies in that region, whole, and no interface crosses it. Cutting only the others
+        makes the cost follow the interfaces, not the domain.
+        """
+        cached = self.__dict__.get("_cut_cache")
+        if cached is not None:
+            return cached
+        values = self.region_values()
+        domain = self.domain
+        winner = np.argmax(values, axis=1)
+        lowest = -domain.element_max(-winner)
+        mixed = lowest != domain.element_max(winner)
+        if not can_cut(domain) or mixed.all() or not mixed.any():
+            cached = (self.partition(), np.zeros(values.shape[1]))
+        else:
+            sub, vertices = domain.subdomain(mixed)
+            cut = partition(*sub.level_set_complex(values[vertices]))
+            whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
+            cached = (cut, whole)
+        self.__dict__["_cut_cache"] = cached
+        return cached
+
     def interfaces(self):
         """The interfaces between the relaxed regions (``pairs`` index ``classes``), with
         their junctions (:class:`~ndboundary.partition.Interfaces`).
         """
-        return self.partition().interfaces()
+        return self._cut()[0].interfaces()
 
     def region_boundary(self, r):
         """Region ``r``'s boundary, oriented outward, as a :class:`~ndboundary.LevelSet`."""
-        return self.partition().region_boundary(r)
+        return self._cut()[0].region_boundary(r)
 
     def region_measures(self):
         """Area / volume of every relaxed region, shape (n_regions,): they sum to the domain's."""
-        return self.partition().region_measures()
+        cut, whole = self._cut()
+        return cut.region_measures() + whole
 
 
 @dataclass
