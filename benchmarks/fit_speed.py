@@ -6,14 +6,20 @@ classes, ``X / 16``); the digits with one labelled sample per class (the rest
 accuracy on the unlabelled samples). Every fit is timed after one warm-up fit (the
 compiled kernels loaded); medians of ``--repeats``.
 
+``--high-dim 7000,20000``: one fit each of ``make_classification(n, 20, n_informative=8)``
+(intrinsic dimension about 11), each in a fresh process, with its peak memory.
+
 Usage::
 
-    python benchmarks/fit_speed.py [--repeats 3]
+    python benchmarks/fit_speed.py [--repeats 3] [--high-dim 7000,20000]
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -40,7 +46,20 @@ def median_fit(make, X, y, repeats):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--high-dim", default="", help="comma-separated sizes of the high-dimensional fits")
+    parser.add_argument("--one", type=int, help=argparse.SUPPRESS)  # a single high-dimensional fit
     args = parser.parse_args()
+    if args.one:
+        X, y = make_classification(args.one, 20, n_informative=8, random_state=0)
+        t0 = time.perf_counter()
+        LevelSetClassifier().fit(X, y)
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+        print(f"make_classification({args.one}, 20, n_informative=8): fit {time.perf_counter() - t0:.1f} s, peak {peak:.2f} GB")
+        return
+    for n in [int(v) for v in args.high_dim.split(",") if v]:
+        subprocess.run([sys.executable, __file__, "--one", str(n)], check=True)
+    if args.high_dim:
+        return
     supervised = {
         "levelset": LevelSetClassifier,
         "svc": SVC,

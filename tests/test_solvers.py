@@ -598,3 +598,22 @@ def test_factor_cache_keeps_the_squared_operator_for_every_labelling():
     cache.clear()
     cache.squared(K, [1.0, 2.0], 0.2, build)
     assert len(built) == 4
+
+
+def test_neighbour_graphs_are_preconditioned_by_a_factor_up_to_their_own_size(monkeypatch):
+    """Rows of K denser than AMG_DENSE_ROWS (a neighbour graph) keep the factor of K + D up
+    to PCG_FACTOR_MAX_GRAPHS unknowns, where a mesh's dense rows switch to AMG at PCG_FACTOR_MAX."""
+    _skip_unless_available("amg")
+    K = _knn_graph_operator(400, 12)
+    assert K.nnz / K.shape[0] > solvers.AMG_DENSE_ROWS
+    n = K.shape[0]
+    S = sp.csr_matrix((np.ones(20), (np.arange(20), np.arange(0, 400, 20))), shape=(20, n))
+    rhs = np.random.default_rng(0).standard_normal(n)
+    monkeypatch.setattr(solvers, "SMALL_SYSTEM", 0)
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX", 0)
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX_GRAPHS", n)
+    phi, info = solvers.solve_integration(K, np.ones(n), S, 2.0, rhs, mu=0.03)
+    assert info.method == "pcg-cholesky" and info.residual < 1e-9
+    monkeypatch.setattr(solvers, "PCG_FACTOR_MAX_GRAPHS", n - 1)
+    phi2, info2 = solvers.solve_integration(K, np.ones(n), S, 2.0, rhs, mu=0.03)
+    assert info2.method == "pcg-amg" and _rel(phi2, phi) < 1e-7

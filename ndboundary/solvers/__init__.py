@@ -57,6 +57,7 @@ _TUNING = {
     "DENSE_ROW_THRESHOLD": integration,
     "SMALL_SYSTEM": integration,
     "PCG_FACTOR_MAX": integration,
+    "PCG_FACTOR_MAX_GRAPHS": integration,
     "SINGLE_PRECISION_MIN": integration,
     "SINGLE_REFINE_MAXITER": integration,
     "DIRECT_FALLBACK_MAX": integration,

@@ -15,9 +15,9 @@ Two ways, chosen by the shape of ``K`` (``method="auto"``):
   preconditioned by ``(K + D) M^{-1} (K + D)``, ``D`` diagonal, ``(K + D)^{-1}``
   applied by one smoothed-aggregation AMG V-cycle with a Jacobi step on the light
   vertices around it (:mod:`.amg`, package pyamg: linear cost, where any factorisation
-  of a 3-D mesh fills in as n^2; a factor of ``K + D`` costs more than the iterations it
-  saves), else by a Cholesky factor, with one
-  :class:`~ndboundary.solvers.SolverFallbackWarning` per process naming the cost.
+  of a 3-D mesh fills in as n^2), or by a Cholesky factor on smaller systems and
+  neighbour graphs (:data:`PCG_FACTOR_MAX`) or without pyamg (with one
+  :class:`~ndboundary.solvers.SolverFallbackWarning` per process naming the cost).
 
 Every solve reports its relative residual; an iteration that does not reach its
 tolerance warns with the residual it reached (``method="pcg"``) or finishes with a
@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .amg import amg_preconditioner, light_vertex_jacobi
+from .amg import AMG_DENSE_ROWS, amg_preconditioner, light_vertex_jacobi
 from .cache import cached, orderings_of
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
 from .common import (
@@ -48,7 +48,7 @@ from .common import (
     relres,
     warn_unconverged,
 )
-from .pardiso import PardisoFactor
+from .pardiso import refined_single
 
 __all__ = [
     "DENSE_ROW_THRESHOLD",
@@ -56,6 +56,7 @@ __all__ = [
     "SINGLE_PRECISION_MIN",
     "SINGLE_REFINE_MAXITER",
     "PCG_FACTOR_MAX",
+    "PCG_FACTOR_MAX_GRAPHS",
     "SMALL_SYSTEM",
     "solve_integration",
 ]
@@ -65,15 +66,16 @@ __all__ = [
 #: Triangle meshes and surfaces have about 7 entries per row, tetrahedral meshes 14.
 DENSE_ROW_THRESHOLD = 10.0
 #: Up to this many unknowns the integration system is always factorised: the
-#: factorisation of a small system is cheap whatever its fill. Above, dense rows iterate:
-#: on a neighbour graph of 3 000 samples (400 entries per row of ``K``, ``Q`` nearly
-#: dense) assembling and factorising ``Q`` took 1.2 s, 28 preconditioned iterations 0.5 s.
+#: factorisation of a small system is cheap whatever its fill.
 SMALL_SYSTEM = 1000
-#: Up to this many unknowns, pcg on dense rows is preconditioned by a Cholesky factor of
-#: ``K + D`` rather than an AMG V-cycle: at this size the factor is cheap even where it
-#: fills in (neighbour graphs: 28 iterations and 0.5 s against 36 and 0.7 s at 3 000
-#: samples).
+#: Up to this many unknowns (:data:`PCG_FACTOR_MAX_GRAPHS` where the rows of ``K`` hold
+#: more than :data:`~ndboundary.solvers.amg.AMG_DENSE_ROWS` entries: neighbour graphs),
+#: pcg on dense rows is preconditioned by a Cholesky factor of ``K + D``, not an AMG
+#: V-cycle: the factor is cheap there, and on graphs of data of high intrinsic dimension
+#: the V-cycle stalls (``benchmarks/fit_speed.py``, figures in the README).
 PCG_FACTOR_MAX = 4000
+#: See :data:`PCG_FACTOR_MAX`.
+PCG_FACTOR_MAX_GRAPHS = 20_000
 #: From this many unknowns, ``method="auto"`` factorises the integration matrix of a
 #: triangle mesh with PARDISO in single precision (half the factor's memory, a faster
 #: factorisation) and refines the solution by conjugate gradients preconditioned with
@@ -228,7 +230,7 @@ def _solve_direct(system, rtol, *, refine_single, backend, cache):
         and Q.shape[0] >= SINGLE_PRECISION_MIN
         and load_optional("pypardiso") is not None
     ):
-        single = _refined_single(Q, system.rhs, rtol, cache)
+        single = refined_single(Q, system.rhs, rtol, cache, SINGLE_REFINE_MAXITER)
     phi, info = single if single is not None else _factor_solve(Q, system.rhs, backend, cache)
     info.setup_time = time.perf_counter() - t0 - info.solve_time  # with the assembly
     if not info.residual <= 10 * rtol:
@@ -249,30 +251,6 @@ def _assemble(system, cache=None):
 
     P = squared() if cache is None else cache.squared(K, mass, mu, squared)
     return (P + lam * (S.T @ S)).tocsr()
-
-
-def _refined_single(Q, rhs, rtol, cache):
-    """Solve ``Q phi = rhs`` by conjugate gradients preconditioned with a single-precision
-    PARDISO factor of ``Q``; None when that factorisation fails or the iteration does not
-    reach ``rtol`` within :data:`SINGLE_REFINE_MAXITER` iterations.
-    """
-    t0 = time.perf_counter()
-    try:
-        with one_blas_thread():
-            solve = cached(
-                ("direct", "pardiso-single"), Q,
-                lambda A: PardisoFactor(A, single=True, orderings=orderings_of(cache)).solve, cache,
-            )  # fmt: skip
-    except Exception:  # noqa: BLE001 - any failure of the optional path: factorise in double
-        return None
-    t1 = time.perf_counter()
-    n = Q.shape[0]
-    P = spla.LinearOperator((n, n), matvec=solve, dtype=np.float64)
-    phi, iters, _ = cg(Q, rhs, P, rtol, SINGLE_REFINE_MAXITER)
-    res = relres(Q, phi, rhs)
-    if not res <= 10 * rtol:
-        return None
-    return phi, SolveInfo("cholesky-single+cg", iters, res, t1 - t0, time.perf_counter() - t1)
 
 
 def _factor_solve(Q, rhs, backend, cache, iters=0):
@@ -306,7 +284,7 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     sts = np.asarray(abs(S).T @ abs(S) @ np.ones(S.shape[1])).ravel()
     d = 0.5 * mu * mass + np.sqrt(lam * sts * mass)
     A = (K + sp.diags(d)).tocsr()
-    use_amg = _use_amg(preconditioner, sparse_rows, K.shape[0])
+    use_amg = _use_amg(preconditioner, sparse_rows, K.shape[0], K.nnz / max(K.shape[0], 1))
     name = "pcg-amg" if use_amg else "pcg-cholesky"
     with one_blas_thread():
         if use_amg:  # the hierarchy is kept; the light vertices' step is rebuilt from the mass
@@ -345,10 +323,11 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
 
 
-def _use_amg(preconditioner, sparse_rows, n):
+def _use_amg(preconditioner, sparse_rows, n, K_rows=0.0):
     """Whether pcg's preconditioner is an AMG V-cycle (else a Cholesky factor)."""
     if preconditioner == "auto":
-        use_amg = not sparse_rows and n > PCG_FACTOR_MAX
+        graph = K_rows > AMG_DENSE_ROWS
+        use_amg = not sparse_rows and n > (PCG_FACTOR_MAX_GRAPHS if graph else PCG_FACTOR_MAX)
         if use_amg and load_optional("pyamg") is None:
             # stacklevel 6: past this function, _solve_pcg and solve_integration
             fallback_warning("pyamg", stacklevel=6)

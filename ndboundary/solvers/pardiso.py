@@ -12,15 +12,17 @@ import ctypes
 import functools
 import importlib
 import threading
+import time
 import weakref
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from . import common
-from .cache import digest
+from .cache import cached, digest, orderings_of
 
-__all__ = ["PardisoFactor"]
+__all__ = ["PardisoFactor", "refined_single"]
 
 
 class PardisoFactor:
@@ -186,3 +188,27 @@ def _mkl_functions():
     pardiso = ctypes.CFUNCTYPE(None, *PardisoFactor._ARGTYPES)(("pardiso", lib))
     set_threads = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int)(("MKL_Set_Num_Threads_Local", lib))
     return pardiso, set_threads
+
+
+def refined_single(Q, rhs, rtol, cache, maxiter):
+    """Solve ``Q phi = rhs`` by conjugate gradients preconditioned with a single-precision
+    PARDISO factor of ``Q``: ``(phi, SolveInfo)``, or None when that factorisation fails
+    or the iteration does not reach ``rtol`` within ``maxiter`` iterations.
+    """
+    t0 = time.perf_counter()
+    try:
+        with common.one_blas_thread():
+            solve = cached(
+                ("direct", "pardiso-single"), Q,
+                lambda A: PardisoFactor(A, single=True, orderings=orderings_of(cache)).solve, cache,
+            )  # fmt: skip
+    except Exception:  # noqa: BLE001 - any failure of the optional path: factorise in double
+        return None
+    t1 = time.perf_counter()
+    n = Q.shape[0]
+    P = spla.LinearOperator((n, n), matvec=solve, dtype=np.float64)
+    phi, iters, _ = common.cg(Q, rhs, P, rtol, maxiter)
+    res = common.relres(Q, phi, rhs)
+    if not res <= 10 * rtol:
+        return None
+    return phi, common.SolveInfo("cholesky-single+cg", iters, res, t1 - t0, time.perf_counter() - t1)
