@@ -271,22 +271,19 @@ class Domain:
         not depend on the element order.
 
         With ``groups`` (one integer per element), an element does not average a neighbour
-        of another group; a negative group belongs to none and averages every neighbour.
-        The relaxation of one region among several smooths its field within the sectors of
-        its neighbouring regions so (see :mod:`ndboundary.pipeline.sectors`).
+        of another group (a negative group: of none), as a region among several smooths
+        within the sectors of its neighbours (:mod:`ndboundary.pipeline.sectors`).
 
         The weights are the paper's uniform ones, except that an element's weight in its
         neighbours' averages is capped at that of an element of the usual degree,
         ``min(1, d / degree)`` with ``d`` the :attr:`usual_degree`: on meshes whose
         elements have the usual number of neighbours (simplicial, quad and hexahedral
-        grids) this is uniform averaging, while a cell with many more
-        neighbours than the rest (a large polygon inside a ring of small cells) can no
-        longer steer all of them with its one vector, which renormalisation would
-        otherwise reinforce sweep after sweep.
+        grids) this is uniform averaging, while a cell with many more neighbours than the
+        rest (a large polygon inside a ring of small cells) can no longer steer all of them
+        with its one vector, which renormalisation would reinforce sweep after sweep.
 
-        On surfaces the averages are not projected back onto each element's plane: the
-        integration sees the field only through the divergence, and the projection
-        measured worse on the shared triangle surfaces (``benchmarks/meshes.py``).
+        On surfaces the averages are not projected onto each element's plane: the integration
+        sees the field only through the divergence, and the projection measured worse.
 
         Parameters
         ----------
@@ -305,9 +302,7 @@ class Domain:
         degree = np.diff(adjacency.indptr)
         cap = np.minimum(1.0, self.usual_degree / np.maximum(degree, 1))
         if groups is not None:
-            groups = np.asarray(groups)
-            rows = np.repeat(np.arange(self.n_elements), degree)
-            a, b = groups[rows], groups[adjacency.indices]
+            a, b = np.repeat(np.asarray(groups), degree), np.asarray(groups)[adjacency.indices]
             same = (a == b) | (a < 0) | (b < 0)
             adjacency = sp.csr_matrix((adjacency.data * same, adjacency.indices, adjacency.indptr), adjacency.shape)
         if (cap < 1.0).any():
