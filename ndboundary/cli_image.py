@@ -14,26 +14,25 @@ import numpy as np
 
 from .cli_files import BOUNDARY_EXTENSIONS, CLIError, atomic_outputs, check_outputs, reading
 from .cli_regions import RegionProgress, check_folder, region_surface_paths
+from .io.images import IMAGE_READ_SUFFIXES, IMAGE_WRITE_SUFFIXES
 
-__all__ = ["IMAGE_SUFFIXES", "PHI_IMAGE_EXTENSIONS", "cmd_relax_image", "is_image"]
+__all__ = ["PHI_IMAGE_EXTENSIONS", "cmd_relax_image", "is_image"]
 
-#: File names read as label images (the first argument of ``ndboundary relax`` alone).
-IMAGE_SUFFIXES = (".nii", ".nii.gz", ".nrrd", ".tif", ".tiff", ".npy")
 #: What ``-o`` writes phi to for an image: the last suffix of each (``.gz``: ``.nii.gz``).
-PHI_IMAGE_EXTENSIONS = (".nii", ".gz", ".nrrd", ".tif", ".tiff", ".npy")
+PHI_IMAGE_EXTENSIONS = tuple(dict.fromkeys("." + s.rsplit(".", 1)[1] for s in IMAGE_WRITE_SUFFIXES))
 #: Images with at least this many pixels show per-step progress on a terminal.
 PROGRESS_PIXELS = 100_000
 
 
 def is_image(path):
-    """Whether ``path`` names a label image by its suffix (:data:`IMAGE_SUFFIXES`).
+    """Whether ``path`` names a label image by its suffix (one :func:`~ndboundary.io.read_image` reads).
 
     Examples
     --------
     >>> is_image("scan.nii.gz"), is_image("seg.SEG.NRRD"), is_image("mesh.obj")
     (True, True, False)
     """
-    return str(path).lower().endswith(IMAGE_SUFFIXES)
+    return str(path).lower().endswith(IMAGE_READ_SUFFIXES)
 
 
 def voxel_values(result):
@@ -140,11 +139,8 @@ def _report(args, image, labels, res, classes, boundaries):
         closed = ""
         if r in boundaries:
             closed = ", boundary closed" if boundaries[r].is_closed() else ", boundary open (meets the image's border)"
-        framed = (
-            " (background, framed by one layer)"
-            if labels.shape != image.labels.shape and r in (res.params.get("background"),)
-            else ""
-        )
+        framed = labels.shape != image.labels.shape and r == res.params.get("background")
+        framed = " (background, framed by one layer)" if framed else ""
         lines.append(
             f"region {r} ({classes[r]}){framed}: {measure} {value:.6g} against {given:.6g} for its pixels "
             f"({100 * (value / given - 1):+.3f} %){closed}"

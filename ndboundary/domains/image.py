@@ -34,10 +34,10 @@ def grid_geometry(shape, spacing, origin):
         raise ValueError(f"shape must hold positive sizes, got {shape}")
     out = []
     for name, value in (("spacing", spacing), ("origin", origin)):
-        arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (dim,)) if np.ndim(value) == 0 else np.asarray(value)
+        arr = np.asarray(value, dtype=np.float64)
+        arr = np.full(dim, float(arr)) if arr.ndim == 0 else arr
         if arr.shape != (dim,):
             raise ValueError(f"{name} must be one number or one per axis ({dim}), got {value!r}")
-        arr = arr.astype(np.float64)
         if not np.all(np.isfinite(arr)):
             raise ValueError(f"{name} must be finite, got {value!r}")
         out.append(tuple(float(v) for v in arr))
@@ -117,10 +117,6 @@ class ImageGrid:
 
     def __repr__(self):
         return f"{type(self).__name__}(shape={self.shape}, spacing={self.spacing}, origin={self.origin})"
-
-    def element_index(self, element):
-        """The pixel index ``(i, j[, k])`` of element ``element`` (C order)."""
-        return np.unravel_index(element, self.shape)
 
 
 class PixelGrid(ImageGrid, PolygonMesh):

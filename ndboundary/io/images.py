@@ -46,11 +46,12 @@ import numpy as np
 
 from .common import existing_file
 
-__all__ = ["Image", "read_image", "write_image"]
+__all__ = ["IMAGE_READ_SUFFIXES", "IMAGE_WRITE_SUFFIXES", "Image", "read_image", "write_image"]
 
 _READ = {".npy": "npy", ".nii": "nifti", ".nii.gz": "nifti", ".nrrd": "nrrd", ".seg.nrrd": "nrrd", ".nhdr": "nrrd"}
 _READ |= {".tif": "tiff", ".tiff": "tiff"}
-_WRITE = (".npy", ".nii", ".nii.gz", ".nrrd", ".tif", ".tiff")
+IMAGE_READ_SUFFIXES = tuple(_READ)  #: The suffixes :func:`read_image` reads.
+IMAGE_WRITE_SUFFIXES = (".npy", ".nii", ".nii.gz", ".nrrd", ".tif", ".tiff")  #: What :func:`write_image` writes.
 _ALIGNED = 1e-5  # off-diagonal size of a unit direction still taken as axis-aligned (NIfTI stores float32)
 _ORTHOGONAL = 1e-4  # departure from orthonormal of a rotation read with oblique=True
 _IMAGEJ_TYPES = (np.uint8, np.uint16, np.int16, np.float32)
@@ -344,8 +345,8 @@ def write_image(path, array, *, spacing=1.0, origin=0.0, direction=None, overwri
     """
     path = Path(path)
     suffix = _suffix(path)
-    if suffix not in _WRITE:
-        raise ValueError(f"{path}: cannot write images as {suffix!r}; expected one of {', '.join(_WRITE)}")
+    if suffix not in IMAGE_WRITE_SUFFIXES:
+        raise ValueError(f"{path}: cannot write images as {suffix!r}; use one of {', '.join(IMAGE_WRITE_SUFFIXES)}")
     arr = np.asarray(array)
     if arr.ndim not in (2, 3) or arr.size == 0 or arr.dtype.kind not in "biuf":
         raise ValueError(f"{path}: expected a non-empty 2-D or 3-D array of numbers, got {arr.dtype} {arr.shape}")
