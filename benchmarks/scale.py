@@ -5,6 +5,7 @@ Usage::
     python benchmarks/scale.py [--n 100000] [--features 50] [--skip-peer]
                                [--bands none,10,20,30] [--repeat 3]
                                [--data manifold|plane] [--label-noise 0.0]
+                               [--max-samples 0.1]
 
 ``--data plane`` draws two features instead, uniform on a square split by a sine curve
 (the low-dimensional case, where most samples lie far from the class boundary), and
@@ -14,6 +15,10 @@ Times fit (kNN graph included) and prediction on as many new samples, reports pe
 memory (ru_maxrss) and the band the classifier relaxed over (``band_``), and times
 LabelSpreading(kernel="knn") on the same data for the ratio. Prints a table and one
 JSON line.
+
+``--max-samples`` fits once more on that share (or count) of landmarks
+(``LevelSetClassifier(max_samples=...)``) and reports its fit and predict times, its
+accuracy and the accuracy it costs against the fit on every sample.
 
 ``--bands`` then relaxes the fitted graph again with each band width (in units of ``h``;
 ``none`` for the whole graph, :mod:`ndboundary.pipeline.band`), as the classifier's fit
@@ -138,6 +143,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per band width (median)")
     ap.add_argument("--data", choices=("manifold", "plane"), default="manifold")
     ap.add_argument("--label-noise", type=float, default=0.0, help="share of flipped labels (--data plane)")
+    ap.add_argument("--max-samples", type=float, default=None, help="also fit on landmarks: a share, or a count")
     args = ap.parse_args(argv)
     if args.data == "plane":
         X, y = make_plane(2 * args.n, args.label_noise)
@@ -166,6 +172,17 @@ def main(argv=None):
         out["labelspreading_accuracy"] = float((ls.predict(Xte) == yte).mean())
         out["labelspreading_predict_s"] = time.perf_counter() - t0
         out["fit_ratio"] = out["fit_s"] / out["labelspreading_fit_s"]
+    if args.max_samples is not None:
+        m = args.max_samples
+        part = LevelSetClassifier(max_samples=int(m) if m > 1 else m, random_state=0)
+        t0 = time.perf_counter()
+        part.fit(Xtr, ytr)
+        out["landmarks"] = int(part.landmarks_.size) if part.landmarks_ is not None else args.n
+        out["landmarks_fit_s"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        out["landmarks_accuracy"] = float((part.predict(Xte) == yte).mean())
+        out["landmarks_predict_s"] = time.perf_counter() - t0
+        out["landmarks_accuracy_cost"] = acc - out["landmarks_accuracy"]
     for k, v in out.items():
         print(f"{k:<28s} {v}")
     if args.bands:

@@ -151,13 +151,13 @@ def test_solver_tolerance_does_not_move_decisions(moons):
 
 
 def test_auto_neighbours_follow_the_sample_size(moons, monkeypatch):
-    from ndboundary.learn import classifier
+    from ndboundary.learn import graph
 
     X, y, _, _ = moons
-    assert LevelSetClassifier().fit(X, y).n_neighbors_ == classifier.AUTO_NEIGHBORS
+    assert LevelSetClassifier().fit(X, y).n_neighbors_ == graph.AUTO_NEIGHBORS
     assert LevelSetClassifier(n_neighbors=12).fit(X, y).n_neighbors_ == 12
-    monkeypatch.setattr(classifier, "AUTO_NEIGHBORS_MAX_SAMPLES", 100)
-    assert LevelSetClassifier().fit(X, y).n_neighbors_ == classifier.AUTO_NEIGHBORS_LARGE
+    monkeypatch.setattr(graph, "AUTO_NEIGHBORS_MAX_SAMPLES", 100)
+    assert LevelSetClassifier().fit(X, y).n_neighbors_ == graph.AUTO_NEIGHBORS_LARGE
 
 
 def _loo_accuracy(clf, X, y):

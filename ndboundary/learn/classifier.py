@@ -35,25 +35,18 @@ import time
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ..domains import DelaunayComplex, PointCloud
-from ..domains.delaunay import DELAUNAY_MAX_DIM
 from .band import classifier_band
 from .extrema import relax_classes
+from .graph import build_graph
 from .params import check_classifier_params
-from .probability import logistic_slope
+from .probability import logistic_slope, probabilities
 from .propagation import harmonic_labels, vote
+from .scaleout import landmark_samples, lazy_rows, transduce_the_rest
 from .scaling import apply_scaling, fit_scaling
 
 __all__ = ["LevelSetClassifier"]
-
-#: ``n_neighbors="auto"``: this many neighbours up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES`
-#: samples, then :data:`AUTO_NEIGHBORS_LARGE`.
-AUTO_NEIGHBORS = 40
-AUTO_NEIGHBORS_MAX_SAMPLES = 20_000
-AUTO_NEIGHBORS_LARGE = 15
 
 
 class LevelSetClassifier(ClassifierMixin, BaseEstimator):
@@ -62,8 +55,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     Parameters
     ----------
     n_neighbors : int or "auto", default="auto"
-        Neighbours per sample of the kNN graph. ``"auto"``: :data:`AUTO_NEIGHBORS` (40)
-        up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES` (20 000) samples, 15 beyond: on small
+        Neighbours per sample of the kNN graph. ``"auto"``: :data:`~ndboundary.learn.graph.AUTO_NEIGHBORS` (40)
+        up to :data:`~ndboundary.learn.graph.AUTO_NEIGHBORS_MAX_SAMPLES` (20 000) samples, 15 beyond: on small
         noisy samples the wider stencil steadies the tangent gradients, on large ones the
         graph's cost grows with ``k`` while 15 neighbours already hold the data's shape
         (``benchmarks/classify.py`` and ``benchmarks/scale.py`` measure both). The value
@@ -126,8 +119,16 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         where the band pays). The value used is ``band_``.
     intrinsic_dim : int or None, default=None
         Tangent dimension of the kNN operators; estimated when None.
+    max_samples : int, float or None, default=None
+        Build the graph over this many landmarks only (a count, or a share of the
+        samples in ``(0, 1]``), drawn at random and stratified by label so that every
+        class keeps its share and at least one sample; the other samples are predicted
+        by the fitted extension (:mod:`ndboundary.learn.scaleout`). With it, ``fit``
+        also takes a Dask array ``X`` and computes only the landmarks' rows. None: every
+        sample.
     random_state : int, Generator or None, default=None
-        Seed of the approximate neighbour search (used beyond 20 000 samples).
+        Seed of the approximate neighbour search (used beyond 20 000 samples) and of the
+        landmarks' draw.
     verbose : bool, default=False
         Print progress to stderr.
 
@@ -158,7 +159,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         maxima only at samples of the class, minima only at the others.
     transduction_ : ndarray of shape (n_samples,)
         The labels of the training samples, unlabelled ones filled in by
-        harmonic extension before the relaxation.
+        harmonic extension before the relaxation (beyond the landmarks, by ``predict``).
+    landmarks_ : ndarray of int or None
+        The rows of ``X`` the graph was built over (``max_samples``); None: all of them.
+        ``phi_`` and ``domain_`` hold these rows only.
     extension_ : NeighborExtension or SimplexExtension or None
         The evaluator of ``phi_`` at new points (in the coordinates of ``domain_``),
         given by the domain (:meth:`~ndboundary.Domain.extension`); None when one class
@@ -169,6 +173,11 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
     Notes
     -----
+    ``predict``, ``predict_proba`` and ``decision_function`` given a Dask array return
+    one, computed block by block of rows; a row's prediction never depends on the rows
+    predicted with it, so the blocks equal the in-memory result. dask-ml's
+    ``ParallelPostFit`` wraps the classifier as it does any other.
+
     Semi-supervised use follows :class:`sklearn.semi_supervised.LabelSpreading`:
     with ``unlabeled=-1``, samples with ``y == -1`` are unlabelled (opt-in, so that
     ``-1`` stays an ordinary class label by default). They join the graph, and their labels are
@@ -200,6 +209,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         unlabeled=None,
         band="auto",
         intrinsic_dim=None,
+        max_samples=None,
         random_state=None,
         verbose=False,
     ):
@@ -215,6 +225,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self.unlabeled = unlabeled
         self.band = band
         self.intrinsic_dim = intrinsic_dim
+        self.max_samples = max_samples
         self.random_state = random_state
         self.verbose = verbose
 
@@ -223,31 +234,14 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         if self.verbose:
             print(f"[LevelSetClassifier] {msg} ({time.perf_counter() - t0:.2f} s)", file=sys.stderr, flush=True)
 
-    def _build_domain(self, X):
-        """``(domain, n_neighbors_, lam)``: the graph, its neighbours per sample, the ``lam`` used on it."""
-        graph = self.graph
-        distinct = np.unique(X, axis=0).shape[0] == X.shape[0]
-        if graph == "auto":
-            graph = "delaunay" if 2 <= X.shape[1] <= 3 and distinct and X.shape[0] > X.shape[1] + 1 else "knn"
-        if graph == "delaunay":
-            if not 2 <= X.shape[1] <= DELAUNAY_MAX_DIM:
-                raise ValueError(
-                    f"graph='delaunay' needs 2 to {DELAUNAY_MAX_DIM} features, got {X.shape[1]}; use graph='knn'"
-                )
-            return DelaunayComplex(X), 0, self.lam
-        k = self.n_neighbors
-        if k == "auto":
-            k = AUTO_NEIGHBORS if X.shape[0] <= AUTO_NEIGHBORS_MAX_SAMPLES else AUTO_NEIGHBORS_LARGE
-        cloud = PointCloud(X, n_neighbors=k, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state)
-        return cloud, cloud.n_neighbors, self.lam * k / cloud.n_neighbors  # complete graph: module docstring
-
     # -- fit -------------------------------------------------------------------------------
     def fit(self, X, y):
         """Build the graph over ``X`` and relax every class's boundary.
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_features)
+        X : array-like or Dask array of shape (n_samples, n_features)
+            A Dask array needs ``max_samples``: only the landmarks' rows are computed.
         y : array-like of shape (n_samples,)
             Class labels; the value ``unlabeled`` (if set) marks an unlabelled sample.
 
@@ -256,8 +250,14 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self : LevelSetClassifier
         """
         check_classifier_params(self)
-        X, y = validate_data(self, X, y, ensure_min_samples=2, dtype=np.float64)
-        check_classification_targets(y)
+        X_all, y_all, X, y, self.landmarks_ = landmark_samples(self, X, y)
+        self._fit_rows(X, y)
+        if self.landmarks_ is not None:
+            self.transduction_ = transduce_the_rest(self, X_all, y_all)
+        return self
+
+    def _fit_rows(self, X, y):
+        """The fit on the validated samples the graph is built over."""
         self.center_, self.scale_ = fit_scaling(X)
         X = apply_scaling(X, self.center_, self.scale_)
         t0 = time.perf_counter()
@@ -280,9 +280,11 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             self.extension_power_ = None
             self.band_ = None
             self.extension_ = None
-            return self
+            return
         self._constant = None
-        self.domain_, self.n_neighbors_, lam = self._build_domain(X)
+        self.domain_, self.n_neighbors_, lam = build_graph(
+            X, self.graph, self.n_neighbors, self.lam, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state
+        )
         self.band_ = classifier_band(self.band, self.domain_)
         self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)
         if not labelled.all():
@@ -303,7 +305,6 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self._log(f"extension power {self.extension_power_}", t0)
         self.proba_scale_ = self._fit_proba_scale(codes, labelled)
         self._log("fitted", t0)
-        return self
 
     def _fit_proba_scale(self, codes, labelled):
         """Slope of the logistic map fitted on leave-one-out ``phi`` at the labelled samples."""
@@ -320,15 +321,17 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_features)
+        X : array-like or Dask array of shape (n_samples, n_features)
 
         Returns
         -------
-        ndarray of shape (n_samples,) or (n_samples, n_classes)
+        ndarray (a Dask array for a Dask ``X``) of shape (n_samples,) or (n_samples, n_classes)
             For two classes, positive means ``classes_[1]``; approximately the signed
             distance to the decision boundary in units of the mean neighbour distance.
             For more, one column per class (class versus the rest).
         """
+        if (lazy := lazy_rows(self, "decision_function", X)) is not None:
+            return lazy
         X = self._validate_predict(X)
         if self._constant is not None:
             n_cls = self.classes_.shape[0]
@@ -345,12 +348,14 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_features)
+        X : array-like or Dask array of shape (n_samples, n_features)
 
         Returns
         -------
-        ndarray of shape (n_samples,)
+        ndarray (a Dask array for a Dask ``X``) of shape (n_samples,)
         """
+        if (lazy := lazy_rows(self, "predict", X)) is not None:
+            return lazy
         d = self.decision_function(X)
         if self.classes_.shape[0] == 1:
             return np.full(d.shape[0], self.classes_[0])
@@ -362,25 +367,23 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_features)
+        X : array-like or Dask array of shape (n_samples, n_features)
 
         Returns
         -------
-        ndarray of shape (n_samples, n_classes)
+        ndarray (a Dask array for a Dask ``X``) of shape (n_samples, n_classes)
         """
+        if (lazy := lazy_rows(self, "predict_proba", X)) is not None:
+            return lazy
         d = self.decision_function(X)
         if self.classes_.shape[0] == 1:
             return np.ones((d.shape[0], 1))
-        if d.ndim == 1:
-            p1 = 0.5 * (1.0 + np.tanh(0.5 * self.proba_scale_ * d))
-            return np.stack([1.0 - p1, p1], axis=1)
-        s = self.proba_scale_ * d
-        s = s - s.max(axis=1, keepdims=True)
-        e = np.exp(s)
-        return e / e.sum(axis=1, keepdims=True)
+        return probabilities(d, self.proba_scale_)
 
     def predict_log_proba(self, X):
         """Logarithm of :meth:`predict_proba`."""
+        if (lazy := lazy_rows(self, "predict_log_proba", X)) is not None:
+            return lazy
         with np.errstate(divide="ignore"):
             return np.log(self.predict_proba(X))
 

@@ -77,5 +77,15 @@ def check_classifier_params(est):
             raise TypeError(f"band must be 'auto', a number or None, got {type(b).__name__}")
         if not 0.0 < b < np.inf:
             raise ValueError(f"band must be a positive finite width in units of h, got {b}")
+    m = est.max_samples
+    if m is not None:
+        if _is_int(m):
+            if m < 2:
+                raise ValueError(f"max_samples must be an integer >= 2, a share in (0, 1] or None, got {m}")
+        elif _is_real(m):
+            if not 0.0 < m <= 1.0:
+                raise ValueError(f"max_samples must be an integer >= 2, a share in (0, 1] or None, got {m}")
+        else:
+            raise TypeError(f"max_samples must be an integer, a number or None, got {type(m).__name__}")
     if est.graph not in ("knn", "delaunay", "auto"):
         raise ValueError(f"graph must be 'knn', 'delaunay' or 'auto', got {est.graph!r}")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-__all__ = ["logistic_slope"]
+__all__ = ["logistic_slope", "probabilities"]
 
 
 def logistic_slope(phi, codes):
@@ -57,3 +57,23 @@ def logistic_slope(phi, codes):
 
     res = minimize_scalar(loss, bounds=(-8.0, 8.0), method="bounded")
     return float(np.exp(res.x))
+
+
+def probabilities(d, slope):
+    """Class probabilities from decisions ``d = phi - 1/2``: a logistic map for one column
+    (shape (n,)), a softmax over the columns otherwise; shape (n, n_classes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.learn.probability import probabilities
+    >>> probabilities(np.array([0.0, np.log(3.0)]), 1.0).round(3).tolist()
+    [[0.5, 0.5], [0.25, 0.75]]
+    """
+    if d.ndim == 1:
+        p1 = 0.5 * (1.0 + np.tanh(0.5 * slope * d))
+        return np.stack([1.0 - p1, p1], axis=1)
+    s = slope * d
+    s = s - s.max(axis=1, keepdims=True)
+    e = np.exp(s)
+    return e / e.sum(axis=1, keepdims=True)

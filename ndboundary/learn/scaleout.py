@@ -1,0 +1,255 @@
+"""Fitting on landmarks and predicting block-wise: the classifier beyond one machine's memory.
+
+Two pieces serve large data:
+
+* **Landmarks** (``max_samples``). The graph is built over a stratified random draw of
+  the training samples: every class (and the unlabelled samples, in semi-supervised use)
+  keeps its share, and at least one sample. The relaxed functions live on the landmarks;
+  every other sample is one more point the fitted extension predicts.
+* **Dask arrays.** :func:`map_rows` runs a row-wise method of the fitted classifier over
+  each block of rows of a Dask array, lazily: predictions of one row never depend on the
+  other rows predicted with it, so the blocks agree with the in-memory result exactly.
+  Dask is an optional dependency (the ``dask`` extra); nothing here imports it unless a
+  Dask array is given.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "is_dask_array",
+    "landmark_rows",
+    "landmark_samples",
+    "lazy_rows",
+    "map_rows",
+    "n_landmarks",
+    "transduce_the_rest",
+]
+
+
+def is_dask_array(X):
+    """Whether ``X`` is a Dask array (judged by its type, without importing Dask)."""
+    return type(X).__module__.split(".")[0] == "dask" and hasattr(X, "map_blocks") and hasattr(X, "chunks")
+
+
+def n_landmarks(max_samples, n_samples):
+    """The number of landmarks ``max_samples`` asks for among ``n_samples``.
+
+    Parameters
+    ----------
+    max_samples : int or float
+        A count (at least 2), or a share of the samples in ``(0, 1]``.
+    n_samples : int
+
+    Returns
+    -------
+    int
+        At most ``n_samples``.
+
+    Examples
+    --------
+    >>> from ndboundary.learn.scaleout import n_landmarks
+    >>> n_landmarks(0.1, 100_000), n_landmarks(500, 200)
+    (10000, 200)
+    """
+    if isinstance(max_samples, numbers.Integral):
+        return int(min(max_samples, n_samples))
+    return int(min(n_samples, max(2, np.ceil(max_samples * n_samples))))
+
+
+def landmark_rows(strata, m, random_state=None):
+    """A stratified random draw of ``m`` rows: sorted indices into ``strata``.
+
+    Each stratum (a class, or the unlabelled samples) gets its proportional share of the
+    ``m`` rows, rounded by largest remainders, and at least one row, so that no class is
+    lost however rare it is.
+
+    Parameters
+    ----------
+    strata : ndarray of int of shape (n_samples,)
+        The stratum of each row.
+    m : int
+        Rows to draw, at least the number of strata.
+    random_state : int, Generator or None
+
+    Returns
+    -------
+    ndarray of int of shape (m,)
+
+    Raises
+    ------
+    ValueError
+        If ``m`` is smaller than the number of strata.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.learn.scaleout import landmark_rows
+    >>> strata = np.r_[np.zeros(990, int), np.ones(10, int)]
+    >>> rows = landmark_rows(strata, 50, random_state=0)
+    >>> np.bincount(strata[rows]).tolist()
+    [49, 1]
+    """
+    values, inverse, counts = np.unique(strata, return_inverse=True, return_counts=True)
+    if m < values.size:
+        raise ValueError(
+            f"max_samples gives {m} landmarks, fewer than the {values.size} classes (and unlabelled samples) "
+            "to draw them from: every class needs one"
+        )
+    share = counts * (m / counts.sum())
+    take = np.maximum(1, np.floor(share)).astype(np.int64)
+    take = np.minimum(take, counts)
+    short = m - int(take.sum())
+    if short > 0:  # largest remainders first, among strata with rows left
+        order = np.argsort(-(share - np.floor(share)), kind="stable")
+        while short > 0:
+            for s in order:
+                if short and take[s] < counts[s]:
+                    take[s] += 1
+                    short -= 1
+    elif short < 0:  # the minimum of one row overdrew: trim the largest shares
+        for s in np.argsort(-take, kind="stable"):
+            cut = min(-short, int(take[s]) - 1)
+            take[s] -= cut
+            short += cut
+    rng = np.random.default_rng(random_state)
+    inverse = inverse.reshape(-1)
+    rows = [rng.choice(np.flatnonzero(inverse == s), size=int(t), replace=False) for s, t in enumerate(take)]
+    return np.sort(np.concatenate(rows))
+
+
+def _apply(X, est, method):
+    return getattr(est, method)(X)
+
+
+def map_rows(est, method, X, n_outputs, dtype):
+    """The method ``method`` of the fitted classifier ``est`` applied to each block of rows
+    of the Dask array ``X``, lazily.
+
+    The estimator enters the task graph once, as one delayed object that every block's
+    task depends on: a cluster ships it to each worker once, not with every task.
+
+    Parameters
+    ----------
+    est : LevelSetClassifier
+        Fitted.
+    method : str
+        A method mapping an ndarray of shape (b, n_features) to shape (b,) (``n_outputs``
+        None) or (b, n_outputs).
+    X : dask.array.Array of shape (n_samples, n_features)
+    n_outputs : int or None
+    dtype : numpy dtype
+        Of the result.
+
+    Returns
+    -------
+    dask.array.Array of shape (n_samples,) or (n_samples, n_outputs)
+
+    Raises
+    ------
+    ValueError
+        If ``X`` is not two-dimensional with as many columns as ``est`` was fitted on.
+    """
+    import dask
+
+    n_features = est.n_features_in_
+    if X.ndim != 2 or X.shape[1] != n_features:
+        raise ValueError(f"X has shape {X.shape}; the classifier was fitted on {n_features} features")
+    if len(X.chunks[1]) > 1:
+        X = X.rechunk({1: -1})  # each block holds whole rows
+    # pure=False: a fresh key instead of hashing the whole fitted estimator
+    shipped = dask.delayed(est, pure=False, traverse=False)
+    if n_outputs is None:
+        return X.map_blocks(_apply, shipped, method, drop_axis=1, dtype=dtype, meta=np.empty((0,), dtype=dtype))
+    return X.map_blocks(
+        _apply,
+        shipped,
+        method,
+        chunks=(X.chunks[0], (n_outputs,)),
+        dtype=dtype,
+        meta=np.empty((0, 0), dtype=dtype),
+    )
+
+
+def landmark_samples(est, X, y):
+    """The training samples of the classifier ``est`` and the rows its graph is built over.
+
+    Returns
+    -------
+    X_all, y_all
+        All the samples: ``X_all`` validated, or as given when a Dask array; ``y_all`` an
+        ndarray.
+    X, y : ndarray
+        The validated rows of the graph: the landmarks of ``est.max_samples``, or all.
+    landmarks : ndarray of int or None
+        Their indices into ``X_all``; None for all.
+
+    Raises
+    ------
+    ValueError
+        For a Dask ``X`` without ``max_samples``, or ``X`` and ``y`` of different lengths.
+    """
+    from sklearn.utils.multiclass import check_classification_targets
+    from sklearn.utils.validation import validate_data
+
+    dask_x = is_dask_array(X)
+    if dask_x:
+        if est.max_samples is None:
+            raise ValueError(
+                "X is a Dask array: fit builds its graph in memory, so it needs max_samples "
+                "(the landmarks drawn from X, whose rows alone are computed)"
+            )
+        y_all = np.asarray(y.compute() if is_dask_array(y) else y)
+        if X.ndim != 2 or y_all.ndim != 1 or y_all.shape[0] != X.shape[0]:
+            raise ValueError(f"X of shape {X.shape} and y of shape {y_all.shape} do not match")
+        X_all = X
+    else:
+        X_all, y_all = validate_data(est, X, y, ensure_min_samples=2, dtype=np.float64)
+    check_classification_targets(y_all)
+    n = y_all.shape[0]
+    landmarks = None
+    if est.max_samples is not None and n_landmarks(est.max_samples, n) < n:
+        strata = np.unique(y_all, return_inverse=True)[1].reshape(-1)
+        landmarks = landmark_rows(strata, n_landmarks(est.max_samples, n), est.random_state)
+    rows = slice(None) if landmarks is None else landmarks
+    if not dask_x:
+        return X_all, y_all, X_all[rows], y_all[rows], landmarks
+    X_l = np.asarray(X_all[rows].compute())
+    X_l, y_l = validate_data(est, X_l, y_all[rows], ensure_min_samples=2, dtype=np.float64)
+    return X_all, y_all, X_l, y_l, landmarks
+
+
+def transduce_the_rest(est, X_all, y_all):
+    """The labels of all training samples of a classifier fitted on landmarks: the
+    landmarks' from the fit (``est.transduction_``), the other unlabelled samples' predicted.
+    """
+    out = np.asarray(y_all).copy()
+    out[est.landmarks_] = est.transduction_
+    if est.unlabeled is None:
+        return out
+    rest = out == est.unlabeled
+    rest[est.landmarks_] = False
+    if rest.any():
+        pred = est.predict(X_all[np.flatnonzero(rest)])
+        out[rest] = pred.compute() if is_dask_array(pred) else pred
+    return out
+
+
+def lazy_rows(est, method, X):
+    """The method ``method`` of the fitted classifier ``est`` over the row blocks of the
+    Dask array ``X``, lazily (:func:`map_rows`); None when ``X`` is not a Dask array.
+    """
+    if not is_dask_array(X):
+        return None
+    from sklearn.utils.validation import check_is_fitted
+
+    check_is_fitted(est)
+    n_cls = est.classes_.shape[0]
+    if method == "predict":
+        return map_rows(est, method, X, None, est.classes_.dtype)
+    if method == "decision_function":
+        return map_rows(est, method, X, None if n_cls <= 2 else n_cls, np.float64)
+    return map_rows(est, method, X, n_cls, np.float64)

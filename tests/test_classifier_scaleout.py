@@ -1,0 +1,150 @@
+"""The classifier beyond memory: fitting on landmarks, predicting block-wise on Dask arrays."""
+
+import numpy as np
+import pytest
+from sklearn.datasets import make_blobs, make_moons
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from ndboundary import LevelSetClassifier
+
+da = pytest.importorskip("dask.array")
+
+
+@pytest.fixture(scope="module")
+def moons():
+    X, y = make_moons(3000, noise=0.25, random_state=0)
+    Xt, yt = make_moons(1000, noise=0.25, random_state=1)
+    return X, y, Xt, yt
+
+
+@pytest.fixture(scope="module")
+def fitted(moons):
+    X, y, _, _ = moons
+    return LevelSetClassifier().fit(X[:800], y[:800])
+
+
+@parametrize_with_checks([LevelSetClassifier(max_samples=0.6, random_state=0)])
+def test_sklearn_compatible_on_landmarks(estimator, check):
+    check(estimator)
+
+
+def test_landmarks_keep_every_class_and_their_shares():
+    X, y = make_blobs([900, 90, 9, 1], centers=[[0, 0], [6, 0], [0, 6], [6, 6]], random_state=0)
+    clf = LevelSetClassifier(max_samples=100, random_state=0).fit(X, y)
+    assert clf.landmarks_.shape == (100,) and np.all(np.diff(clf.landmarks_) > 0)
+    counts = np.bincount(y[clf.landmarks_], minlength=4)
+    assert counts.sum() == 100 and counts.min() >= 1 and abs(counts[0] - 90) <= 2
+    assert clf.phi_.shape[0] == 100 and clf.domain_.n_vertices == 100
+    np.testing.assert_array_equal(clf.transduction_, y)  # every sample labelled: its own label
+    assert clf.score(X, y) > 0.99
+    assert clf.predict(X[y == 3]).tolist() == [3]  # the class of one sample is kept
+
+
+def test_landmarks_cost_little_accuracy(moons):
+    X, y, Xt, yt = moons
+    full = LevelSetClassifier().fit(X, y).score(Xt, yt)
+    part = LevelSetClassifier(max_samples=0.25, random_state=0).fit(X, y)
+    assert part.landmarks_.size == 750
+    assert part.score(Xt, yt) >= full - 0.02
+
+
+def test_landmarks_draw_is_reproducible(moons):
+    X, y, Xt, _ = moons
+    a = LevelSetClassifier(max_samples=500, random_state=3).fit(X, y)
+    b = LevelSetClassifier(max_samples=500, random_state=3).fit(X, y)
+    np.testing.assert_array_equal(a.landmarks_, b.landmarks_)
+    np.testing.assert_array_equal(a.decision_function(Xt), b.decision_function(Xt))
+    assert LevelSetClassifier(max_samples=1.0).fit(X[:50], y[:50]).landmarks_ is None
+
+
+def test_unlabelled_samples_beyond_the_landmarks_are_predicted(moons):
+    X, y, _, _ = moons
+    ys = np.where(np.random.default_rng(0).random(y.size) < 0.05, y, -1)
+    clf = LevelSetClassifier(unlabeled=-1, max_samples=0.3, random_state=0).fit(X, ys)
+    labelled = ys != -1
+    np.testing.assert_array_equal(clf.transduction_[labelled], y[labelled])
+    rest = np.ones(y.size, bool)
+    rest[clf.landmarks_] = False
+    rest &= ~labelled
+    np.testing.assert_array_equal(clf.transduction_[rest], clf.predict(X[rest]))
+    assert set(np.unique(clf.transduction_)) == {0, 1} and np.mean(clf.transduction_ == y) > 0.9
+
+
+@pytest.mark.parametrize(
+    "value, err, match",
+    [
+        (1, ValueError, "max_samples"),
+        (0.0, ValueError, "max_samples"),
+        (1.5, ValueError, "max_samples"),
+        ("half", TypeError, "max_samples"),
+    ],
+)
+def test_bad_max_samples(moons, value, err, match):
+    X, y, _, _ = moons
+    with pytest.raises(err, match=match):
+        LevelSetClassifier(max_samples=value).fit(X[:100], y[:100])
+
+
+def test_fewer_landmarks_than_classes_is_refused():
+    X, y = make_blobs(60, centers=3, random_state=0)
+    with pytest.raises(ValueError, match="fewer than the 3 classes"):
+        LevelSetClassifier(max_samples=2).fit(X, y)
+
+
+@pytest.mark.parametrize("chunks", [(250, 2), (333, 1), (1000, 2)])
+@pytest.mark.parametrize("method", ["predict", "predict_proba", "decision_function", "predict_log_proba"])
+def test_dask_arrays_are_predicted_block_by_block(fitted, moons, method, chunks):
+    Xt = moons[2]
+    lazy = getattr(fitted, method)(da.from_array(Xt, chunks=chunks))
+    assert isinstance(lazy, da.Array)
+    np.testing.assert_array_equal(lazy.compute(), getattr(fitted, method)(Xt))
+
+
+def test_dask_arrays_of_many_classes():
+    X, y = make_blobs(600, centers=4, random_state=0)
+    clf = LevelSetClassifier().fit(X[:400], y[:400])
+    lazy = clf.decision_function(da.from_array(X[400:], chunks=(64, 2)))
+    assert lazy.shape == (200, 4)
+    np.testing.assert_array_equal(lazy.compute(), clf.decision_function(X[400:]))
+    assert clf.predict(da.from_array(X[400:], chunks=64)).dtype == clf.classes_.dtype
+
+
+def test_dask_arrays_of_the_wrong_width_are_refused(fitted):
+    with pytest.raises(ValueError, match="fitted on 2 features"):
+        fitted.predict(da.zeros((10, 3), chunks=5))
+
+
+def test_fit_on_a_dask_array_computes_the_landmarks_only(moons):
+    X, y, Xt, _ = moons
+    Xd = da.from_array(X, chunks=(500, 2))
+    with pytest.raises(ValueError, match="needs max_samples"):
+        LevelSetClassifier().fit(Xd, y)
+    with pytest.raises(ValueError, match="do not match"):
+        LevelSetClassifier(max_samples=0.5).fit(Xd, y[:-1])
+    lazy = LevelSetClassifier(max_samples=600, random_state=0).fit(Xd, da.from_array(y, chunks=500))
+    eager = LevelSetClassifier(max_samples=600, random_state=0).fit(X, y)
+    np.testing.assert_array_equal(lazy.landmarks_, eager.landmarks_)
+    np.testing.assert_array_equal(lazy.decision_function(Xt), eager.decision_function(Xt))
+    assert lazy.n_features_in_ == 2
+
+
+@pytest.fixture(scope="module")
+def client():
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+        distributed.Client(cluster) as c,
+    ):
+        yield c
+
+
+def test_predictions_on_a_local_cluster_equal_the_in_memory_ones(client, fitted, moons):
+    dask_ml = pytest.importorskip("dask_ml.wrappers")
+    Xt = moons[2]
+    Xd = da.from_array(Xt, chunks=(200, 2))
+    wrapped = dask_ml.ParallelPostFit(fitted)
+    np.testing.assert_array_equal(wrapped.predict(Xd).compute(), fitted.predict(Xt))
+    np.testing.assert_array_equal(wrapped.predict_proba(Xd).compute(), fitted.predict_proba(Xt))
+    blocks = Xd.map_blocks(fitted.decision_function, drop_axis=1, dtype=np.float64)
+    np.testing.assert_array_equal(blocks.compute(), fitted.decision_function(Xt))
+    np.testing.assert_array_equal(fitted.predict(Xd).compute(), fitted.predict(Xt))
