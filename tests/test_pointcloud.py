@@ -66,13 +66,33 @@ def test_same_result_in_10_and_500_dimensions(rng):
     assert np.allclose(ra.phi, rb.phi, atol=1e-6)
 
 
-def test_exact_and_approximate_neighbours_agree(rng):
+@pytest.mark.parametrize("method", ["hnsw", "nndescent"])
+def test_exact_and_approximate_neighbours_agree(rng, method):
+    if method == "hnsw":
+        pytest.importorskip("faiss")
     X = rng.normal(size=(2000, 8))
-    ie, _ = kneighbors(X, 10, method="exact")
-    ia, _ = kneighbors(X, 10, method="approximate", random_state=0)
+    ie, de = kneighbors(X, 10, method="exact")
+    ia, dist = kneighbors(X, 10, method=method, random_state=0)
     recall = np.mean([len(set(a) & set(b)) / 10 for a, b in zip(ie, ia)])
     assert recall > 0.95
     assert ie.shape == ia.shape and not np.any(ia == np.arange(2000)[:, None])
+    assert np.all(np.diff(dist, axis=1) >= 0)
+    found = ia == ie
+    np.testing.assert_allclose(dist[found], de[found], rtol=1e-5)  # Euclidean, not squared
+
+
+def test_hnsw_graph_is_the_same_in_every_run_and_survives_pickling(rng):
+    pytest.importorskip("faiss")
+    import pickle
+
+    from ndboundary.domains.neighbors import NeighborIndex
+
+    X = rng.normal(size=(3000, 6))
+    a, b = NeighborIndex(X, 8, "hnsw", None), NeighborIndex(X, 8, "hnsw", None)
+    np.testing.assert_array_equal(a.graph()[0], b.graph()[0])
+    c = pickle.loads(pickle.dumps(a))
+    Q = rng.normal(size=(50, 6))
+    np.testing.assert_array_equal(c.query(Q, 5)[0], a.query(Q, 5)[0])
 
 
 def test_intrinsic_dimension_estimate(rng):

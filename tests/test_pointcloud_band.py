@@ -258,6 +258,9 @@ def test_classifier_band_on_large_graphs(rng, monkeypatch):
     y3 = np.digitize(t[:, 0], [-1.0, 1.0])
     three = LevelSetClassifier(band=8.0).fit(X, y3)
     assert three.band_ == 8.0 and (three.predict(X) == y3).mean() > 0.99
+    # samples of intrinsic dimension 5 span a few h: a band would hold them all, so none is sought
+    X5 = rng.uniform(-1, 1, size=(5000, 5))
+    assert LevelSetClassifier().fit(X5, (X5[:, 0] > 0).astype(int)).band_ is None
 
 
 @pytest.mark.parametrize(

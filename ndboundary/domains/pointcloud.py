@@ -76,11 +76,13 @@ class PointCloud(StencilDomain):
         Dimension ``m`` of the tangent spaces; estimated from the kNN distances when
         None (rounded, at least 1, at most ``min(n_features, k // 3)`` so that the
         least-squares gradient has three neighbours per unknown).
-    method : {"auto", "exact", "approximate"}, default="auto"
-        Neighbour search: scikit-learn's exact search, pynndescent, or exact up to
-        ``EXACT_MAX_SAMPLES`` distinct points.
+    method : {"auto", "exact", "approximate", "hnsw", "nndescent"}, default="auto"
+        Neighbour search: scikit-learn's exact search, faiss's HNSW graph, pynndescent,
+        the best approximate one installed (HNSW, else NN-descent), or exact up to
+        ``EXACT_MAX_SAMPLES`` distinct points and approximate beyond
+        (:mod:`ndboundary.domains.neighbors`).
     random_state : int, Generator or None, default=None
-        Seed of the approximate neighbour search.
+        Seed of pynndescent's search (the HNSW graph is the same in every run).
 
     Attributes
     ----------
@@ -125,8 +127,8 @@ class PointCloud(StencilDomain):
             raise TypeError(f"n_neighbors must be an integer, got {type(n_neighbors).__name__}")
         if n_neighbors < 1:
             raise ValueError(f"n_neighbors must be >= 1, got {n_neighbors}")
-        if method not in ("auto", "exact", "approximate"):
-            raise ValueError(f"method must be 'auto', 'exact' or 'approximate', got {method!r}")
+        if method not in ("auto", "exact", "approximate", "hnsw", "nndescent"):
+            raise ValueError(f"method must be 'auto', 'exact', 'approximate', 'hnsw' or 'nndescent', got {method!r}")
         if intrinsic_dim is not None:
             if isinstance(intrinsic_dim, bool) or not isinstance(intrinsic_dim, numbers.Integral):
                 raise TypeError(f"intrinsic_dim must be an integer or None, got {type(intrinsic_dim).__name__}")

@@ -105,6 +105,14 @@ class NeighborExtension:
             gu = np.stack([np.bincount(u, weights=g[:, a], minlength=n_u) for a in range(g.shape[1])], axis=1)
             grads.append(gu / cnt[:, None])
         self._grad_u = np.stack(grads, axis=1)  # (n_u, r, m)
+        # With no more functions than tangent dimensions, the gradients are kept in
+        # ambient coordinates instead, g_j = T_j grad_j and c_j = phi_j - g_j . x_j, so a
+        # value is c_j + g_j . x with no frame gathered per neighbour (fewer products,
+        # and g holds no more numbers than the frames).
+        self._ambient = None
+        if self._grad_u.shape[1] <= cloud.intrinsic_dim:
+            g = np.einsum("udm,urm->urd", cloud.frames, self._grad_u)  # (n_u, r, D)
+            self._ambient = (self._phi_u - np.einsum("urd,ud->ur", g, cloud.unique_points), g)
         # the bounds of each sample's first-order extension: the range of phi over its
         # gradient stencil
         around = self._phi_u[cloud.neighbors]  # (n_u, q, r)
@@ -241,6 +249,10 @@ class NeighborExtension:
         # for p > 0, a point on a training sample (d_1 = 0) takes that sample's value
         log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
         ind = ind[:, :k]
-        off = self.cloud.tangent_offsets(X, ind)  # (b, q, m)
-        vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
+        if self._ambient is not None:
+            c, g = self._ambient
+            vals = c[ind] + np.einsum("bqrd,bd->bqr", g[ind], X)
+        else:
+            off = self.cloud.tangent_offsets(X, ind)  # (b, q, m)
+            vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
         return np.clip(vals, self._lo[ind], self._hi[ind]), taper, log_ratio

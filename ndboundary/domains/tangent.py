@@ -32,6 +32,11 @@ def ball_volume(m):
 def local_pca(points, nbr, m):
     """Tangent coordinates of the neighbour offsets (n, k, m) and frames (n, D, m).
 
+    The leading eigenvectors of each point's offsets ``Y`` (k, D) are taken from the
+    smaller of the Gram matrix ``Y Y^T`` (k, k) and the covariance ``Y^T Y`` (D, D): both
+    give the same frame ``T`` and coordinates ``Z = Y T`` (up to the sign of a column),
+    and in few dimensions with many neighbours the covariance costs far less.
+
     Examples
     --------
     A point of the plane ``z = 0`` and its four neighbours: the frame is orthonormal and
@@ -51,8 +56,14 @@ def local_pca(points, nbr, m):
     for s in range(0, n, _CHUNK):
         c = slice(s, min(n, s + _CHUNK))
         Y = points[nbr[c]] - points[c][:, None, :]  # (b, k, D)
-        C = Y @ Y.transpose(0, 2, 1)
-        w, V = np.linalg.eigh(C)
+        if D < k:
+            w, U = np.linalg.eigh(Y.transpose(0, 2, 1) @ Y)
+            w, U = w[:, ::-1][:, :m], U[:, :, ::-1][:, :, :m]
+            ok = (w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300))[:, None, :]
+            T[c] = np.where(ok, U, 0.0)
+            Z[c] = Y @ T[c]
+            continue
+        w, V = np.linalg.eigh(Y @ Y.transpose(0, 2, 1))
         w, V = w[:, ::-1][:, :m], V[:, :, ::-1][:, :, :m]
         ok = w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300)
         sw = np.sqrt(np.where(ok, w, 0.0))
