@@ -148,3 +148,18 @@ def test_predictions_on_a_local_cluster_equal_the_in_memory_ones(client, fitted,
     blocks = Xd.map_blocks(fitted.decision_function, drop_axis=1, dtype=np.float64)
     np.testing.assert_array_equal(blocks.compute(), fitted.decision_function(Xt))
     np.testing.assert_array_equal(fitted.predict(Xd).compute(), fitted.predict(Xt))
+
+
+@pytest.mark.parametrize("n_classes", [2, 4])
+def test_the_workers_copy_predicts_alike_and_is_small(n_classes):
+    import pickle
+
+    from ndboundary.learn.scaleout import for_prediction
+
+    X, y = make_blobs(1200, n_features=6, centers=n_classes, cluster_std=3.0, random_state=0)
+    clf = LevelSetClassifier().fit(X[:900], y[:900])
+    lean = for_prediction(clf)
+    for method in ("predict", "predict_proba", "decision_function"):
+        np.testing.assert_array_equal(getattr(lean, method)(X[900:]), getattr(clf, method)(X[900:]))
+    assert len(pickle.dumps(lean)) < 0.5 * len(pickle.dumps(clf))
+    assert clf.domain_ is not None and clf.phi_ is not None  # the fitted estimator is left whole

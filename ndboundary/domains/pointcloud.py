@@ -235,6 +235,18 @@ class PointCloud(StencilDomain):
             out[c] = np.einsum("bqd,bqdm->bqm", off, self.frames[ind[c]], optimize=True)
         return out
 
+    def for_queries(self, frames=True):
+        """A copy holding only what :meth:`kneighbors` and :meth:`tangent_offsets` read
+        (the distinct points, the neighbour index, and the frames if ``frames``): much
+        smaller to ship to the workers of a cluster than the whole cloud.
+        """
+        lean = object.__new__(type(self))
+        keep = ("unique_points", "_index", "n_neighbors", "intrinsic_dim", "n_features") + (
+            ("frames",) if frames else ()
+        )
+        lean.__dict__.update({name: self.__dict__[name] for name in keep if name in self.__dict__})
+        return lean
+
     def __repr__(self):
         return (
             f"PointCloud(n_samples={self.points.shape[0]}, n_features={self.n_features}, "

@@ -134,6 +134,14 @@ class NeighborExtension:
             out[c] = _weighted_mean(*terms, self.power)
         return out
 
+    def for_queries(self):
+        """A copy that evaluates new points only (no :meth:`leave_one_out`), over a lean
+        copy of the cloud (:meth:`~ndboundary.PointCloud.for_queries`).
+        """
+        lean = object.__new__(type(self))
+        lean.__dict__.update(self.__dict__, _loo=None, cloud=self.cloud.for_queries(frames=self._ambient is None))
+        return lean
+
     def leave_one_out(self, rows):
         """The extension at the training samples ``rows``, each one's own point left out:
         shape (len(rows), n_functions).

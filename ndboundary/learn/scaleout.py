@@ -24,6 +24,7 @@ __all__ = [
     "landmark_rows",
     "landmark_samples",
     "lazy_rows",
+    "for_prediction",
     "map_rows",
     "n_landmarks",
     "transduce_the_rest",
@@ -125,12 +126,27 @@ def _apply(X, est, method):
     return getattr(est, method)(X)
 
 
+def for_prediction(est):
+    """A copy of the fitted classifier ``est`` that predicts as it does but holds no
+    graph: no ``domain_``, ``phi_`` or ``transduction_``, and an extension that only
+    evaluates new points. It is what the workers of a cluster receive.
+    """
+    import copy
+
+    lean = copy.copy(est)
+    lean.domain_ = lean.phi_ = lean.transduction_ = lean.landmarks_ = None
+    if getattr(est, "extension_", None) is not None and hasattr(est.extension_, "for_queries"):
+        lean.extension_ = est.extension_.for_queries()
+    return lean
+
+
 def map_rows(est, method, X, n_outputs, dtype):
     """The method ``method`` of the fitted classifier ``est`` applied to each block of rows
     of the Dask array ``X``, lazily.
 
     The estimator enters the task graph once, as one delayed object that every block's
-    task depends on: a cluster ships it to each worker once, not with every task.
+    task depends on, and lean (:func:`for_prediction`): a cluster ships it to each
+    worker once, not with every task.
 
     Parameters
     ----------
@@ -161,7 +177,7 @@ def map_rows(est, method, X, n_outputs, dtype):
     if len(X.chunks[1]) > 1:
         X = X.rechunk({1: -1})  # each block holds whole rows
     # pure=False: a fresh key instead of hashing the whole fitted estimator
-    shipped = dask.delayed(est, pure=False, traverse=False)
+    shipped = dask.delayed(for_prediction(est), pure=False, traverse=False)
     if n_outputs is None:
         return X.map_blocks(_apply, shipped, method, drop_axis=1, dtype=dtype, meta=np.empty((0,), dtype=dtype))
     return X.map_blocks(
