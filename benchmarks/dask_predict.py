@@ -7,8 +7,9 @@ predicts, and reports rows per second:
 * in memory: ``predict`` on one ndarray of ``--check-n`` new samples;
 * on a ``distributed.LocalCluster`` of ``--workers`` worker processes (one thread each):
   the same samples as a Dask array, through the classifier's own block-wise ``predict``
-  and through dask-ml's ``ParallelPostFit``, checked equal to the in-memory predictions;
-* ``--n`` samples (10 M by default) generated block by block on the workers and
+  and through dask-ml's ``ParallelPostFit`` (wrapping the fitted classifier, then its
+  lean copy ``for_prediction(clf)``), checked equal to the in-memory predictions;
+* ``--n`` samples (10 M by default; 0 skips this) generated block by block on the workers and
   predicted there, the generation timed alone too: the throughput of a data set that
   never sits in one process's memory.
 
@@ -34,6 +35,7 @@ from distributed import Client, LocalCluster
 from scale import make_data
 
 from ndboundary import LevelSetClassifier
+from ndboundary.learn.scaleout import for_prediction
 
 
 def _block(block_id, chunk, features):
@@ -98,22 +100,29 @@ def main(argv=None):
         t_ppf, lazy = timed(lambda: wrapped.predict(Xd).compute(), args.repeats)
         if not np.array_equal(lazy, ref):
             raise AssertionError("ParallelPostFit's predictions differ from the in-memory ones")
+        lean = ParallelPostFit(for_prediction(clf))
+        t_lean, lazy = timed(lambda: lean.predict(Xd).compute(), args.repeats)
+        if not np.array_equal(lazy, ref):
+            raise AssertionError("ParallelPostFit's predictions differ from the in-memory ones")
         out.update(
+            parallelpostfit_lean_s=t_lean,
+            parallelpostfit_lean_vs_memory=t_mem / t_lean,
             cluster_s=t_own,
             cluster_rows_per_s=args.check_n / t_own,
             cluster_vs_memory=t_mem / t_own,
             parallelpostfit_s=t_ppf,
             parallelpostfit_vs_memory=t_mem / t_ppf,
         )
-        big, n_blocks = generated(args.n, args.chunk, args.features)
-        t0 = time.perf_counter()
-        big.sum(axis=1).compute()
-        out["generate_s"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        share = float((clf.predict(big) == clf.classes_[1]).mean().compute())
-        out.update(n=args.n, blocks=n_blocks, big_s=time.perf_counter() - t0, big_share_of_class_1=share)
-        out["big_rows_per_s"] = args.n / out["big_s"]
-        out["big_rows_per_s_without_generation"] = args.n / max(out["big_s"] - out["generate_s"], 1e-9)
+        if args.n > 0:
+            big, n_blocks = generated(args.n, args.chunk, args.features)
+            t0 = time.perf_counter()
+            big.sum(axis=1).compute()
+            out["generate_s"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            share = float((clf.predict(big) == clf.classes_[1]).mean().compute())
+            out.update(n=args.n, blocks=n_blocks, big_s=time.perf_counter() - t0, big_share_of_class_1=share)
+            out["big_rows_per_s"] = args.n / out["big_s"]
+            out["big_rows_per_s_without_generation"] = args.n / max(out["big_s"] - out["generate_s"], 1e-9)
     for k, v in out.items():
         print(f"{k:<36s} {v:.4g}" if isinstance(v, float) else f"{k:<36s} {v}")
     print(json.dumps(out))

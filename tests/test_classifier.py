@@ -199,7 +199,7 @@ def test_delaunay_graph_has_no_extension_power():
 
 
 def test_unlabelled_samples_take_labels_on_the_sparse_label_graph(moons):
-    # the labels come from HARMONIC_NEIGHBORS neighbours whatever the relaxation's graph
+    # the labels come from POISSON_NEIGHBORS neighbours whatever the relaxation's graph
     X, y, _, _ = moons
     yl = np.where(np.arange(y.size) % 10 == 0, y, -1)
     wide = LevelSetClassifier(unlabeled=-1, n_neighbors=40).fit(X, yl)
@@ -221,3 +221,30 @@ def test_decision_function_is_continuous(power):
         return np.abs(np.diff(clf.decision_function(path))).max()
 
     assert largest_step(8000) < 0.35 * largest_step(2000)
+
+
+def test_few_labels_beat_label_spreading_and_laplace_learning():
+    # digits with one labelled sample per class, three draws: Poisson learning keeps the
+    # classes apart where the harmonic extension (Laplace learning) lets them fade
+    from sklearn.datasets import load_digits
+    from sklearn.semi_supervised import LabelSpreading
+
+    from ndboundary.learn import harmonic_labels
+
+    X, y = load_digits(return_X_y=True)
+    X = X / 16.0
+    ours, spreading, laplace = [], [], []
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        known = np.zeros(y.size, bool)
+        known[[rng.choice(np.flatnonzero(y == c)) for c in range(10)]] = True
+        yl = np.where(known, y, -1)
+        clf = LevelSetClassifier(unlabeled=-1).fit(X, yl)
+        ours.append(np.mean(clf.transduction_[~known] == y[~known]))
+        ls = LabelSpreading(kernel="knn", n_neighbors=10).fit(X, yl)
+        spreading.append(np.mean(ls.transduction_[~known] == y[~known]))
+        codes = np.where(known, y, 0)
+        laplace.append(np.mean(harmonic_labels(clf.domain_, codes, known)[~known] == y[~known]))
+    assert np.mean(ours) > 0.85
+    assert np.mean(ours) > np.mean(spreading) + 0.05
+    assert np.mean(ours) > np.mean(laplace) + 0.02

@@ -42,7 +42,8 @@ from .extrema import relax_classes
 from .graph import build_graph
 from .params import check_classifier_params
 from .probability import logistic_slope, probabilities
-from .propagation import harmonic_labels, vote
+from .poisson import poisson_labels
+from .propagation import vote
 from .scaleout import landmark_samples, lazy_rows, transduce_the_rest
 from .scaling import apply_scaling, fit_scaling
 
@@ -159,7 +160,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         maxima only at samples of the class, minima only at the others.
     transduction_ : ndarray of shape (n_samples,)
         The labels of the training samples, unlabelled ones filled in by
-        harmonic extension before the relaxation (beyond the landmarks, by ``predict``).
+        Poisson learning before the relaxation (beyond the landmarks, by ``predict``).
     landmarks_ : ndarray of int or None
         The rows of ``X`` the graph was built over (``max_samples``); None: all of them.
         ``phi_`` and ``domain_`` hold these rows only.
@@ -181,8 +182,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     Semi-supervised use follows :class:`sklearn.semi_supervised.LabelSpreading`:
     with ``unlabeled=-1``, samples with ``y == -1`` are unlabelled (opt-in, so that
     ``-1`` stays an ordinary class label by default). They join the graph, and their labels are
-    first given by the harmonic extension of the labelled ones (the graph Laplacian
-    solved with the labelled samples fixed), then the relaxation runs on all samples.
+    first given by Poisson learning from the labelled ones (:mod:`ndboundary.learn.poisson`:
+    with few labels it keeps every class where the harmonic extension,
+    :func:`~ndboundary.learn.harmonic_labels`, fades), then the relaxation runs on all
+    samples.
 
     Examples
     --------
@@ -288,8 +291,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self.band_ = classifier_band(self.band, self.domain_)
         self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)
         if not labelled.all():
-            codes = harmonic_labels(self.domain_, codes, labelled)
-            self._log("harmonic extension of the labels", t0)
+            codes = poisson_labels(self.domain_, codes, labelled)
+            self._log("Poisson learning of the labels", t0)
         self.transduction_ = self.classes_[codes]
         votes = codes
         if self.vote:
