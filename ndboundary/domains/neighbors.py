@@ -7,7 +7,7 @@ when faiss is installed (the ``fast`` extra), else pynndescent's NN-descent.
 faiss ships compiled code, so it searches from the first call of a process; pynndescent
 compiles its kernels with numba, and its graph construction recompiles in every
 process (about a minute on two cores at 100 000 samples, more than the rest of a
-classifier's fit; figures in ``benchmarks/scale.py``'s notes in the README). The HNSW
+classifier's fit; the README's classifier section gives the figures). The HNSW
 graph is built on one thread, so that it is the same in every run, and searched on all.
 """
 

@@ -241,9 +241,7 @@ class PointCloud(StencilDomain):
         smaller to ship to the workers of a cluster than the whole cloud.
         """
         lean = object.__new__(type(self))
-        keep = ("unique_points", "_index", "n_neighbors", "intrinsic_dim", "n_features") + (
-            ("frames",) if frames else ()
-        )
+        keep = ("unique_points", "_index", "n_neighbors", "intrinsic_dim") + (("frames",) if frames else ())
         lean.__dict__.update({name: self.__dict__[name] for name in keep if name in self.__dict__})
         return lean
 

@@ -41,8 +41,8 @@ from .band import classifier_band
 from .extrema import relax_classes
 from .graph import build_graph
 from .params import check_classifier_params
-from .probability import logistic_slope, probabilities
 from .poisson import poisson_labels
+from .probability import logistic_slope, probabilities
 from .propagation import vote
 from .scaleout import landmark_samples, lazy_rows, transduce_the_rest
 from .scaling import apply_scaling, fit_scaling
@@ -56,12 +56,11 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     Parameters
     ----------
     n_neighbors : int or "auto", default="auto"
-        Neighbours per sample of the kNN graph. ``"auto"``: :data:`~ndboundary.learn.graph.AUTO_NEIGHBORS` (40)
-        up to :data:`~ndboundary.learn.graph.AUTO_NEIGHBORS_MAX_SAMPLES` (20 000) samples, 15 beyond: on small
-        noisy samples the wider stencil steadies the tangent gradients, on large ones the
-        graph's cost grows with ``k`` while 15 neighbours already hold the data's shape
-        (``benchmarks/classify.py`` and ``benchmarks/scale.py`` measure both). The value
-        used is ``n_neighbors_``.
+        Neighbours per sample of the kNN graph. ``"auto"``: 40 up to 20 000 samples, 15
+        beyond (:mod:`ndboundary.learn.graph`): on small noisy samples the wider stencil
+        steadies the tangent gradients, on large ones the graph's cost grows with ``k``
+        while 15 neighbours already hold the data's shape (``benchmarks/classify.py`` and
+        ``benchmarks/scale.py`` measure both). The value used is ``n_neighbors_``.
     extension_neighbors : int, default=25
         Nearest training samples whose first-order extensions of ``phi`` are averaged
         at a new point (kNN graph only), with weights that fade to 0 at the next

@@ -76,14 +76,17 @@ def poisson_labels(domain, codes, labelled, n_neighbors=POISSON_NEIGHBORS):
 
     Examples
     --------
+    Three clusters along a line, one labelled sample in each:
+
     >>> import numpy as np
     >>> from ndboundary import PointCloud
     >>> from ndboundary.learn.poisson import poisson_labels
-    >>> X = np.r_[np.zeros((20, 2)), np.ones((20, 2))] + np.random.default_rng(0).normal(0, .05, (40, 2))
-    >>> codes = np.r_[np.zeros(20, int), np.ones(20, int)]
-    >>> known = np.zeros(40, bool); known[[0, 39]] = True
-    >>> bool((poisson_labels(PointCloud(X, n_neighbors=5), codes, known) == codes).all())
-    True
+    >>> centres = np.repeat([[0.0, 0.0], [3.0, 0.0], [6.0, 0.0]], 30, axis=0)
+    >>> cloud = PointCloud(centres + np.random.default_rng(1).normal(0, 0.3, (90, 2)), n_neighbors=10)
+    >>> truth = np.repeat([0, 1, 2], 30)
+    >>> known = np.isin(np.arange(90), [5, 40, 75])
+    >>> float(np.mean(poisson_labels(cloud, np.where(known, truth, 0), known) == truth))
+    1.0
     """
     W = _gaussian_graph(domain, n_neighbors)
     n = codes.shape[0]
