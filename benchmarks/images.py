@@ -65,13 +65,13 @@ table, the targets (PASS / FAIL), then one JSON line per case.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
 import numpy as np
 from images_truths import PEERS, Ball, StarShape, Torus, YAreas, blob_terms, run_peer, staircase
 from regions_truths import VoronoiTruth, YTruth
+from verdicts import print_verdicts
 
 from ndboundary import relax_image
 from ndboundary.metrics import as_complex, level_set_distance, sample_points
@@ -384,14 +384,7 @@ def main():
         if row is not None:
             rows.append(row)
             print_prostate(row)
-    print(f"\n{'case':24s} {'target':44s} {'value':>8s} {'bound':>8s}  verdict")
-    for row in rows:
-        for t in row["targets"]:
-            verdict = "PASS" if t["pass"] else "FAIL"
-            print(f"{row['case']:24s} {t['target']:44s} {t['value']:8.3f} {t['bound']:8.3f}  {verdict}")
-    print()
-    for row in rows:
-        print(json.dumps(row, default=lambda v: v.item() if isinstance(v, np.generic) else str(v)))
+    print_verdicts(rows, 24, 44, "8.3f")
 
 
 if __name__ == "__main__":

@@ -75,7 +75,6 @@ line per case.
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import time
@@ -83,6 +82,7 @@ import time
 import numpy as np
 from regions_truths import PlaneCuts, VoronoiTruth, YTruth, angles_between, direction_angle, match
 from scipy.spatial import cKDTree
+from verdicts import print_verdicts
 
 from ndboundary import LevelSet, relax
 from ndboundary.datasets import hex_grid, icosphere, kuhn_grid, voronoi_polygons
@@ -399,14 +399,7 @@ def main():
         rows.append(row)
         if n != "speed":
             print(f"{row['case']:22s} " + " ".join(cell(row, k, w, f) for _, w, f, k in COLUMNS), flush=True)
-    print(f"\n{'case':22s} {'target':58s} {'value':>8s} {'bound':>6s}  verdict")
-    for row in rows:
-        for t in row["targets"]:
-            verdict = "PASS" if t["pass"] else "FAIL"
-            print(f"{row['case']:22s} {t['target']:58s} {t['value']:8.3f} {t['bound']:6.2f}  {verdict}")
-    print()
-    for row in rows:
-        print(json.dumps({k: (v.item() if isinstance(v, np.generic) else v) for k, v in row.items()}))
+    print_verdicts(rows, 22, 58, "6.2f")
 
 
 if __name__ == "__main__":

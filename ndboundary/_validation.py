@@ -20,6 +20,7 @@ __all__ = [
     "check_positive",
     "check_nonnegative_int",
     "check_ragged",
+    "refuse_degenerate",
 ]
 
 
@@ -214,3 +215,36 @@ def check_ragged(cells, n_points, *, name, min_size, what="vertex"):
         i = int(srt_o[1:][rep][0])
         raise ValueError(f"{name} row {i} ({indices[offsets[i] : offsets[i + 1]].tolist()}) repeats a {what}")
     return indices, offsets
+
+
+def refuse_degenerate(bad, noun, members, measure, plural=None):
+    """Raise a ``ValueError`` naming the first element flagged in ``bad``, if any.
+
+    Parameters
+    ----------
+    bad : ndarray of bool of shape (n_elements,)
+        The degenerate elements.
+    noun : str
+        What an element is called (``"simplex"``, ``"polygon"``, ...).
+    members : callable
+        ``members(e)``: the text naming element ``e``'s vertices or faces.
+    measure : str
+        The measure that vanishes (``"area"``, ``"volume"``, ...).
+    plural : str, optional
+        The plural of ``noun``: with it the message also counts the degenerate elements.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._validation import refuse_degenerate
+    >>> bad = np.array([False, True, True])
+    >>> refuse_degenerate(bad, "polygon", lambda e: f"vertices {[e, e + 1]}", "area", "polygons")
+    Traceback (most recent call last):
+    ...
+    ValueError: polygon 1 (vertices [1, 2]) is degenerate: zero area (2 degenerate polygons in all)
+    """
+    if not bad.any():
+        return
+    e = int(np.flatnonzero(bad)[0])
+    more = "" if plural is None or bad.sum() == 1 else f" ({int(bad.sum())} degenerate {plural} in all)"
+    raise ValueError(f"{noun} {e} ({members(e)}) is degenerate: zero {measure}{more}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .plot_common import edge_segments, element_faces, pyplot
+from .plot_common import edge_segments, element_faces, finish_figure, pyplot
 from .plot_regions import figure_partition, plot_partition
 
 __all__ = ["plot_domain", "plot_relaxation", "figure_relaxation", "plot_partition", "figure_partition"]
@@ -178,12 +178,5 @@ def figure_relaxation(result, labels, *, title=None, zoom=None):
     plot_domain(dom, labels=labels, boundary=edges, ax=axes[0])
     plot_domain(dom, phi=result.phi, ax=axes[1], cmap="viridis")
     plot_domain(dom, labels=labels, boundary=edges, level_set=ls, ax=axes[2], edgecolor=(0, 0, 0, 0.04))
-    for ax, name in zip(axes, ("jagged boundary", "phi", "relaxed boundary (phi = 1/2)"), strict=True):
-        ax.set_title(name)
-        if zoom is not None and dom.dim == 2:
-            ax.set_xlim(zoom[0], zoom[1])
-            ax.set_ylim(zoom[2], zoom[3])
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    names = ("jagged boundary", "phi", "relaxed boundary (phi = 1/2)")
+    return finish_figure(fig, axes, names, zoom if dom.dim == 2 else None, title)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["pyplot", "element_faces", "edge_segments"]
+__all__ = ["pyplot", "element_faces", "edge_segments", "finish_figure"]
 
 
 def pyplot():
@@ -51,3 +51,18 @@ def edge_segments(points, simplices):
     [[[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [1.0, 1.0]]]
     """
     return points[np.asarray(simplices)[:, :2]]
+
+
+def finish_figure(fig, axes, names, zoom=None, title=None):
+    """Title each of ``axes`` with ``names``, limit them to ``zoom`` ``(x0, x1, y0, y1)``
+    if given, title the figure, lay it out; returns ``fig``.
+    """
+    for ax, name in zip(axes, names, strict=True):
+        ax.set_title(name)
+        if zoom is not None:
+            ax.set_xlim(zoom[0], zoom[1])
+            ax.set_ylim(zoom[2], zoom[3])
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig

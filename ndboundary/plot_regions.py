@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .plot_common import edge_segments, element_faces, pyplot
+from .plot_common import edge_segments, element_faces, finish_figure, pyplot
 
 __all__ = ["plot_partition", "figure_partition"]
 
@@ -223,12 +223,4 @@ def figure_partition(result, labels, *, title=None, zoom=None, cmap=None):
     plot_partition(result, ax=axes[1], colours=colours)
     n = len(result.interfaces().junctions())
     names = ("jagged partition (labels)", f"relaxed partition ({n} junction{'' if n == 1 else 's'})")
-    for ax, name in zip(axes, names, strict=True):
-        ax.set_title(name)
-        if zoom is not None:
-            ax.set_xlim(zoom[0], zoom[1])
-            ax.set_ylim(zoom[2], zoom[3])
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, axes, names, zoom, title)

@@ -53,7 +53,7 @@ from .._arrays import (
     shared_facet_adjacency,
     used_vertices,
 )
-from .._validation import check_points, check_ragged
+from .._validation import check_points, check_ragged, refuse_degenerate
 from .base import Domain
 from .cell_operators import check_laplacian_options, combinatorial_laplacian, local_stiffness, refinement_matrix
 from .simplicial import SimplicialComplex
@@ -174,14 +174,13 @@ class PolygonMesh(Domain):
                 [np.bincount(owner, weights=cross[:, d], minlength=self.n_elements) for d in range(3)], 1
             )
             area = np.linalg.norm(N, axis=1)
-        bad = ~(area > DEGENERATE_RTOL * scale)
-        if bad.any():
-            e = int(np.flatnonzero(bad)[0])
-            more = "" if bad.sum() == 1 else f" ({int(bad.sum())} degenerate polygons in all)"
-            raise ValueError(
-                f"polygon {e} (vertices {self.indices[self.offsets[e] : self.offsets[e + 1]].tolist()}) "
-                f"is degenerate: zero area{more}"
-            )
+        refuse_degenerate(
+            ~(area > DEGENERATE_RTOL * scale),
+            "polygon",
+            lambda e: f"vertices {self.indices[self.offsets[e] : self.offsets[e + 1]].tolist()}",
+            "area",
+            "polygons",
+        )
         span = X[nxt] - X[prv]
         if self.dim == 2:
             coef = np.stack([span[:, 1], -span[:, 0]], axis=1) / (2.0 * signed[owner, None])

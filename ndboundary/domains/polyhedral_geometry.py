@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._arrays import DEGENERATE_RTOL, group_rows, ragged_next
+from .._validation import refuse_degenerate
 
 __all__ = ["face_geometry", "cell_geometry"]
 
@@ -50,13 +51,12 @@ def face_geometry(points, face_indices, face_offsets):
     Nt = 0.5 * np.cross(Xc, Xc[nxt])  # fan triangle (c_f, x_j, x_j+1)
     Nf = np.stack([np.bincount(owner, weights=Nt[:, d], minlength=sizes.size) for d in range(3)], 1)
     scale = np.bincount(owner, weights=((Xc[nxt] - Xc) ** 2).sum(axis=1)) / sizes
-    bad = ~(np.linalg.norm(Nf, axis=1) > DEGENERATE_RTOL * scale)
-    if bad.any():
-        f = int(np.flatnonzero(bad)[0])
-        raise ValueError(
-            f"face {f} (vertices {face_indices[face_offsets[f] : face_offsets[f + 1]].tolist()}) "
-            "is degenerate: zero area"
-        )
+    refuse_degenerate(
+        ~(np.linalg.norm(Nf, axis=1) > DEGENERATE_RTOL * scale),
+        "face",
+        lambda f: f"vertices {face_indices[face_offsets[f] : face_offsets[f + 1]].tolist()}",
+        "area",
+    )
     return owner, nxt, c, Nt, Nf
 
 
@@ -105,14 +105,13 @@ def cell_geometry(mesh):
     starts = np.r_[0, np.flatnonzero(np.diff(cv)) + 1]  # cell_vertices is sorted by cell
     ext = np.maximum.reduceat(mesh.points[vv], starts, axis=0) - np.minimum.reduceat(mesh.points[vv], starts, axis=0)
     scale = np.linalg.norm(ext, axis=1) ** 3
-    bad = ~(vol > DEGENERATE_RTOL * scale)
-    if bad.any():
-        c = int(np.flatnonzero(bad)[0])
-        more = "" if bad.sum() == 1 else f" ({int(bad.sum())} degenerate cells in all)"
-        raise ValueError(
-            f"cell {c} (faces {mesh.cell_faces[mesh.cell_offsets[c] : mesh.cell_offsets[c + 1]].tolist()}) "
-            f"is degenerate: zero volume{more}"
-        )
+    refuse_degenerate(
+        ~(vol > DEGENERATE_RTOL * scale),
+        "cell",
+        lambda c: f"faces {mesh.cell_faces[mesh.cell_offsets[c] : mesh.cell_offsets[c + 1]].tolist()}",
+        "volume",
+        "cells",
+    )
     # vertex j of a face gets (N_{t,j-1} + N_{t,j}) / 3 + N_f / (3 m)
     prev_corner = np.empty_like(mesh.face_next)
     prev_corner[mesh.face_next] = np.arange(mesh.face_next.size)

@@ -34,7 +34,7 @@ from .._arrays import (
     sort_rows,
     used_vertices,
 )
-from .._validation import check_cells, check_points
+from .._validation import check_cells, check_points, refuse_degenerate
 from .base import Domain
 from .simplex_geometry import (
     aspect_ratios,
@@ -129,15 +129,14 @@ class SimplicialComplex(Domain):
         order of the operators), refusing degenerate simplices.
         """
         grads, vol = simplex_geometry(self.points, self.sorted_simplices)
-        bad = ~np.isfinite(vol)
-        if bad.any():
-            e = int(np.flatnonzero(bad)[0])
-            k = self.simplex_dim
-            raise ValueError(
-                f"simplex {e} (vertices {self.simplices[e].tolist()}) is degenerate: zero "
-                f"{'length' if k == 1 else 'area' if k == 2 else 'volume'}"
-                f"{'' if bad.sum() == 1 else f' ({int(bad.sum())} degenerate simplices in all)'}"
-            )
+        k = self.simplex_dim
+        refuse_degenerate(
+            ~np.isfinite(vol),
+            "simplex",
+            lambda e: f"vertices {self.simplices[e].tolist()}",
+            "length" if k == 1 else "area" if k == 2 else "volume",
+            "simplices",
+        )
         return grads, vol
 
     def aspect_ratios(self):

@@ -272,20 +272,23 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         codes = np.full(y.shape[0], -1, dtype=np.int64)
         codes[labelled] = codes_l.reshape(-1)
         n_cls = self.classes_.shape[0]
-        if n_cls == 1 or np.unique(X, axis=0).shape[0] < 2:
+        n_distinct = np.unique(X, axis=0).shape[0]
+        if n_cls == 1 or n_distinct < 2:
             self._constant = int(np.argmax(np.bincount(codes[labelled], minlength=n_cls)))
             self.transduction_ = self.classes_[np.where(labelled, codes, self._constant)]
-            self.domain_ = None
             self.phi_ = np.zeros((X.shape[0], 1 if n_cls <= 2 else n_cls))
-            self.proba_scale_ = 1.0
-            self.n_neighbors_ = 0
-            self.extension_power_ = None
-            self.band_ = None
-            self.extension_ = None
+            self.proba_scale_, self.n_neighbors_ = 1.0, 0
+            self.domain_ = self.extension_ = self.extension_power_ = self.band_ = None
             return
         self._constant = None
         self.domain_, self.n_neighbors_, lam = build_graph(
-            X, self.graph, self.n_neighbors, self.lam, intrinsic_dim=self.intrinsic_dim, random_state=self.random_state
+            X,
+            self.graph,
+            self.n_neighbors,
+            self.lam,
+            distinct=n_distinct == X.shape[0],
+            intrinsic_dim=self.intrinsic_dim,
+            random_state=self.random_state,
         )
         self.band_ = classifier_band(self.band, self.domain_)
         self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)

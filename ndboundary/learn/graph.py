@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
 
 from ..domains import DelaunayComplex, PointCloud
 from ..domains.delaunay import DELAUNAY_MAX_DIM
@@ -16,7 +15,7 @@ AUTO_NEIGHBORS_MAX_SAMPLES = 20_000
 AUTO_NEIGHBORS_LARGE = 15
 
 
-def build_graph(X, graph, n_neighbors, lam, *, intrinsic_dim=None, random_state=None):
+def build_graph(X, graph, n_neighbors, lam, *, distinct, intrinsic_dim=None, random_state=None):
     """The classifier's domain over the samples ``X``: ``(domain, n_neighbors, lam)``.
 
     Parameters
@@ -30,6 +29,8 @@ def build_graph(X, graph, n_neighbors, lam, *, intrinsic_dim=None, random_state=
         :data:`AUTO_NEIGHBORS_MAX_SAMPLES` samples, :data:`AUTO_NEIGHBORS_LARGE` beyond).
     lam : float
         The boundary weight asked for.
+    distinct : bool
+        Whether the samples are distinct (a Delaunay complex needs them to be).
 
     Returns
     -------
@@ -46,7 +47,6 @@ def build_graph(X, graph, n_neighbors, lam, *, intrinsic_dim=None, random_state=
     ValueError
         For ``graph="delaunay"`` outside 2 to 6 features.
     """
-    distinct = np.unique(X, axis=0).shape[0] == X.shape[0]
     if graph == "auto":
         graph = "delaunay" if 2 <= X.shape[1] <= 3 and distinct and X.shape[0] > X.shape[1] + 1 else "knn"
     if graph == "delaunay":
