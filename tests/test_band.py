@@ -36,7 +36,7 @@ def test_band_matches_the_whole_domain(make):
     band = relax(mesh, labels, on="elements", band=width)
     assert band.params["band_vertices"] < 0.9 * mesh.n_vertices
     if isinstance(mesh, PolygonMesh):  # lam_scale < 1: a wider band
-        assert band.params["lam_scale"] < 0.9 and band.params["band"] > AUTO_BAND_WIDTH
+        assert band.params["lam_scale"] < 0.9 and band.params["band"] > AUTO_BAND_WIDTH * mesh.graph_stretch
     mean, worst = level_set_gap(band, whole, mesh.mean_edge_length())
     assert mean <= 0.01 and worst <= 0.05
     assert band.level_set().n_components() == whole.level_set().n_components()
@@ -110,7 +110,7 @@ def test_auto_is_the_default_and_widens_where_the_boundary_term_is_weaker():
     plane = kuhn_grid(240, 2, jitter=0.2, random_state=0)  # above AUTO_BAND_MIN_VERTICES
     labels = label_by(plane, lambda x: np.linalg.norm(x, axis=1) - 0.4)
     res = relax(plane, labels, on="elements")
-    assert res.params["band"] == AUTO_BAND_WIDTH and res.params["band_vertices"] < plane.n_vertices
+    assert res.params["band"] == AUTO_BAND_WIDTH * plane.graph_stretch and res.params["band_vertices"] < plane.n_vertices
     assert {"locate", "fill"} <= set(res.timings)
     assert relax(plane, labels, on="elements", lam=0.5).params["band"] > AUTO_BAND_WIDTH
     few = relax(plane, labels, on="elements", smoothing=5)  # a rough field: the whole domain

@@ -13,7 +13,8 @@ module                     domain
 =========================  ===================================================
 """
 
-from .base import Domain, MeshQualityWarning, kuhn_grid_stiffness
+from .base import Domain, MeshQualityWarning
+from .simplex_geometry import kuhn_grid_stiffness
 from .delaunay import DelaunayComplex, delaunay_complex
 from .image import ImageGrid, PixelGrid, VoxelGrid
 from .pointcloud import PointCloud

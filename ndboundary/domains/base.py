@@ -42,15 +42,15 @@ and has no regular grid to be calibrated against).
 from __future__ import annotations
 
 from functools import cached_property
-from math import comb
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..fields import smooth_rows
+from .simplex_geometry import kuhn_grid_stiffness
 
-__all__ = ["Domain", "MeshQualityWarning", "kuhn_grid_stiffness"]
+__all__ = ["Domain", "MeshQualityWarning"]
 
 
 class MeshQualityWarning(UserWarning):
@@ -60,26 +60,6 @@ class MeshQualityWarning(UserWarning):
     measured by the mean edge length ``h``: on elements much longer than wide they blur
     what lies across them, and on nearly flat ones the linear solves lose their accuracy.
     """
-
-
-def kuhn_grid_stiffness(k):
-    """``diag(K M^{-1} K)`` at an interior vertex of the regular Kuhn grid of dimension ``k``,
-    lengths in units of its mean edge length.
-
-    On that grid, in units of the cell size, ``K`` is the ``2k + 1``-point Laplacian stencil
-    and ``M = 1`` at interior vertices, so the diagonal is ``(2k)^2 + 2k``; the grid's edges
-    join a vertex to its ``2^k - 1`` neighbours ``x + sum_{i in I} e_i``, of length
-    ``sqrt(|I|)``, and the diagonal scales as ``length^{k-4}``.
-
-    Examples
-    --------
-    >>> from ndboundary.domains import kuhn_grid_stiffness
-    >>> round(kuhn_grid_stiffness(1), 6)
-    6.0
-    """
-    sizes = np.arange(1, k + 1)
-    mean_edge = float(np.sum([comb(k, j) * np.sqrt(j) for j in sizes])) / (2**k - 1)
-    return (4 * k * k + 2 * k) * mean_edge ** (4 - k)
 
 
 class Domain:
@@ -208,6 +188,13 @@ class Domain:
         """Mean length of the unique edges: the mesh size ``h`` of the method."""
         return float(self.edge_lengths.mean())
 
+    def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
+        """The edges' lengths in units of ``unit`` as a symmetric sparse matrix, both ways,
+        shape (n_vertices, n_vertices).
+        """
+        upper = self.edge_graph(self.edge_lengths / unit)
+        return (upper + upper.T).tocsr()  # a sum of sorted halves, no sort
+
     def element_centroids(self) -> np.ndarray:
         """Element centroids, shape (n_elements, dim)."""
         raise NotImplementedError
@@ -253,6 +240,13 @@ class Domain:
             Those vertices' indices in this domain.
         """
         raise NotImplementedError(f"{type(self).__name__} cannot be cut to a band; relax it with band=None")
+
+    #: How much longer the shortest paths along the edges are than straight lines, on
+    #: average over directions: 1.5 on grid-like cells whose edges follow the axes (a
+    #: cubic lattice's mean ratio of the 1-norm to the 2-norm). The band of
+    #: ``band="auto"``, a graph distance, is widened by it to reach as far in space on
+    #: every discretisation.
+    graph_stretch = 1.5
 
     @cached_property
     def usual_degree(self) -> float:

@@ -9,7 +9,7 @@ simplices small enough for the temporaries to stay in cache.
 
 from __future__ import annotations
 
-from math import factorial
+from math import comb, factorial
 
 import numpy as np
 import scipy.sparse as sp
@@ -19,6 +19,7 @@ from .._arrays import DEGENERATE_RTOL, counting_sort, index_dtype, pair_groups
 __all__ = [
     "COMPILED_MIN_VERTICES_PER_SIMPLEX",
     "aspect_ratios",
+    "kuhn_grid_stiffness",
     "simplex_edges",
     "simplex_geometry",
     "simplex_incidence",
@@ -248,11 +249,17 @@ def aspect_ratios(points, simplices, volumes):
     1.0
     """
     k = simplices.shape[1] - 1
-    longest = np.zeros(simplices.shape[0])
-    for i, j in zip(*np.triu_indices(k + 1, 1), strict=True):
-        d = points[simplices[:, i]] - points[simplices[:, j]]
-        np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
-    return np.sqrt(longest) ** k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * volumes)
+    if simplices.shape[1] >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
+        from .._compiled_mesh import longest_edges
+
+        longest = longest_edges(points, simplices)
+    else:
+        squared = np.zeros(simplices.shape[0])
+        for i, j in zip(*np.triu_indices(k + 1, 1), strict=True):
+            d = points[simplices[:, i]] - points[simplices[:, j]]
+            np.maximum(squared, np.einsum("ij,ij->i", d, d), out=squared)
+        longest = np.sqrt(squared)
+    return longest**k * np.sqrt(k + 1) / (2 ** (k / 2) * factorial(k) * volumes)
 
 
 def simplex_edges(srt, n_vertices):
@@ -310,3 +317,23 @@ def simplex_incidence(simplices, sorted_simplices, n_vertices):
 
     indptr, indices = rows_by_value(simplices, n_vertices, idx)  # a counting pass
     return sp.csr_matrix((np.ones(E * k1), indices, indptr), shape=(n_vertices, E))
+
+
+def kuhn_grid_stiffness(k):
+    """``diag(K M^{-1} K)`` at an interior vertex of the regular Kuhn grid of dimension ``k``,
+    lengths in units of its mean edge length.
+
+    On that grid, in units of the cell size, ``K`` is the ``2k + 1``-point Laplacian stencil
+    and ``M = 1`` at interior vertices, so the diagonal is ``(2k)^2 + 2k``; the grid's edges
+    join a vertex to its ``2^k - 1`` neighbours ``x + sum_{i in I} e_i``, of length
+    ``sqrt(|I|)``, and the diagonal scales as ``length^{k-4}``.
+
+    Examples
+    --------
+    >>> from ndboundary.domains import kuhn_grid_stiffness
+    >>> round(kuhn_grid_stiffness(1), 6)
+    6.0
+    """
+    sizes = np.arange(1, k + 1)
+    mean_edge = float(np.sum([comb(k, j) * np.sqrt(j) for j in sizes])) / (2**k - 1)
+    return (4 * k * k + 2 * k) * mean_edge ** (4 - k)

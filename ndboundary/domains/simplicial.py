@@ -23,33 +23,29 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._arrays import (
-    counting_sort,
+    DEGENERATE_RTOL,
     fill_unused_mass,
-    group_rows,
     index_dtype,
     kept_then,
-    mixed_facets,
-    pair_groups,
-    shared_facet_adjacency,
-    sort_rows,
     used_vertices,
 )
 from .._validation import check_cells, check_points, refuse_degenerate
 from .base import Domain
 from .simplex_geometry import (
+    COMPILED_MIN_VERTICES_PER_SIMPLEX,
     aspect_ratios,
-    simplex_edges,
     simplex_geometry,
     simplex_incidence,
     stiffness_terms,
     symmetric_csr,
 )
 from .simplicial_split import SplitOperators
+from .simplicial_topology import SimplicialTopology
 
 __all__ = ["SimplicialComplex"]
 
 
-class SimplicialComplex(Domain):
+class SimplicialComplex(SimplicialTopology, Domain):
     """A pure simplicial complex of k-simplices with vertices in R^dim, 1 <= k <= dim.
 
     Parameters
@@ -88,9 +84,8 @@ class SimplicialComplex(Domain):
     [[1.0, 0.0]]
     """
 
-    #: On the complexes made by :meth:`split_elements`, the :class:`SplitOperators` that
-    #: derive their operators from the parent's; None otherwise.
-    split_from = None
+    #: Simplicial edges include the cells' diagonals: paths along them are nearly straight.
+    graph_stretch = 1.0
 
     def __init__(self, points, simplices):
         self.points = check_points(points)
@@ -104,7 +99,7 @@ class SimplicialComplex(Domain):
                 f"expected at most {self.dim + 1} vertices per simplex"
             )
         self.sorted_simplices = np.sort(self.simplices, axis=1)
-        self.barycentric_gradients, self.volumes = self._geometry()
+        self.volumes = self._geometry()
 
     # -- sizes -------------------------------------------------------------------
     @property
@@ -123,12 +118,26 @@ class SimplicialComplex(Domain):
         return self.simplex_dim
 
     # -- geometry ------------------------------------------------------------------
-    def _geometry(self):
-        """Barycentric gradients and volumes (see :func:`simplex_geometry`) over the
-        vertices of every simplex in increasing order (``sorted_simplices``, the column
-        order of the operators), refusing degenerate simplices.
+    def _compiled_geometry(self):
+        """Whether the geometry comes from the compiled pass (tetrahedra and triangles in
+        tetrahedral dimension or less: :data:`COMPILED_MIN_VERTICES_PER_SIMPLEX` to 4
+        vertices), where the volumes are computed first and the gradients when asked for.
         """
-        grads, vol = simplex_geometry(self.points, self.sorted_simplices)
+        return COMPILED_MIN_VERTICES_PER_SIMPLEX <= self.simplices.shape[1] <= 4
+
+    def _geometry(self):
+        """The volumes, refusing degenerate simplices; also the barycentric gradients (see
+        :func:`simplex_geometry`), over the vertices of every simplex in increasing order
+        (``sorted_simplices``, the column order of the operators), except on tetrahedra,
+        whose gradients wait until an operator needs them: a band needs them on its
+        elements only.
+        """
+        if self._compiled_geometry():
+            from .._compiled_mesh import small_simplex_volumes
+
+            vol = small_simplex_volumes(self.points, self.sorted_simplices, DEGENERATE_RTOL)
+        else:
+            self.barycentric_gradients, vol = simplex_geometry(self.points, self.sorted_simplices)
         k = self.simplex_dim
         refuse_degenerate(
             ~np.isfinite(vol),
@@ -137,7 +146,24 @@ class SimplicialComplex(Domain):
             "length" if k == 1 else "area" if k == 2 else "volume",
             "simplices",
         )
-        return grads, vol
+        return vol
+
+    @cached_property
+    def barycentric_gradients(self) -> np.ndarray:
+        """Gradient of each barycentric coordinate, shape (n_elements, dim, k + 1), in the
+        order of ``sorted_simplices``.
+        """
+        return self._geometry_of(self.points, self.sorted_simplices)[0]
+
+    def _geometry_of(self, points, sorted_simplices):
+        """``(grads, volumes)`` of simplices like these, by the same pass as this complex's
+        own, so that a split's or a band's geometry is that of a fresh complex.
+        """
+        if self._compiled_geometry():
+            from .._compiled_mesh import small_simplex_geometry_compiled
+
+            return small_simplex_geometry_compiled(points, sorted_simplices, DEGENERATE_RTOL)
+        return simplex_geometry(points, sorted_simplices)
 
     def aspect_ratios(self):
         """``L^k / (k! V)`` per simplex, ``L`` its longest edge and ``V`` its volume, divided
@@ -223,110 +249,6 @@ class SimplicialComplex(Domain):
             np.maximum(out, f[self.simplices[:, i]], out=out)
         return out
 
-    @cached_property
-    def edge_index(self):
-        """The unique edges, sorted (as :attr:`edges`), and the edge of every vertex pair
-        ``(srt[e, i], srt[e, j])``, ``i < j`` in ``triu_indices`` order, element-major
-        (``srt = sorted_simplices``).
-        """
-        if self.split_from is not None:
-            return self.split_from.edge_index()
-        return simplex_edges(self.sorted_simplices, self.n_vertices)
-
-    @cached_property
-    def _facets(self):
-        """Sorted facets of every simplex, element-major, (E*(k+1), k): facet i leaves
-        out vertex i.
-        """
-        E, k1 = self.simplices.shape
-        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
-        return self.sorted_simplices[:, leave_out].reshape(E * k1, k1 - 1)
-
-    @cached_property
-    def _facet_ids(self):
-        """Group id of every row of :attr:`_facets` (equal facets, equal ids), the ids in
-        the lexicographic order of the facets.
-        """
-        if self.simplices.shape[1] == 3:
-            # the facets of triangles are their edges, in the reverse order of the pairs
-            # of edge_index
-            return self.edge_index[1].reshape(-1, 3)[:, ::-1].ravel()
-        return self._facet_groups[0]
-
-    @cached_property
-    def _facet_groups(self):
-        """``(ids, order, starts)``: :attr:`_facet_ids`, and the rows of :attr:`_facets`
-        grouped by facet, ``order[starts[f]:starts[f + 1]]`` holding those of facet ``f``.
-
-        A facet of more than two vertices is known by the edge of its first two vertices
-        and its other vertices: for tetrahedra, a pair sorted in linear time. The edges
-        are numbered in lexicographic order, so the ids are those of the facets.
-        """
-        E, k1 = self.simplices.shape
-        if k1 == 3:
-            ids = self._facet_ids
-            order, starts = counting_sort(ids, int(ids.max()) + 1)
-            return ids, order, starts
-        if k1 == 2:
-            ids = group_rows(self._facets)[0]
-            order, starts = counting_sort(ids, int(ids.max()) + 1)
-            return ids, order, starts
-        edges, pair_edge = self.edge_index
-        iu, ju = np.triu_indices(k1, 1)
-        pair_of = np.zeros((k1, k1), dtype=np.intp)
-        pair_of[iu, ju] = np.arange(iu.size)
-        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
-        lead = np.take(pair_edge.reshape(E, iu.size), pair_of[leave_out[:, 0], leave_out[:, 1]], axis=1).ravel()
-        rest = np.take(self.sorted_simplices, leave_out[:, 2:], axis=1).reshape(E * k1, k1 - 3)
-        if k1 == 4:
-            n = max(edges.shape[0], self.n_vertices)
-            idx = index_dtype(max(n, lead.size))
-            order, new = pair_groups(lead.astype(idx), rest[:, 0].astype(idx), n)
-        else:
-            order, new = sort_rows(np.column_stack([lead, rest]))
-        ids = np.empty(lead.size, dtype=order.dtype)
-        ids[order] = np.cumsum(new, dtype=order.dtype) - 1
-        starts = np.append(np.flatnonzero(new), lead.size).astype(order.dtype)
-        return ids, order, starts
-
-    def build_adjacency(self):
-        """Elements sharing a facet."""
-        E, k1 = self.simplices.shape
-        ids, order, starts = self._facet_groups
-        size = np.diff(starts)
-        if size.max() > 2:
-            return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)
-        # every facet in at most two simplices: each simplex's neighbours, one per
-        # facet (-1 on the boundary), sorted
-        first = starts[:-1][size == 2]
-        a, b = order[first], order[first + 1]
-        across = np.full(E * k1, -1, dtype=order.dtype)
-        across[a] = b // k1
-        across[b] = a // k1
-        across = np.sort(across.reshape(E, k1), axis=1)
-        if (across[:, 1:] == across[:, :-1])[across[:, 1:] >= 0].any():
-            return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)  # repeated simplices
-        inner = across >= 0
-        indptr = np.zeros(E + 1, dtype=order.dtype)
-        np.cumsum(inner.sum(axis=1), out=indptr[1:])
-        return sp.csr_matrix((np.ones(int(indptr[-1])), across[inner], indptr), shape=(E, E))
-
-    def build_edges(self):
-        """The unique edges, ``i < j``."""
-        if self.split_from is not None:
-            return self.split_from.edge_map[0]
-        return self.edge_index[0]
-
-    def interface_facets(self, region1):
-        """Facets shared by a region-0 and a region-1 simplex: the jagged boundary, (n, k)."""
-        k1 = self.simplices.shape[1]
-        owner = np.repeat(np.arange(self.n_elements), k1)
-        which = mixed_facets(self._facet_ids, owner, region1)
-        if "_facets" in self.__dict__:
-            return self._facets[which]
-        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
-        return self.sorted_simplices[which // k1][np.arange(which.size)[:, None], leave_out[which % k1]]
-
     @property
     def usual_degree(self) -> float:
         """``k + 1``: a simplex away from the border has a neighbour across each facet."""
@@ -355,12 +277,17 @@ class SimplicialComplex(Domain):
         out = SimplicialComplex.__new__(SimplicialComplex)
         out.points = np.concatenate([self.points, centres])
         new_sorted = np.sort(new, axis=1)
-        grads, vols = simplex_geometry(out.points, new_sorted)
+        grads, vols = self._geometry_of(out.points, new_sorted)
         out.simplices = kept_then(self.simplices, keep, new)
         out.sorted_simplices = kept_then(self.sorted_simplices, keep, new_sorted)
-        out.barycentric_gradients = kept_then(self.barycentric_gradients, keep, grads)
         out.volumes = kept_then(self.volumes, keep, vols)
-        out.split_from = SplitOperators(self, idx, keep)
+        if "barycentric_gradients" in self.__dict__:
+            out.barycentric_gradients = kept_then(self.barycentric_gradients, keep, grads)
+        if "stiffness_sums" in self.__dict__:
+            # the parent's operators are built: patch them where the split simplices lie.
+            # Otherwise (a band, cut for one labelling) a fresh build costs less than the
+            # parent's operators and the patch.
+            out.split_from = SplitOperators(self, idx, keep)
         return out, parent
 
     def subdomain(self, mask):
@@ -373,7 +300,8 @@ class SimplicialComplex(Domain):
         out.points = self.points[vertices]
         out.simplices = remap[self.simplices[el]]
         out.sorted_simplices = remap[self.sorted_simplices[el]]  # the renumbering keeps the order
-        out.barycentric_gradients = self.barycentric_gradients[el]
+        if "barycentric_gradients" in self.__dict__:
+            out.barycentric_gradients = self.barycentric_gradients[el]
         out.volumes = self.volumes[el]
         return out, vertices
 

@@ -21,7 +21,7 @@ __all__ = ["SplitOperators"]
 
 class SplitOperators:
     """The operators of a complex made by :meth:`SimplicialComplex.split_elements`,
-    derived from those of its parent.
+    derived from those of its parent, when the parent's stiffness is built.
 
     Only the split simplices change: the sums over the edges and vertices they hold
     are recomputed from every simplex holding them, in the order a fresh build adds
@@ -48,6 +48,7 @@ class SplitOperators:
     >>> from ndboundary import SimplicialComplex
     >>> from ndboundary.datasets import kuhn_grid
     >>> mesh = kuhn_grid(4, 2)
+    >>> _ = mesh.K  # the parent's operators are built: the split patches them
     >>> work, parent = mesh.split_elements(np.arange(mesh.n_elements) < 2)
     >>> ops = work.split_from
     >>> ops.split.tolist(), ops.n_keep, work.n_elements

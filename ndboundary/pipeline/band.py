@@ -46,12 +46,14 @@ __all__ = [
 ]
 
 #: ``band="auto"`` with the default ``lam``, ``smoothing`` and ``mu``: the band's half-width
-#: in units of ``h``. The first-order term of the integration (``mu > 0``) screens phi from
-#: what lies farther from zeta, and the boundary term holds it there: at half this width
-#: the level set already matches the whole-domain solve within 0.01 h on average and
-#: 0.05 h at worst, on triangles, quads, Voronoi polygons, surfaces, tetrahedra and
-#: hexahedra alike (``benchmarks/band.py``).
-AUTO_BAND_WIDTH = 12.0
+#: in units of ``h``, as a straight-line distance; the graph distance that selects the band
+#: is this times the domain's :attr:`~ndboundary.Domain.graph_stretch` (how much longer
+#: paths along its edges are than straight lines). The first-order term of the
+#: integration (``mu > 0``) screens phi from what lies farther from zeta, and the boundary
+#: term holds it there: the level set matches the whole-domain solve within 0.01 h on
+#: average and 0.05 h at worst from 6 h on triangles and tetrahedra, and from 10 h on
+#: hexahedra, where 8 h is not enough (``benchmarks/band.py --widths 6,8,10,12``).
+AUTO_BAND_WIDTH = 8.0
 
 #: ``band="auto"`` relaxes the whole domain with fewer smoothing passes than this: a field
 #: smoothed a few times only is rough, and its integration depends on what lies far from
@@ -117,9 +119,10 @@ def band_graph(domain, h):
     ((12, 12), 20, 1.0)
     """
     V = domain.n_vertices
-    upper = domain.edge_graph(domain.edge_lengths / h)  # each edge once, i < j
-    upper = sp.csr_matrix((upper.data, upper.indices, np.append(upper.indptr, upper.indptr[-1])), shape=(V + 1, V + 1))
-    return (upper + upper.T).tocsr()  # both ways: a sum of sorted halves, no sort
+    lengths = domain.edge_length_graph(h)
+    # the extra node: one more, empty row and column
+    indptr = np.append(lengths.indptr, lengths.indptr[-1])
+    return sp.csr_matrix((lengths.data, lengths.indices, indptr), shape=(V + 1, V + 1))
 
 
 def band_elements(domain, sources, width, graph):
@@ -206,7 +209,9 @@ def band_width(params, domain, lam_scale=1.0):
     """The band's half-width in units of ``h`` for ``band="auto"``, or None for the whole
     domain.
 
-    :data:`AUTO_BAND_WIDTH` for the default parameters, wider for a weaker boundary term
+    :data:`AUTO_BAND_WIDTH` times the domain's ``graph_stretch`` for the default
+    parameters (8 h on simplicial complexes, whose diagonal edges make graph distances
+    close to straight ones; 12 h on quads, polygons and hexahedra), wider for a weaker boundary term
     or fewer smoothing passes, each of which lets phi at zeta depend on more of the
     domain: times ``(DEFAULT_LAM / (lam lam_scale))^(3/4)`` when the boundary weight
     ``lam * lam_scale`` (``lam_scale``: :func:`~ndboundary.pipeline.integration.boundary_weight_scale`)
@@ -221,9 +226,9 @@ def band_width(params, domain, lam_scale=1.0):
     >>> from ndboundary.pipeline.band import band_width
     >>> defaults = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
     >>> band_width(defaults, kuhn_grid(4, 2)), band_width(defaults, kuhn_grid(4, 2), lam_scale=0.25)
-    (12.0, 33.9)
+    (8.0, 22.6)
     >>> band_width({**defaults, "smoothing": 15}, kuhn_grid(4, 3))
-    24.0
+    16.0
     >>> band_width({**defaults, "mu": 0.0}, kuhn_grid(4, 2)) is None
     True
     """
@@ -231,4 +236,4 @@ def band_width(params, domain, lam_scale=1.0):
         return None
     weaker = max(1.0, DEFAULT_LAM / (params["lam"] * lam_scale)) ** 0.75
     rougher = max(1.0, DEFAULT_SMOOTHING / params["smoothing"]) ** 0.5
-    return round(float(AUTO_BAND_WIDTH * weaker * rougher), 1)
+    return round(float(AUTO_BAND_WIDTH * domain.graph_stretch * weaker * rougher), 1)

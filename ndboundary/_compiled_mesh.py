@@ -1,0 +1,311 @@
+"""Compiled loops (numba) over the simplices of large complexes: their geometry, and their
+edge graph read off the vertex-simplex incidence.
+
+Both run in one pass with a few scalars of state per simplex or vertex, where the
+vectorised versions allocate temporaries many times the mesh's size: on a tetrahedral
+mesh of a million vertices those temporaries, not the arithmetic, set the time.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = [
+    "edge_length_graph",
+    "facet_neighbours",
+    "longest_edges",
+    "small_simplex_geometry_compiled",
+    "small_simplex_volumes",
+]
+
+
+@numba.njit(cache=True, nogil=True)
+def _small_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragma: no cover - compiled
+    E, k1 = simplices.shape
+    k = k1 - 1
+    dim = points.shape[1]
+    norm = 1.0
+    for i in range(2, k + 1):
+        norm *= i
+    e = np.empty((3, dim))
+    g = np.empty((3, 3))
+    c = np.empty((3, 3))
+    for s in range(E):
+        x0 = simplices[s, 0]
+        for i in range(k):
+            xi = simplices[s, i + 1]
+            for d in range(dim):
+                e[i, d] = points[xi, d] - points[x0, d]
+        for i in range(k):
+            for j in range(i, k):
+                t = 0.0
+                for d in range(dim):
+                    t += e[i, d] * e[j, d]
+                g[i, j] = t
+                g[j, i] = t
+        scale = 0.0
+        for i in range(k):
+            scale += g[i, i]
+        scale /= k
+        if k == 1:
+            det = g[0, 0]
+            c[0, 0] = 1.0
+        elif k == 2:
+            det = g[0, 0] * g[1, 1] - g[0, 1] * g[0, 1]
+            c[0, 0] = g[1, 1]
+            c[0, 1] = -g[0, 1]
+            c[1, 1] = g[0, 0]
+        else:
+            c[0, 0] = g[1, 1] * g[2, 2] - g[1, 2] * g[1, 2]
+            c[0, 1] = g[0, 2] * g[1, 2] - g[0, 1] * g[2, 2]
+            c[0, 2] = g[0, 1] * g[1, 2] - g[0, 2] * g[1, 1]
+            c[1, 1] = g[0, 0] * g[2, 2] - g[0, 2] * g[0, 2]
+            c[1, 2] = g[0, 1] * g[0, 2] - g[0, 0] * g[1, 2]
+            c[2, 2] = g[0, 0] * g[1, 1] - g[0, 1] * g[0, 1]
+            det = g[0, 0] * c[0, 0] + g[0, 1] * c[0, 1] + g[0, 2] * c[0, 2]
+        bad = not (det > (rtol * scale) ** k)
+        vol[s] = np.nan if bad else np.sqrt(det) / norm
+        if not with_gradients:
+            continue
+        inv_det = 0.0 if bad else 1.0 / det
+        for d in range(dim):
+            grads[s, d, 0] = 0.0
+        for i in range(k):
+            for d in range(dim):
+                row = 0.0
+                for j in range(k):
+                    row += e[j, d] * (c[min(i, j), max(i, j)] * inv_det)
+                grads[s, d, i + 1] = row
+                grads[s, d, 0] -= row
+
+
+def small_simplex_volumes(points, simplices, rtol):
+    """Volumes ``sqrt(det(E^T E)) / k!`` of simplices of at most 3 dimensions, NaN for the
+    degenerate ones (Gram determinant at most ``(rtol * scale)^k``, ``scale`` the mean
+    squared edge length from the first vertex), without their gradients.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import small_simplex_volumes
+    >>> tet = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> small_simplex_volumes(tet, np.array([[0, 1, 2, 3], [0, 1, 2, 2]]), 1e-10).round(6).tolist()
+    [0.166667, nan]
+    """
+    simplices = np.ascontiguousarray(simplices)
+    vol = np.empty(simplices.shape[0])
+    grads = np.empty((0, 0, 0))
+    _small_geometry(np.ascontiguousarray(points, dtype=np.float64), simplices, float(rtol), grads, vol, False)
+    return vol
+
+
+def small_simplex_geometry_compiled(points, simplices, rtol):
+    """Barycentric gradients (E, dim, k+1) and volumes (E,) of simplices of at most 3
+    dimensions, as :func:`~ndboundary.domains.simplex_geometry.simplex_geometry` gives them
+    (zero gradients and NaN volumes for the degenerate ones), in one pass.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import small_simplex_geometry_compiled
+    >>> triangle = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> grads, vol = small_simplex_geometry_compiled(triangle, np.array([[0, 1, 2]]), 1e-10)
+    >>> grads[0].tolist(), vol.tolist()
+    ([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]], [0.5])
+    """
+    simplices = np.ascontiguousarray(simplices)
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    E, k1 = simplices.shape
+    if k1 > 4:
+        raise ValueError(f"simplices has shape {simplices.shape}; this pass takes at most 4 vertices per simplex")
+    vol = np.empty(E)
+    grads = np.empty((E, points.shape[1], k1))
+    _small_geometry(points, simplices, float(rtol), grads, vol, True)
+    return grads, vol
+
+
+@numba.njit(cache=True, nogil=True)
+def _longest(points, simplices, out):  # pragma: no cover - compiled
+    k1 = simplices.shape[1]
+    for s in range(simplices.shape[0]):
+        most = 0.0
+        for i in range(k1):
+            for j in range(i + 1, k1):
+                sq = 0.0
+                for d in range(points.shape[1]):
+                    diff = points[simplices[s, i], d] - points[simplices[s, j], d]
+                    sq += diff * diff
+                most = max(most, sq)
+        out[s] = np.sqrt(most)
+
+
+def longest_edges(points, simplices):
+    """The longest edge of every simplex, in one pass.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import longest_edges
+    >>> longest_edges(np.array([[0.0, 0.0], [3.0, 0.0], [0.0, 4.0]]), np.array([[0, 1, 2]])).tolist()
+    [5.0]
+    """
+    out = np.empty(simplices.shape[0])
+    _longest(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(simplices), out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
+    E, k1 = srt.shape
+    for e in range(E):
+        for i in range(k1):
+            # facet i leaves out vertex i; its lowest vertex holds every simplex sharing it
+            a = srt[e, 1] if i == 0 else srt[e, 0]
+            found = -1
+            for q in range(indptr[a], indptr[a + 1]):
+                f = elements[q]
+                if f == e:
+                    continue
+                # f holds the facet if it holds all its vertices (both rows sorted)
+                p = 0
+                held = 0
+                for t in range(k1):
+                    if t == i:
+                        continue
+                    v = srt[e, t]
+                    while p < k1 and srt[f, p] < v:
+                        p += 1
+                    if p < k1 and srt[f, p] == v:
+                        held += 1
+                if held == k1 - 1:
+                    if found >= 0:
+                        return False  # a facet of three or more simplices
+                    found = f
+            across[e, i] = found
+    return True
+
+
+def facet_neighbours(incidence, sorted_simplices):
+    """The simplex across each facet of every simplex (-1 on the border), found among the
+    simplices holding the facet's lowest vertex; None when a facet is shared by three
+    simplices or more.
+
+    Returns an array of shape (n_simplices, k + 1): entry ``[e, i]`` is the simplex
+    sharing the facet of ``e`` that leaves out its ``i``-th lowest vertex.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> from ndboundary._compiled_mesh import facet_neighbours
+    >>> srt = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])  # two tetrahedra sharing (1, 2, 3)
+    >>> inc = sp.csr_matrix((np.ones(8), (srt.ravel(), [0, 0, 0, 0, 1, 1, 1, 1])), shape=(5, 2))
+    >>> facet_neighbours(inc, srt).tolist()
+    [[1, -1, -1, -1], [-1, -1, -1, 0]]
+    """
+    inc = incidence.tocsr()
+    srt = np.ascontiguousarray(sorted_simplices)
+    across = np.empty(srt.shape, dtype=np.int64)
+    manifold = _across(inc.indptr, inc.indices, srt, across)
+    return across if manifold else None
+
+
+@numba.njit(cache=True, nogil=True)
+def _neighbours(a, indptr, elements, simplices, mark, nbr):  # pragma: no cover - compiled
+    """Vertex ``a``'s distinct neighbours into ``nbr``, in increasing order; their count."""
+    count = 0
+    for q in range(indptr[a], indptr[a + 1]):
+        s = elements[q]
+        for t in range(simplices.shape[1]):
+            b = simplices[s, t]
+            if b != a and mark[b] != a:
+                mark[b] = a
+                # insertion in order: a vertex has a few dozen neighbours at most
+                p = count
+                while p > 0 and nbr[p - 1] > b:
+                    nbr[p] = nbr[p - 1]
+                    p -= 1
+                nbr[p] = b
+                count += 1
+    return count
+
+
+@numba.njit(cache=True, nogil=True)
+def _length(points, a, b):  # pragma: no cover - compiled
+    sq = 0.0
+    for d in range(points.shape[1]):
+        diff = points[a, d] - points[b, d]
+        sq += diff * diff
+    return np.sqrt(sq)
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_counts(indptr, elements, simplices, points, nbr):  # pragma: no cover - compiled
+    V = indptr.size - 1
+    mark = np.full(V, -1, dtype=np.int64)
+    rows = np.zeros(V + 1, dtype=np.int64)
+    # how many neighbours each vertex has, and the lengths of the edges (a, b > a) summed
+    # in the lexicographic order of the edges
+    total = 0.0
+    n_edges = 0
+    for a in range(V):
+        count = _neighbours(a, indptr, elements, simplices, mark, nbr)
+        rows[a + 1] = rows[a] + count
+        for p in range(count):
+            if nbr[p] > a:
+                total += _length(points, a, nbr[p])
+                n_edges += 1
+    return rows, total, n_edges
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, unit):  # pragma: no cover - compiled
+    V = indptr.size - 1
+    mark = np.full(V, -1, dtype=np.int64)
+    for a in range(V):
+        count = _neighbours(a, indptr, elements, simplices, mark, nbr)
+        start = rows[a]
+        for p in range(count):
+            cols[start + p] = nbr[p]
+            lengths[start + p] = _length(points, a, nbr[p]) / unit
+
+
+def edge_length_graph(incidence, simplices, points, *, unit=1.0, with_graph=True):
+    """The edges of a complex as a symmetric sparse matrix of their lengths (in units of
+    ``unit``), read off the vertex-simplex ``incidence`` (CSR, one row per vertex) in two
+    counting passes, and the mean edge length.
+
+    Returns ``(graph, mean)``: ``graph`` of shape (n_vertices, n_vertices), both ways,
+    each row's columns increasing (None unless ``with_graph``); ``mean`` the mean length
+    of the distinct edges, summed in their lexicographic order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> from ndboundary._compiled_mesh import edge_length_graph
+    >>> points = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    >>> simplices = np.array([[0, 1, 2], [1, 3, 2]])
+    >>> inc = sp.csr_matrix((np.ones(6), (simplices.ravel(), [0, 0, 0, 1, 1, 1])), shape=(4, 2))
+    >>> graph, mean = edge_length_graph(inc, simplices, points)
+    >>> graph.nnz, round(float(graph[1, 2]), 6), round(mean, 6)  # 5 edges, both ways; one diagonal
+    (10, 1.414214, 1.082843)
+    """
+    inc = incidence.tocsr()
+    V = inc.shape[0]
+    simplices = np.ascontiguousarray(simplices)
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    indptr, elements = inc.indptr, inc.indices
+    # room for a vertex's neighbours: at most the vertices of the simplices holding it
+    nbr = np.empty(int(np.diff(indptr).max(initial=0)) * simplices.shape[1], dtype=np.int64)
+    rows, total, n_edges = _edge_counts(indptr, elements, simplices, points, nbr)
+    mean = float(total / n_edges) if n_edges else float("nan")
+    if not with_graph:
+        return None, mean
+    idx = np.int32 if max(int(rows[-1]), V) < np.iinfo(np.int32).max else np.int64
+    cols, lengths = np.empty(int(rows[-1]), dtype=idx), np.empty(int(rows[-1]))
+    _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, float(unit))
+    graph = sp.csr_matrix((lengths, cols, rows.astype(idx)), shape=(V, V))
+    return graph, mean

@@ -1,0 +1,181 @@
+"""The topology of simplicial complexes: edges, facets, adjacency, read off the simplices.
+
+:class:`SimplicialTopology` is the part of :class:`~ndboundary.SimplicialComplex` that
+needs no coordinates beyond edge lengths: the unique edges and the edge of every vertex
+pair, the facets and the simplices across them, the interface between two labels. On
+tetrahedra and up, compiled passes over the vertex-simplex incidence build the edge
+graph and the adjacency without the sorted tables of every vertex pair and facet.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from .._arrays import (
+    counting_sort,
+    group_rows,
+    index_dtype,
+    mixed_facets,
+    pair_groups,
+    shared_facet_adjacency,
+    sort_rows,
+)
+from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, simplex_edges
+
+__all__ = ["SimplicialTopology"]
+
+
+class SimplicialTopology:
+    """Edges, facets and adjacency of a complex with ``simplices``, ``sorted_simplices``,
+    ``points`` and an ``incidence`` (mixed into :class:`~ndboundary.SimplicialComplex`).
+    """
+
+    #: On the complexes made by ``split_elements``, the
+    #: :class:`~ndboundary.domains.simplicial_split.SplitOperators` that derive their
+    #: operators from the parent's; None otherwise.
+    split_from = None
+
+    def mean_edge_length(self) -> float:
+        """Mean length of the unique edges: the mesh size ``h`` of the method.
+
+        On tetrahedra and up, read off the incidence in one compiled pass, without
+        building the edges.
+        """
+        if self.simplices.shape[1] < COMPILED_MIN_VERTICES_PER_SIMPLEX or self.split_from is not None:
+            return super().mean_edge_length()
+        if "_mean_edge_length" not in self.__dict__:
+            from .._compiled_mesh import edge_length_graph
+
+            self._mean_edge_length = edge_length_graph(self.incidence, self.simplices, self.points, with_graph=False)[1]
+        return self._mean_edge_length
+
+    def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
+        """The edges' lengths in units of ``unit``, both ways, shape (n_vertices, n_vertices);
+        on tetrahedra and up from the incidence in two compiled passes, without building
+        the edges.
+        """
+        if self.simplices.shape[1] < COMPILED_MIN_VERTICES_PER_SIMPLEX or self.split_from is not None:
+            return super().edge_length_graph(unit)
+        from .._compiled_mesh import edge_length_graph
+
+        return edge_length_graph(self.incidence, self.simplices, self.points, unit=unit)[0]
+
+    @cached_property
+    def edge_index(self):
+        """The unique edges, sorted (as :attr:`edges`), and the edge of every vertex pair
+        ``(srt[e, i], srt[e, j])``, ``i < j`` in ``triu_indices`` order, element-major
+        (``srt = sorted_simplices``).
+        """
+        if self.split_from is not None:
+            return self.split_from.edge_index()
+        return simplex_edges(self.sorted_simplices, self.n_vertices)
+
+    @cached_property
+    def _facets(self):
+        """Sorted facets of every simplex, element-major, (E*(k+1), k): facet i leaves
+        out vertex i.
+        """
+        E, k1 = self.simplices.shape
+        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
+        return self.sorted_simplices[:, leave_out].reshape(E * k1, k1 - 1)
+
+    @cached_property
+    def _facet_ids(self):
+        """Group id of every row of :attr:`_facets` (equal facets, equal ids), the ids in
+        the lexicographic order of the facets.
+        """
+        if self.simplices.shape[1] == 3:
+            # the facets of triangles are their edges, in the reverse order of the pairs
+            # of edge_index
+            return self.edge_index[1].reshape(-1, 3)[:, ::-1].ravel()
+        return self._facet_groups[0]
+
+    @cached_property
+    def _facet_groups(self):
+        """``(ids, order, starts)``: :attr:`_facet_ids`, and the rows of :attr:`_facets`
+        grouped by facet, ``order[starts[f]:starts[f + 1]]`` holding those of facet ``f``.
+
+        A facet of more than two vertices is known by the edge of its first two vertices
+        and its other vertices: for tetrahedra, a pair sorted in linear time. The edges
+        are numbered in lexicographic order, so the ids are those of the facets.
+        """
+        E, k1 = self.simplices.shape
+        if k1 == 3:
+            ids = self._facet_ids
+            order, starts = counting_sort(ids, int(ids.max()) + 1)
+            return ids, order, starts
+        if k1 == 2:
+            ids = group_rows(self._facets)[0]
+            order, starts = counting_sort(ids, int(ids.max()) + 1)
+            return ids, order, starts
+        edges, pair_edge = self.edge_index
+        iu, ju = np.triu_indices(k1, 1)
+        pair_of = np.zeros((k1, k1), dtype=np.intp)
+        pair_of[iu, ju] = np.arange(iu.size)
+        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
+        lead = np.take(pair_edge.reshape(E, iu.size), pair_of[leave_out[:, 0], leave_out[:, 1]], axis=1).ravel()
+        rest = np.take(self.sorted_simplices, leave_out[:, 2:], axis=1).reshape(E * k1, k1 - 3)
+        if k1 == 4:
+            n = max(edges.shape[0], self.n_vertices)
+            idx = index_dtype(max(n, lead.size))
+            order, new = pair_groups(lead.astype(idx), rest[:, 0].astype(idx), n)
+        else:
+            order, new = sort_rows(np.column_stack([lead, rest]))
+        ids = np.empty(lead.size, dtype=order.dtype)
+        ids[order] = np.cumsum(new, dtype=order.dtype) - 1
+        starts = np.append(np.flatnonzero(new), lead.size).astype(order.dtype)
+        return ids, order, starts
+
+    def build_adjacency(self):
+        """Elements sharing a facet."""
+        E, k1 = self.simplices.shape
+        across = None
+        if k1 >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
+            # each facet's partner among the simplices at its lowest vertex, in one pass
+            from .._compiled_mesh import facet_neighbours
+
+            across = facet_neighbours(self.incidence, self.sorted_simplices)
+        else:
+            ids, order, starts = self._facet_groups
+            size = np.diff(starts)
+            if size.max() <= 2:
+                # every facet in at most two simplices: each simplex's neighbours, one
+                # per facet (-1 on the boundary)
+                first = starts[:-1][size == 2]
+                a, b = order[first], order[first + 1]
+                across = np.full(E * k1, -1, dtype=order.dtype)
+                across[a] = b // k1
+                across[b] = a // k1
+                across = across.reshape(E, k1)
+        if across is not None:
+            across = np.sort(across, axis=1)
+            if (across[:, 1:] == across[:, :-1])[across[:, 1:] >= 0].any():
+                across = None  # repeated simplices
+        if across is None:
+            ids = self._facet_groups[0]
+            return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)
+        inner = across >= 0
+        idx = index_dtype(max(E * k1, E))
+        across = across.astype(idx, copy=False)
+        indptr = np.zeros(E + 1, dtype=idx)
+        np.cumsum(inner.sum(axis=1), out=indptr[1:])
+        return sp.csr_matrix((np.ones(int(indptr[-1])), across[inner], indptr), shape=(E, E))
+
+    def build_edges(self):
+        """The unique edges, ``i < j``."""
+        if self.split_from is not None:
+            return self.split_from.edge_map[0]
+        return self.edge_index[0]
+
+    def interface_facets(self, region1):
+        """Facets shared by a region-0 and a region-1 simplex: the jagged boundary, (n, k)."""
+        k1 = self.simplices.shape[1]
+        owner = np.repeat(np.arange(self.n_elements), k1)
+        which = mixed_facets(self._facet_ids, owner, region1)
+        if "_facets" in self.__dict__:
+            return self._facets[which]
+        leave_out = np.array([np.delete(np.arange(k1), i) for i in range(k1)])
+        return self.sorted_simplices[which // k1][np.arange(which.size)[:, None], leave_out[which % k1]]
