@@ -14,6 +14,7 @@ import scipy.sparse as sp
 
 __all__ = [
     "edge_length_graph",
+    "facet_adjacency",
     "facet_neighbours",
     "longest_edges",
     "small_simplex_geometry_compiled",
@@ -159,8 +160,11 @@ def longest_edges(points, simplices):
 @numba.njit(cache=True, nogil=True)
 def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
     E, k1 = srt.shape
+    across[:] = -2  # not sought yet
     for e in range(E):
         for i in range(k1):
+            if across[e, i] != -2:
+                continue  # found from the other side
             # facet i leaves out vertex i; its lowest vertex holds every simplex sharing it
             a = srt[e, 1] if i == 0 else srt[e, 0]
             found = -1
@@ -168,7 +172,8 @@ def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
                 f = elements[q]
                 if f == e:
                     continue
-                # f holds the facet if it holds all its vertices (both rows sorted)
+                # f holds the facet if it holds all its vertices (both rows sorted); the
+                # vertex of f it does not hold names the facet on f's side
                 p = 0
                 held = 0
                 for t in range(k1):
@@ -184,7 +189,65 @@ def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
                         return False  # a facet of three or more simplices
                     found = f
             across[e, i] = found
+            if found >= 0:
+                # the same facet seen from found: it leaves out found's vertex outside it
+                for j in range(k1):
+                    v = srt[found, j]
+                    inside = False
+                    for t in range(k1):
+                        if t != i and srt[e, t] == v:
+                            inside = True
+                    if not inside:
+                        if across[found, j] == -2:
+                            across[found, j] = e
+                        break
     return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _adjacency_rows(across, indptr, indices):  # pragma: no cover - compiled
+    E, k1 = across.shape
+    row = np.empty(k1, dtype=np.int64)
+    n = 0
+    for e in range(E):
+        count = 0
+        for i in range(k1):
+            f = across[e, i]
+            if f < 0:
+                continue
+            p = count
+            while p > 0 and row[p - 1] > f:
+                row[p] = row[p - 1]
+                p -= 1
+            if p > 0 and row[p - 1] == f:
+                return False  # a repeated simplex: two facets across to the same one
+            row[p] = f
+            count += 1
+        for p in range(count):
+            indices[n + p] = row[p]
+        n += count
+        indptr[e + 1] = n
+    return True
+
+
+def facet_adjacency(across):
+    """The element adjacency (CSR structure, rows sorted) from :func:`facet_neighbours`'s
+    table, or None when two facets of a simplex lie across from the same simplex.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import facet_adjacency
+    >>> indptr, indices = facet_adjacency(np.array([[1, -1, -1, -1], [-1, -1, -1, 0]]))
+    >>> indptr.tolist(), indices.tolist()
+    ([0, 1, 2], [1, 0])
+    """
+    E = across.shape[0]
+    inner = int(np.count_nonzero(across >= 0))
+    idx = np.int32 if max(inner, E) < np.iinfo(np.int32).max else np.int64
+    indptr = np.zeros(E + 1, dtype=idx)
+    indices = np.empty(inner, dtype=idx)
+    return (indptr, indices) if _adjacency_rows(np.ascontiguousarray(across), indptr, indices) else None
 
 
 def facet_neighbours(incidence, sorted_simplices):

@@ -7,6 +7,7 @@ import ndboundary
 from ndboundary import SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, flower_curve, icosphere, kuhn_grid, label_by, torus
 from ndboundary.metrics import as_complex, closed_curve_length, curve_distance, fidelity
+from ndboundary.pipeline.params import DEFAULT_RTOL
 
 
 def flower_truth():
@@ -183,7 +184,8 @@ def test_timings_and_solver_reports():
     dom = kuhn_grid(20, 2, jitter=0.2, random_state=0)
     res = relax(dom, label_by(dom, circle), on="elements")
     assert set(res.timings) >= {"heat", "field", "smoothing", "integration", "total"}
-    assert res.solver["heat"].residual < 1e-8 and res.solver["integration"].residual < 1e-8
+    # the solves reach the default tolerance
+    assert res.solver["heat"].residual <= DEFAULT_RTOL and res.solver["integration"].residual <= DEFAULT_RTOL
 
 
 def test_verbose_reports_steps(capsys):

@@ -132,35 +132,32 @@ class SimplicialTopology:
     def build_adjacency(self):
         """Elements sharing a facet."""
         E, k1 = self.simplices.shape
-        across = None
         if k1 >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
             # each facet's partner among the simplices at its lowest vertex, in one pass
-            from .._compiled_mesh import facet_neighbours
+            from .._compiled_mesh import facet_adjacency, facet_neighbours
 
             across = facet_neighbours(self.incidence, self.sorted_simplices)
-        else:
-            ids, order, starts = self._facet_groups
-            size = np.diff(starts)
-            if size.max() <= 2:
-                # every facet in at most two simplices: each simplex's neighbours, one
-                # per facet (-1 on the boundary)
-                first = starts[:-1][size == 2]
-                a, b = order[first], order[first + 1]
-                across = np.full(E * k1, -1, dtype=order.dtype)
-                across[a] = b // k1
-                across[b] = a // k1
-                across = across.reshape(E, k1)
-        if across is not None:
-            across = np.sort(across, axis=1)
-            if (across[:, 1:] == across[:, :-1])[across[:, 1:] >= 0].any():
-                across = None  # repeated simplices
-        if across is None:
-            ids = self._facet_groups[0]
+            rows = None if across is None else facet_adjacency(across)
+            if rows is not None:
+                indptr, indices = rows
+                return sp.csr_matrix((np.ones(indices.size), indices, indptr), shape=(E, E))
+            return shared_facet_adjacency(self._facet_groups[0], np.repeat(np.arange(E), k1), E)
+        ids, order, starts = self._facet_groups
+        size = np.diff(starts)
+        if size.max() > 2:
             return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)
+        # every facet in at most two simplices: each simplex's neighbours, one per
+        # facet (-1 on the boundary), sorted
+        first = starts[:-1][size == 2]
+        a, b = order[first], order[first + 1]
+        across = np.full(E * k1, -1, dtype=order.dtype)
+        across[a] = b // k1
+        across[b] = a // k1
+        across = np.sort(across.reshape(E, k1), axis=1)
+        if (across[:, 1:] == across[:, :-1])[across[:, 1:] >= 0].any():
+            return shared_facet_adjacency(ids, np.repeat(np.arange(E), k1), E)  # repeated simplices
         inner = across >= 0
-        idx = index_dtype(max(E * k1, E))
-        across = across.astype(idx, copy=False)
-        indptr = np.zeros(E + 1, dtype=idx)
+        indptr = np.zeros(E + 1, dtype=order.dtype)
         np.cumsum(inner.sum(axis=1), out=indptr[1:])
         return sp.csr_matrix((np.ones(int(indptr[-1])), across[inner], indptr), shape=(E, E))
 

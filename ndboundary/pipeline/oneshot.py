@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING
+from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING
 from .relaxer import Relaxer
 
 __all__ = ["relax"]
@@ -19,7 +19,7 @@ def relax(
     t=None,
     form="mass",
     pad=True,
-    rtol=1e-10,
+    rtol=DEFAULT_RTOL,
     solver="auto",
     band="auto",
     verbose=False,
@@ -60,8 +60,10 @@ def relax(
         paper's unweighted ``K^T K`` (both in units of ``h``).
     pad : bool, default=True
         Split the elements all of whose vertices receive heat (paper section 4).
-    rtol : float, default=1e-10
-        Relative residual the linear solves must reach. The heat is trusted down to
+    rtol : float, default=1e-7
+        Relative residual the linear solves must reach
+        (:data:`~ndboundary.pipeline.params.DEFAULT_RTOL`: the level set moves by less
+        than 1e-4 h from there to 1e-10). The heat is trusted down to
         ``max(1e-5, 100 rtol)`` of its maximum; below, the field follows the graph
         distance to zeta.
     solver : {"auto", "pcg", "direct"}, default="auto"

@@ -35,7 +35,7 @@ from .field import initial_field
 from .heat import diffuse
 from .integration import boundary_weight_scale, integrate, integration_system
 from .padding import pad as pad_domain
-from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, check_params
+from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
 from .result import DeferredFill, RegionsResult, RelaxResult
 from . import sectors
 from .sectors import region_sectors
@@ -160,7 +160,7 @@ class Relaxer:
         t=None,
         form="mass",
         pad=True,
-        rtol=1e-10,
+        rtol=DEFAULT_RTOL,
         solver="auto",
         band="auto",
         verbose=False,
