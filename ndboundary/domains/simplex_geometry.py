@@ -17,8 +17,10 @@ import scipy.sparse as sp
 from .._arrays import DEGENERATE_RTOL, counting_sort, index_dtype, pair_groups
 
 __all__ = [
+    "COMPILED_MIN_SIMPLICES",
     "COMPILED_MIN_VERTICES_PER_SIMPLEX",
     "aspect_ratios",
+    "compiled_passes",
     "kuhn_grid_stiffness",
     "simplex_edges",
     "simplex_geometry",
@@ -30,8 +32,27 @@ __all__ = [
 
 #: Simplices of at least this many vertices (tetrahedra and up: 6 vertex pairs each) get
 #: their edges and incidence from compiled counting passes; triangles keep numpy's, as
-#: fast for them without loading the compiled code in every process.
+#: fast for them without loading the compiled code in every process, up to
+#: :data:`COMPILED_MIN_SIMPLICES`.
 COMPILED_MIN_VERTICES_PER_SIMPLEX = 4
+#: From this many simplices the incidence, the mean edge length and the edge graph come
+#: from the compiled passes whatever the simplices: their sorts of every vertex pair then
+#: cost more than loading the compiled code.
+COMPILED_MIN_SIMPLICES = 200_000
+
+
+def compiled_passes(simplices):
+    """Whether the incidence and the edge graph of ``simplices`` come from compiled passes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.simplex_geometry import compiled_passes
+    >>> compiled_passes(np.zeros((10, 3), dtype=int)), compiled_passes(np.zeros((10, 4), dtype=int))
+    (False, True)
+    """
+    return simplices.shape[1] >= COMPILED_MIN_VERTICES_PER_SIMPLEX or simplices.shape[0] >= COMPILED_MIN_SIMPLICES
+
 
 # Entries of the per-block temporaries of the geometry (simplices x vertices x dim).
 _BLOCK = 1 << 16
@@ -306,7 +327,7 @@ def simplex_incidence(simplices, sorted_simplices, n_vertices):
     """
     E, k1 = simplices.shape
     idx = index_dtype(max(E * k1, n_vertices))
-    if k1 < COMPILED_MIN_VERTICES_PER_SIMPLEX:
+    if not compiled_passes(simplices):
         # the element-vertex matrix, one row per simplex, transposed
         by_element = sp.csr_matrix(
             (np.ones(E * k1), sorted_simplices.astype(idx).ravel(), np.arange(E + 1, dtype=idx) * k1),

@@ -23,7 +23,7 @@ from .._arrays import (
     shared_facet_adjacency,
     sort_rows,
 )
-from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, simplex_edges
+from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, compiled_passes, simplex_edges
 
 __all__ = ["SimplicialTopology"]
 
@@ -41,10 +41,10 @@ class SimplicialTopology:
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method.
 
-        On tetrahedra and up, read off the incidence in one compiled pass, without
-        building the edges.
+        On tetrahedra and up, and on large complexes, read off the incidence in one
+        compiled pass, without building the edges.
         """
-        if self.simplices.shape[1] < COMPILED_MIN_VERTICES_PER_SIMPLEX or self.split_from is not None:
+        if not compiled_passes(self.simplices) or self.split_from is not None:
             return super().mean_edge_length()
         if "_mean_edge_length" not in self.__dict__:
             from .._compiled_mesh import edge_length_graph
@@ -54,10 +54,10 @@ class SimplicialTopology:
 
     def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
         """The edges' lengths in units of ``unit``, both ways, shape (n_vertices, n_vertices);
-        on tetrahedra and up from the incidence in two compiled passes, without building
-        the edges.
+        on tetrahedra and up, and on large complexes, from the incidence in two compiled
+        passes, without building the edges.
         """
-        if self.simplices.shape[1] < COMPILED_MIN_VERTICES_PER_SIMPLEX or self.split_from is not None:
+        if not compiled_passes(self.simplices) or self.split_from is not None:
             return super().edge_length_graph(unit)
         from .._compiled_mesh import edge_length_graph
 
