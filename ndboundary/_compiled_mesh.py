@@ -1,9 +1,11 @@
-"""Compiled loops (numba) over the simplices of large complexes: their geometry, and their
-edge graph read off the vertex-simplex incidence.
+"""Compiled loops (numba) over the vertex-simplex incidence of large complexes: the edge
+graph and the mean edge length, the simplices across each facet, the stiffness summed
+row by row.
 
-Both run in one pass with a few scalars of state per simplex or vertex, where the
-vectorised versions allocate temporaries many times the mesh's size: on a tetrahedral
-mesh of a million vertices those temporaries, not the arithmetic, set the time.
+Each pass walks the simplices at every vertex with a few scalars of state, where the
+vectorised versions sort tables of every vertex pair or facet, many times the mesh's
+size: on a tetrahedral mesh of a million vertices those tables, not the arithmetic, set
+the time.
 """
 
 from __future__ import annotations
@@ -12,149 +14,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = [
-    "edge_length_graph",
-    "facet_adjacency",
-    "facet_neighbours",
-    "longest_edges",
-    "small_simplex_geometry_compiled",
-    "small_simplex_volumes",
-]
-
-
-@numba.njit(cache=True, nogil=True)
-def _small_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragma: no cover - compiled
-    E, k1 = simplices.shape
-    k = k1 - 1
-    dim = points.shape[1]
-    norm = 1.0
-    for i in range(2, k + 1):
-        norm *= i
-    e = np.empty((3, dim))
-    g = np.empty((3, 3))
-    c = np.empty((3, 3))
-    for s in range(E):
-        x0 = simplices[s, 0]
-        for i in range(k):
-            xi = simplices[s, i + 1]
-            for d in range(dim):
-                e[i, d] = points[xi, d] - points[x0, d]
-        for i in range(k):
-            for j in range(i, k):
-                t = 0.0
-                for d in range(dim):
-                    t += e[i, d] * e[j, d]
-                g[i, j] = t
-                g[j, i] = t
-        scale = 0.0
-        for i in range(k):
-            scale += g[i, i]
-        scale /= k
-        if k == 1:
-            det = g[0, 0]
-            c[0, 0] = 1.0
-        elif k == 2:
-            det = g[0, 0] * g[1, 1] - g[0, 1] * g[0, 1]
-            c[0, 0] = g[1, 1]
-            c[0, 1] = -g[0, 1]
-            c[1, 1] = g[0, 0]
-        else:
-            c[0, 0] = g[1, 1] * g[2, 2] - g[1, 2] * g[1, 2]
-            c[0, 1] = g[0, 2] * g[1, 2] - g[0, 1] * g[2, 2]
-            c[0, 2] = g[0, 1] * g[1, 2] - g[0, 2] * g[1, 1]
-            c[1, 1] = g[0, 0] * g[2, 2] - g[0, 2] * g[0, 2]
-            c[1, 2] = g[0, 1] * g[0, 2] - g[0, 0] * g[1, 2]
-            c[2, 2] = g[0, 0] * g[1, 1] - g[0, 1] * g[0, 1]
-            det = g[0, 0] * c[0, 0] + g[0, 1] * c[0, 1] + g[0, 2] * c[0, 2]
-        bad = not (det > (rtol * scale) ** k)
-        vol[s] = np.nan if bad else np.sqrt(det) / norm
-        if not with_gradients:
-            continue
-        inv_det = 0.0 if bad else 1.0 / det
-        for d in range(dim):
-            grads[s, d, 0] = 0.0
-        for i in range(k):
-            for d in range(dim):
-                row = 0.0
-                for j in range(k):
-                    row += e[j, d] * (c[min(i, j), max(i, j)] * inv_det)
-                grads[s, d, i + 1] = row
-                grads[s, d, 0] -= row
-
-
-def small_simplex_volumes(points, simplices, rtol):
-    """Volumes ``sqrt(det(E^T E)) / k!`` of simplices of at most 3 dimensions, NaN for the
-    degenerate ones (Gram determinant at most ``(rtol * scale)^k``, ``scale`` the mean
-    squared edge length from the first vertex), without their gradients.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ndboundary._compiled_mesh import small_simplex_volumes
-    >>> tet = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
-    >>> small_simplex_volumes(tet, np.array([[0, 1, 2, 3], [0, 1, 2, 2]]), 1e-10).round(6).tolist()
-    [0.166667, nan]
-    """
-    simplices = np.ascontiguousarray(simplices)
-    vol = np.empty(simplices.shape[0])
-    grads = np.empty((0, 0, 0))
-    _small_geometry(np.ascontiguousarray(points, dtype=np.float64), simplices, float(rtol), grads, vol, False)
-    return vol
-
-
-def small_simplex_geometry_compiled(points, simplices, rtol):
-    """Barycentric gradients (E, dim, k+1) and volumes (E,) of simplices of at most 3
-    dimensions, as :func:`~ndboundary.domains.simplex_geometry.simplex_geometry` gives them
-    (zero gradients and NaN volumes for the degenerate ones), in one pass.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ndboundary._compiled_mesh import small_simplex_geometry_compiled
-    >>> triangle = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-    >>> grads, vol = small_simplex_geometry_compiled(triangle, np.array([[0, 1, 2]]), 1e-10)
-    >>> grads[0].tolist(), vol.tolist()
-    ([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]], [0.5])
-    """
-    simplices = np.ascontiguousarray(simplices)
-    points = np.ascontiguousarray(points, dtype=np.float64)
-    E, k1 = simplices.shape
-    if k1 > 4:
-        raise ValueError(f"simplices has shape {simplices.shape}; this pass takes at most 4 vertices per simplex")
-    vol = np.empty(E)
-    grads = np.empty((E, points.shape[1], k1))
-    _small_geometry(points, simplices, float(rtol), grads, vol, True)
-    return grads, vol
-
-
-@numba.njit(cache=True, nogil=True)
-def _longest(points, simplices, out):  # pragma: no cover - compiled
-    k1 = simplices.shape[1]
-    for s in range(simplices.shape[0]):
-        most = 0.0
-        for i in range(k1):
-            for j in range(i + 1, k1):
-                sq = 0.0
-                for d in range(points.shape[1]):
-                    diff = points[simplices[s, i], d] - points[simplices[s, j], d]
-                    sq += diff * diff
-                most = max(most, sq)
-        out[s] = np.sqrt(most)
-
-
-def longest_edges(points, simplices):
-    """The longest edge of every simplex, in one pass.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ndboundary._compiled_mesh import longest_edges
-    >>> longest_edges(np.array([[0.0, 0.0], [3.0, 0.0], [0.0, 4.0]]), np.array([[0, 1, 2]])).tolist()
-    [5.0]
-    """
-    out = np.empty(simplices.shape[0])
-    _longest(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(simplices), out)
-    return out
+__all__ = ["edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -333,6 +193,99 @@ def _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, un
         for p in range(count):
             cols[start + p] = nbr[p]
             lengths[start + p] = _length(points, a, nbr[p]) / unit
+
+
+@numba.njit(cache=True, nogil=True)
+def _stiffness_counts(indptr, elements, srt, nbr, rows):  # pragma: no cover - compiled
+    V = indptr.size - 1
+    mark = np.full(V, -1, dtype=np.int64)
+    for a in range(V):
+        count = _neighbours(a, indptr, elements, srt, mark, nbr)
+        rows[a + 1] = rows[a] + count + (1 if indptr[a + 1] > indptr[a] else 0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _stiffness_fill(indptr, elements, srt, off, diag, pair_of, nbr, rows, cols, data):  # pragma: no cover - compiled
+    V = indptr.size - 1
+    k1 = srt.shape[1]
+    mark = np.full(V, -1, dtype=np.int64)
+    local = np.zeros(V, dtype=np.int64)
+    for a in range(V):
+        if indptr[a + 1] == indptr[a]:
+            continue  # a vertex in no simplex: an empty row
+        count = _neighbours(a, indptr, elements, srt, mark, nbr)
+        start = rows[a]
+        # the row's columns in order, the diagonal among them
+        q = start
+        placed = False
+        for t in range(count):
+            if not placed and nbr[t] > a:
+                cols[q] = a
+                q += 1
+                placed = True
+            cols[q] = nbr[t]
+            q += 1
+        if not placed:
+            cols[q] = a
+        for q in range(start, rows[a + 1]):
+            local[cols[q]] = q - start
+            data[q] = 0.0
+        # every simplex at a adds its terms, in increasing order of the simplices: the
+        # order in which a sum over the vertex pairs of every simplex adds them
+        for r in range(indptr[a], indptr[a + 1]):
+            e = elements[r]
+            ia = 0
+            while srt[e, ia] != a:
+                ia += 1
+            data[start + local[a]] += diag[e, ia]
+            for ib in range(k1):
+                if ib != ia:
+                    data[start + local[srt[e, ib]]] += off[e, pair_of[min(ia, ib), max(ia, ib)]]
+
+
+def stiffness_matrix(incidence, sorted_simplices, off, diag):
+    """The symmetric matrix of the per-simplex terms ``off`` (vertex pairs ``i < j`` of
+    ``sorted_simplices`` in ``triu_indices`` order) and ``diag``, summed row by row over
+    the simplices at each vertex (``incidence``, its simplices in increasing order), in
+    canonical CSR form: the sums a scatter of every simplex's terms in simplex order
+    makes, without the table of every vertex pair.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> from ndboundary._compiled_mesh import stiffness_matrix
+    >>> srt = np.array([[0, 1, 2]])
+    >>> inc = sp.csr_matrix((np.ones(3), ([0, 1, 2], [0, 0, 0])), shape=(3, 1))
+    >>> K = stiffness_matrix(inc, srt, np.array([[-0.5, -0.5, 0.0]]), np.array([[1.0, 0.5, 0.5]]))
+    >>> K.toarray().tolist(), bool(K.has_canonical_format)
+    ([[1.0, -0.5, -0.5], [-0.5, 0.5, 0.0], [-0.5, 0.0, 0.5]], True)
+    """
+    inc = incidence.tocsr()
+    V = inc.shape[0]
+    srt = np.ascontiguousarray(sorted_simplices)
+    k1 = srt.shape[1]
+    pair_of = np.zeros((k1, k1), dtype=np.int64)
+    iu, ju = np.triu_indices(k1, 1)
+    pair_of[iu, ju] = np.arange(iu.size)
+    nbr = np.empty(int(np.diff(inc.indptr).max(initial=0)) * k1 + 1, dtype=np.int64)
+    rows = np.zeros(V + 1, dtype=np.int64)
+    _stiffness_counts(inc.indptr, inc.indices, srt, nbr, rows)
+    idx = np.int32 if max(int(rows[-1]), V) < np.iinfo(np.int32).max else np.int64
+    cols, data = np.empty(int(rows[-1]), dtype=idx), np.empty(int(rows[-1]))
+    _stiffness_fill(
+        inc.indptr,
+        inc.indices,
+        srt,
+        np.ascontiguousarray(off),
+        np.ascontiguousarray(diag),
+        pair_of,
+        nbr,
+        rows,
+        cols,
+        data,
+    )
+    return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
 
 
 def edge_length_graph(incidence, simplices, points, *, unit=1.0, with_graph=True):

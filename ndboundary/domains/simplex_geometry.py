@@ -271,7 +271,7 @@ def aspect_ratios(points, simplices, volumes):
     """
     k = simplices.shape[1] - 1
     if simplices.shape[1] >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
-        from .._compiled_mesh import longest_edges
+        from .._compiled_geometry import longest_edges
 
         longest = longest_edges(points, simplices)
     else:

@@ -34,6 +34,7 @@ from .base import Domain
 from .simplex_geometry import (
     COMPILED_MIN_VERTICES_PER_SIMPLEX,
     aspect_ratios,
+    compiled_passes,
     simplex_geometry,
     simplex_incidence,
     stiffness_terms,
@@ -133,7 +134,7 @@ class SimplicialComplex(SimplicialTopology, Domain):
         elements only.
         """
         if self._compiled_geometry():
-            from .._compiled_mesh import small_simplex_volumes
+            from .._compiled_geometry import small_simplex_volumes
 
             vol = small_simplex_volumes(self.points, self.sorted_simplices, DEGENERATE_RTOL)
         else:
@@ -160,7 +161,7 @@ class SimplicialComplex(SimplicialTopology, Domain):
         own, so that a split's or a band's geometry is that of a fresh complex.
         """
         if self._compiled_geometry():
-            from .._compiled_mesh import small_simplex_geometry_compiled
+            from .._compiled_geometry import small_simplex_geometry_compiled
 
             return small_simplex_geometry_compiled(points, sorted_simplices, DEGENERATE_RTOL)
         return simplex_geometry(points, sorted_simplices)
@@ -222,6 +223,15 @@ class SimplicialComplex(SimplicialTopology, Domain):
 
     def build_stiffness(self):
         """The stiffness (see the module docstring)."""
+        if self.split_from is None and compiled_passes(self.simplices):
+            # summed row by row over the incidence, without the edge of every vertex pair
+            # of every simplex; the same sums as below, in the same order
+            from .._compiled_mesh import stiffness_matrix
+
+            off, diag = stiffness_terms(self.barycentric_gradients, self.volumes)
+            K = stiffness_matrix(self.incidence, self.sorted_simplices, off, diag)
+            K.eliminate_zeros()
+            return K
         off, diag, used = self.stiffness_sums
         K = symmetric_csr(self.edges, off, diag, used)
         K.eliminate_zeros()  # an edge whose angles cancel exactly (right angles on both sides)
@@ -283,7 +293,7 @@ class SimplicialComplex(SimplicialTopology, Domain):
         out.volumes = kept_then(self.volumes, keep, vols)
         if "barycentric_gradients" in self.__dict__:
             out.barycentric_gradients = kept_then(self.barycentric_gradients, keep, grads)
-        if "stiffness_sums" in self.__dict__:
+        if "K" in self.__dict__:
             # the parent's operators are built: patch them where the split simplices lie.
             # Otherwise (a band, cut for one labelling) a fresh build costs less than the
             # parent's operators and the patch.
