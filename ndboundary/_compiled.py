@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+import scipy.sparse as sp
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -29,16 +30,26 @@ def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _sweep3_unit(indptr, indices, A, B):  # pragma: no cover - compiled
+def _sweep3_unit(indptr, indices, A, B, with_self):  # pragma: no cover - compiled
     for i in numba.prange(A.shape[0]):
         x = 0.0
         y = 0.0
         z = 0.0
+        pending = with_self  # the row's own vector, added where its column would sort
         for p in range(indptr[i], indptr[i + 1]):
             j = indices[p]
+            if pending and j > i:
+                x += A[i, 0]
+                y += A[i, 1]
+                z += A[i, 2]
+                pending = False
             x += A[j, 0]
             y += A[j, 1]
             z += A[j, 2]
+        if pending:
+            x += A[i, 0]
+            y += A[i, 1]
+            z += A[i, 2]
         s = x * x + y * y + z * z
         if s > 0.0:
             s = 1.0 / np.sqrt(s)
@@ -67,16 +78,20 @@ def _sweep(indptr, indices, data, A, B):  # pragma: no cover - compiled
             B[i, c] *= s
 
 
-def smooth_rows_compiled(W, X, passes):
-    """``passes`` sweeps of ``X <- normalize_rows(W @ X)``, each row in one go.
+def smooth_rows_compiled(W, X, passes, plus_identity=False):
+    """``passes`` sweeps of ``X <- normalize_rows(W @ X)``, each row in one go (``W + I``
+    for ``plus_identity``, never formed when ``W``'s weights are ones).
 
-    ``W`` is a CSR matrix, ``X`` an (n, d) array (not modified). Every sweep reads the
+    ``W`` is a CSR matrix with sorted indices, ``X`` an (n, d) array (not modified). Every sweep reads the
     previous sweep's rows only (Jacobi order), so the result does not depend on the row
     order; zero rows stay zero. Summing and renormalising a row in one loop reads the
     field once per sweep instead of the four passes of a sparse product and a
     renormalisation.
     """
     d = X.shape[1]
+    unit = d in (2, 3) and (W.data == 1.0).all()
+    if plus_identity and not unit:
+        W = (W + sp.identity(W.shape[0], format="csr")).tocsr()
     # planar fields run through the 3-column loop with a zero third component
     sweep = _sweep3 if d in (2, 3) else _sweep
     # the structure as it comes (int32 or int64): a copy would double the bytes each
@@ -86,10 +101,10 @@ def smooth_rows_compiled(W, X, passes):
     A = np.zeros((X.shape[0], 3 if d == 2 else d))
     A[:, :d] = X
     B = np.empty_like(A)
-    if d in (2, 3) and (data == 1.0).all():
+    if unit:
         # uniform weights (the usual case): no weights to read
         for _ in range(passes):
-            _sweep3_unit(indptr, indices, A, B)
+            _sweep3_unit(indptr, indices, A, B, bool(plus_identity))
             A, B = B, A
     else:
         for _ in range(passes):

@@ -32,8 +32,9 @@ def normalize_rows(X):
     return X
 
 
-def smooth_rows(W, X, passes):
-    """``passes`` sweeps of ``X <- normalize_rows(W @ X)`` in Jacobi order.
+def smooth_rows(W, X, passes, *, plus_identity=False):
+    """``passes`` sweeps of ``X <- normalize_rows(W @ X)`` in Jacobi order (``W + I`` with
+    ``plus_identity``: each row averaged with itself, without forming the sum).
 
     Each sweep reads only the previous sweep's rows, so the result does not depend on
     the row order. ``X`` is not modified.
@@ -44,6 +45,8 @@ def smooth_rows(W, X, passes):
         The averaging weights of one sweep.
     X : ndarray of shape (n, d)
     passes : int
+    plus_identity : bool, default=False
+        Average with ``W + I`` instead of ``W``.
 
     Returns
     -------
@@ -63,7 +66,11 @@ def smooth_rows(W, X, passes):
     if X.shape[0] >= COMPILED_SMOOTHING_MIN_ROWS:
         from ._compiled import smooth_rows_compiled
 
-        return smooth_rows_compiled(W, X, passes)
+        if not W.has_sorted_indices:
+            W = W.sorted_indices()  # a copy: the caller's matrix is left as it is
+        return smooth_rows_compiled(W, X, passes, plus_identity)
+    if plus_identity:
+        W = (W + sp.identity(W.shape[0], format="csr")).tocsr()
     Xs = X
     for _ in range(passes):
         Xs = normalize_rows(W @ Xs)

@@ -301,8 +301,7 @@ class Domain:
             adjacency = sp.csr_matrix((adjacency.data * same, adjacency.indices, adjacency.indptr), adjacency.shape)
         if (cap < 1.0).any():
             adjacency = (adjacency @ sp.diags(cap)).tocsr()
-        W = (adjacency + sp.identity(self.n_elements, format="csr")).tocsr()
-        return smooth_rows(W, X, passes)
+        return smooth_rows(adjacency, X, passes, plus_identity=True)
 
     def lam_reference(self):
         """The field term's stiffness ``diag(K M^{-1} K)`` (lengths in units of ``h``) that the
