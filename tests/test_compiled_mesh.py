@@ -1,0 +1,131 @@
+"""The compiled passes over the incidence of tetrahedral (and large) complexes give what the
+sorted tables of every vertex pair and facet give."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from ndboundary import SimplicialComplex
+from ndboundary._arrays import shared_facet_adjacency
+from ndboundary.datasets import hex_grid, kuhn_grid
+from ndboundary.domains import Domain
+from ndboundary.domains.simplex_geometry import (
+    COMPILED_MIN_SIMPLICES,
+    compiled_passes,
+    simplex_geometry,
+    symmetric_csr,
+)
+from ndboundary.fields import smooth_rows
+from ndboundary.pipeline.band import AUTO_BAND_WIDTH, band_width
+
+
+@pytest.fixture
+def tets():
+    return kuhn_grid(7, 3, jitter=0.2, random_state=3)
+
+
+def test_edge_graph_and_h_match_the_sorted_edges(tets):
+    assert compiled_passes(tets.simplices)
+    graph = tets.edge_length_graph(0.5)
+    reference = Domain.edge_length_graph(tets, 0.5)
+    assert graph.has_canonical_format
+    np.testing.assert_array_equal(graph.indptr, reference.indptr)
+    np.testing.assert_array_equal(graph.indices, reference.indices)
+    np.testing.assert_allclose(graph.data, reference.data, rtol=1e-14)
+    assert (graph != graph.T).nnz == 0
+    assert tets.mean_edge_length() == pytest.approx(Domain.mean_edge_length(tets), rel=1e-13)
+
+
+def test_large_triangle_meshes_take_the_compiled_passes():
+    plane = kuhn_grid(320, 2)  # 204 800 triangles
+    assert plane.n_elements >= COMPILED_MIN_SIMPLICES and compiled_passes(plane.simplices)
+    assert not compiled_passes(kuhn_grid(20, 2).simplices)
+    assert plane.mean_edge_length() == pytest.approx(Domain.mean_edge_length(plane), rel=1e-12)
+    reference = SimplicialComplex(plane.points, plane.simplices)
+    np.testing.assert_array_equal(plane.incidence.indices, reference.incidence.indices)
+
+
+def test_stiffness_is_the_sum_of_the_pair_table_bit_for_bit(tets):
+    K = tets.K  # summed over the incidence
+    off, diag, used = tets.stiffness_sums  # summed over the table of every vertex pair
+    reference = symmetric_csr(tets.edges, off, diag, used)
+    reference.eliminate_zeros()
+    np.testing.assert_array_equal(K.indptr, reference.indptr)
+    np.testing.assert_array_equal(K.indices, reference.indices)
+    np.testing.assert_array_equal(K.data, reference.data)
+    np.testing.assert_allclose(K @ np.ones(tets.n_vertices), 0.0, atol=1e-12)
+    x = tets.points[:, 0]  # K = G^T diag(A) G
+    np.testing.assert_allclose(K @ x, tets.G.T @ (tets.A[:, None] * tets.gradient(x)).ravel(), atol=1e-12)
+
+
+def test_gradients_wait_until_asked_and_equal_the_vectorised_ones(tets):
+    fresh = SimplicialComplex(tets.points, tets.simplices)
+    assert "barycentric_gradients" not in fresh.__dict__
+    grads, vol = simplex_geometry(fresh.points, fresh.sorted_simplices)
+    np.testing.assert_allclose(fresh.volumes, vol, rtol=1e-13)
+    np.testing.assert_allclose(fresh.barycentric_gradients, grads, rtol=1e-11, atol=1e-11)
+    band, _ = fresh.subdomain(np.arange(fresh.n_elements) % 2 == 0)
+    np.testing.assert_array_equal(band.barycentric_gradients, fresh.barycentric_gradients[::2])
+
+
+def test_a_degenerate_tetrahedron_is_refused():
+    points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1]]
+    with pytest.raises(ValueError, match="simplex 1 .*volume"):
+        SimplicialComplex(points, [[0, 1, 2, 4], [0, 1, 2, 3]])
+
+
+def _reference_adjacency(simplices):
+    """Simplices sharing a facet, by brute force over the sets of their vertices."""
+    E, k1 = simplices.shape
+    owner = {}
+    for e, s in enumerate(simplices):
+        for i in range(k1):
+            owner.setdefault(tuple(sorted(np.delete(s, i))), []).append(e)
+    pairs = [(a, b) for held in owner.values() for a in held for b in held if a != b]
+    rows, cols = np.array(pairs, dtype=int).reshape(-1, 2).T
+    return sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(E, E))
+
+
+@pytest.mark.parametrize(
+    "simplices",
+    [
+        [[0, 1, 2, 3], [1, 2, 3, 4], [1, 2, 3, 5]],  # a facet of three tetrahedra
+        [[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 2, 3]],  # a repeated tetrahedron
+        [[0, 1, 2, 3], [4, 5, 6, 7]],  # apart
+    ],
+    ids=["three-on-a-facet", "repeated", "apart"],
+)
+def test_adjacency_off_manifold_is_the_facet_tables(simplices):
+    # the compiled pass hands such complexes to the sorted facet table
+    rng = np.random.default_rng(0)
+    dom = SimplicialComplex(rng.normal(size=(8, 3)), simplices)
+    E, k1 = dom.simplices.shape
+    reference = shared_facet_adjacency(dom._facet_groups[0], np.repeat(np.arange(E), k1), E)
+    assert (dom.adjacency != reference).nnz == 0
+    assert dom.adjacency[1, 0] == (simplices[1] != [4, 5, 6, 7])  # joined unless apart
+
+
+def test_adjacency_of_a_jittered_grid(tets):
+    assert (tets.adjacency != _reference_adjacency(tets.simplices)).nnz == 0
+
+
+def test_smoothing_with_the_identity_added_matches_the_formed_sum(tets, rng):
+    X = rng.normal(size=(tets.n_elements, 3))
+    W = (tets.adjacency + sp.identity(tets.n_elements, format="csr")).tocsr()
+    np.testing.assert_array_equal(smooth_rows(tets.adjacency, X, 20, plus_identity=True), smooth_rows(W, X, 20))
+    # the caller's matrix, unsorted, is left as it is
+    shuffled = tets.adjacency.copy()
+    shuffled.indices = shuffled.indices.copy()
+    for r in range(shuffled.shape[0]):
+        lo, hi = shuffled.indptr[r], shuffled.indptr[r + 1]
+        shuffled.indices[lo:hi] = shuffled.indices[lo:hi][::-1]
+    shuffled.has_sorted_indices = False
+    before = shuffled.indices.copy()
+    smooth_rows(shuffled, X, 2, plus_identity=True)
+    np.testing.assert_array_equal(shuffled.indices, before)
+
+
+def test_the_band_reaches_as_far_on_every_cell_type():
+    defaults = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
+    assert band_width(defaults, kuhn_grid(4, 3)) == AUTO_BAND_WIDTH == 8.0
+    assert band_width(defaults, hex_grid(4)) == 1.5 * AUTO_BAND_WIDTH
