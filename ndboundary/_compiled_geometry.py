@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_volumes"]
+__all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_volumes", "stiffness_terms_compiled"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -147,3 +147,43 @@ def longest_edges(points, simplices):
     out = np.empty(simplices.shape[0])
     _longest(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(simplices), out)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _stiffness_terms(grads, vol, off, diag):  # pragma: no cover - compiled
+    n, dim, k1 = grads.shape
+    for e in range(n):
+        p = 0
+        for i in range(k1):
+            for j in range(i + 1, k1):
+                t = 0.0
+                for d in range(dim):
+                    t += grads[e, d, i] * grads[e, d, j]
+                off[e, p] = t * vol[e]
+                p += 1
+            t = 0.0
+            for d in range(dim):
+                t += grads[e, d, i] * grads[e, d, i]
+            diag[e, i] = t * vol[e]
+
+
+def stiffness_terms_compiled(grads, vol):
+    """:func:`~ndboundary.domains.simplex_geometry.stiffness_terms` in one pass: the entries
+    ``vol g_i . g_j`` over the vertex pairs ``i < j`` in ``triu_indices`` order, and the
+    diagonal ones.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_geometry import small_simplex_geometry_compiled, stiffness_terms_compiled
+    >>> tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> grads, vol = small_simplex_geometry_compiled(tri, np.array([[0, 1, 2]]), 1e-10)
+    >>> off, diag = stiffness_terms_compiled(grads, vol)
+    >>> off.tolist(), diag.tolist()
+    ([[-0.5, -0.5, 0.0]], [[1.0, 0.5, 0.5]])
+    """
+    n, _, k1 = grads.shape
+    off = np.empty((n, k1 * (k1 - 1) // 2))
+    diag = np.empty((n, k1))
+    _stiffness_terms(np.ascontiguousarray(grads), np.ascontiguousarray(vol, dtype=np.float64), off, diag)
+    return off, diag

@@ -205,9 +205,10 @@ def _stiffness_counts(indptr, elements, srt, nbr, rows):  # pragma: no cover - c
 
 
 @numba.njit(cache=True, nogil=True)
-def _stiffness_fill(indptr, elements, srt, off, diag, pair_of, nbr, rows, cols, data):  # pragma: no cover - compiled
+def _stiffness_fill(indptr, elements, srt, grads, vol, nbr, rows, cols, data):  # pragma: no cover - compiled
     V = indptr.size - 1
     k1 = srt.shape[1]
+    dim = grads.shape[1]
     mark = np.full(V, -1, dtype=np.int64)
     local = np.zeros(V, dtype=np.int64)
     for a in range(V):
@@ -230,25 +231,30 @@ def _stiffness_fill(indptr, elements, srt, off, diag, pair_of, nbr, rows, cols, 
         for q in range(start, rows[a + 1]):
             local[cols[q]] = q - start
             data[q] = 0.0
-        # every simplex at a adds its terms, in increasing order of the simplices: the
-        # order in which a sum over the vertex pairs of every simplex adds them
+        # every simplex at a adds its terms vol g_a . g_b, in increasing order of the
+        # simplices: the order in which a sum over the vertex pairs of every simplex adds them
         for r in range(indptr[a], indptr[a + 1]):
             e = elements[r]
             ia = 0
             while srt[e, ia] != a:
                 ia += 1
-            data[start + local[a]] += diag[e, ia]
             for ib in range(k1):
-                if ib != ia:
-                    data[start + local[srt[e, ib]]] += off[e, pair_of[min(ia, ib), max(ia, ib)]]
+                i, j = min(ia, ib), max(ia, ib)
+                t = 0.0
+                for d in range(dim):
+                    t += grads[e, d, i] * grads[e, d, j]
+                data[start + local[srt[e, ib]]] += t * vol[e]
 
 
-def stiffness_matrix(incidence, sorted_simplices, off, diag):
-    """The symmetric matrix of the per-simplex terms ``off`` (vertex pairs ``i < j`` of
-    ``sorted_simplices`` in ``triu_indices`` order) and ``diag``, summed row by row over
-    the simplices at each vertex (``incidence``, its simplices in increasing order), in
-    canonical CSR form: the sums a scatter of every simplex's terms in simplex order
-    makes, without the table of every vertex pair.
+def stiffness_matrix(incidence, sorted_simplices, grads, vol):
+    """``G^T diag(vol) G`` of simplices with barycentric gradients ``grads`` (over the
+    vertices of ``sorted_simplices``), summed row by row over the simplices at each vertex
+    (``incidence``, its simplices in increasing order), in canonical CSR form.
+
+    Each entry is the sum of the terms ``vol g_i . g_j`` in the order a scatter of every
+    simplex's terms in simplex order makes (that of
+    :func:`~ndboundary.domains.simplex_geometry.stiffness_terms`), without the table of
+    every vertex pair and without storing the terms.
 
     Examples
     --------
@@ -256,8 +262,9 @@ def stiffness_matrix(incidence, sorted_simplices, off, diag):
     >>> import scipy.sparse as sp
     >>> from ndboundary._compiled_mesh import stiffness_matrix
     >>> srt = np.array([[0, 1, 2]])
+    >>> grads = np.array([[[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]]])  # the right triangle's
     >>> inc = sp.csr_matrix((np.ones(3), ([0, 1, 2], [0, 0, 0])), shape=(3, 1))
-    >>> K = stiffness_matrix(inc, srt, np.array([[-0.5, -0.5, 0.0]]), np.array([[1.0, 0.5, 0.5]]))
+    >>> K = stiffness_matrix(inc, srt, grads, np.array([0.5]))
     >>> K.toarray().tolist(), bool(K.has_canonical_format)
     ([[1.0, -0.5, -0.5], [-0.5, 0.5, 0.0], [-0.5, 0.0, 0.5]], True)
     """
@@ -265,26 +272,13 @@ def stiffness_matrix(incidence, sorted_simplices, off, diag):
     V = inc.shape[0]
     srt = np.ascontiguousarray(sorted_simplices)
     k1 = srt.shape[1]
-    pair_of = np.zeros((k1, k1), dtype=np.int64)
-    iu, ju = np.triu_indices(k1, 1)
-    pair_of[iu, ju] = np.arange(iu.size)
     nbr = np.empty(int(np.diff(inc.indptr).max(initial=0)) * k1 + 1, dtype=np.int64)
     rows = np.zeros(V + 1, dtype=np.int64)
     _stiffness_counts(inc.indptr, inc.indices, srt, nbr, rows)
     idx = np.int32 if max(int(rows[-1]), V) < np.iinfo(np.int32).max else np.int64
     cols, data = np.empty(int(rows[-1]), dtype=idx), np.empty(int(rows[-1]))
-    _stiffness_fill(
-        inc.indptr,
-        inc.indices,
-        srt,
-        np.ascontiguousarray(off),
-        np.ascontiguousarray(diag),
-        pair_of,
-        nbr,
-        rows,
-        cols,
-        data,
-    )
+    grads, vol = np.ascontiguousarray(grads), np.ascontiguousarray(vol, dtype=np.float64)
+    _stiffness_fill(inc.indptr, inc.indices, srt, grads, vol, nbr, rows, cols, data)
     return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
 
 

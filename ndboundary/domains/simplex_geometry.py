@@ -203,6 +203,10 @@ def stiffness_terms(grads, vol):
     ([[-0.5, -0.5, 0.0]], [[1.0, 0.5, 0.5]])
     """
     n, _, k1 = grads.shape
+    if k1 >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
+        from .._compiled_geometry import stiffness_terms_compiled
+
+        return stiffness_terms_compiled(grads, vol)
     iu, ju = np.triu_indices(k1, 1)
     off = np.empty((n, iu.size))
     for p, (i, j) in enumerate(zip(iu, ju, strict=True)):

@@ -228,8 +228,7 @@ class SimplicialComplex(SimplicialTopology, Domain):
             # of every simplex; the same sums as below, in the same order
             from .._compiled_mesh import stiffness_matrix
 
-            off, diag = stiffness_terms(self.barycentric_gradients, self.volumes)
-            K = stiffness_matrix(self.incidence, self.sorted_simplices, off, diag)
+            K = stiffness_matrix(self.incidence, self.sorted_simplices, self.barycentric_gradients, self.volumes)
             K.eliminate_zeros()
             return K
         off, diag, used = self.stiffness_sums

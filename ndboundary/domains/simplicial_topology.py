@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from .._arrays import (
     counting_sort,
@@ -62,6 +63,15 @@ class SimplicialTopology:
         from .._compiled_mesh import edge_length_graph
 
         return edge_length_graph(self.incidence, self.simplices, self.points, unit=unit)[0]
+
+    @cached_property
+    def vertex_components(self):
+        """Connected components of the vertices along the edges: ``(n_components, labels)``;
+        on tetrahedra and up, and on large complexes, over the compiled edge graph.
+        """
+        if not compiled_passes(self.simplices) or self.split_from is not None:
+            return super().vertex_components
+        return connected_components(self.edge_length_graph(), directed=False)
 
     @cached_property
     def edge_index(self):
