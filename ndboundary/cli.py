@@ -350,7 +350,8 @@ def build_parser():
         default="auto",
         metavar="{auto,none,WIDTH}",
         help="relax only within this graph distance of the jagged boundary, in mean edge lengths, and fill phi "
-        "outside without a solve (default auto: 12 mean edge lengths in every dimension, wider for a weak "
+        "outside without a solve (default auto: 8 mean edge lengths on simplices, 12 on quads, polygons and "
+        "hexahedra, in every dimension, wider for a weak "
         "boundary term (small --lam) or few smoothing passes, the whole mesh when it is small or the band "
         "would hold most of it); none relaxes the whole mesh",
     )

@@ -883,5 +883,8 @@ def test_relax_help_states_the_auto_band(capsys):
         main(["relax", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert exc.value.code == 0 and "--region-surfaces DIR" in text and "--partition OUT.vtu" in text
-    assert "default auto: 12 mean edge lengths in every dimension, wider for a weak boundary term" in text
+    assert (
+        "default auto: 8 mean edge lengths on simplices, 12 on quads, polygons and hexahedra, in every "
+        "dimension, wider for a weak boundary term" in text
+    )
     assert "30 on surfaces" not in text
