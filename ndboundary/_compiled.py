@@ -9,6 +9,27 @@ import numpy as np
 import scipy.sparse as sp
 
 
+@numba.njit(cache=True, nogil=True)
+def _unit_row(B, i, x, y, z):  # pragma: no cover - compiled
+    """Row ``i`` of ``B`` set to ``(x, y, z)`` scaled to unit length (zero stays zero)."""
+    s = x * x + y * y + z * z
+    if s > 0.0:
+        s = 1.0 / np.sqrt(s)
+    B[i, 0] = x * s
+    B[i, 1] = y * s
+    B[i, 2] = z * s
+
+
+@numba.njit(cache=True, nogil=True)
+def insert_sorted(values, count, b):  # pragma: no cover - compiled
+    """Insert ``b`` into the increasing ``values[:count]``; a few dozen entries at most."""
+    t = count
+    while t > 0 and values[t - 1] > b:
+        values[t] = values[t - 1]
+        t -= 1
+    values[t] = b
+
+
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
     for i in numba.prange(A.shape[0]):
@@ -21,12 +42,7 @@ def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
             x += w * A[j, 0]
             y += w * A[j, 1]
             z += w * A[j, 2]
-        s = x * x + y * y + z * z
-        if s > 0.0:
-            s = 1.0 / np.sqrt(s)
-        B[i, 0] = x * s
-        B[i, 1] = y * s
-        B[i, 2] = z * s
+        _unit_row(B, i, x, y, z)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -50,12 +66,7 @@ def _sweep3_unit(indptr, indices, A, B, with_self):  # pragma: no cover - compil
             x += A[i, 0]
             y += A[i, 1]
             z += A[i, 2]
-        s = x * x + y * y + z * z
-        if s > 0.0:
-            s = 1.0 / np.sqrt(s)
-        B[i, 0] = x * s
-        B[i, 1] = y * s
-        B[i, 2] = z * s
+        _unit_row(B, i, x, y, z)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -139,12 +150,7 @@ def _unique_pairs(first, second, n):  # pragma: no cover - compiled
             b = second[bucket[q]]
             if mark[b] != a:
                 mark[b] = a
-                # insertion into the sorted list of a's neighbours: a few per vertex
-                t = count
-                while t > 0 and unique[t - 1] > b:
-                    unique[t] = unique[t - 1]
-                    t -= 1
-                unique[t] = b
+                insert_sorted(unique, count, b)
                 count += 1
         for t in range(count):
             local[unique[t]] = n_edges + t

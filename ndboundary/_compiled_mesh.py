@@ -14,6 +14,8 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
+from ._compiled import insert_sorted
+
 __all__ = ["edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
 
 
@@ -145,12 +147,7 @@ def _neighbours(a, indptr, elements, simplices, mark, nbr):  # pragma: no cover 
             b = simplices[s, t]
             if b != a and mark[b] != a:
                 mark[b] = a
-                # insertion in order: a vertex has a few dozen neighbours at most
-                p = count
-                while p > 0 and nbr[p - 1] > b:
-                    nbr[p] = nbr[p - 1]
-                    p -= 1
-                nbr[p] = b
+                insert_sorted(nbr, count, b)
                 count += 1
     return count
 
