@@ -34,7 +34,6 @@ from .base import Domain
 from .simplex_geometry import (
     COMPILED_MIN_VERTICES_PER_SIMPLEX,
     aspect_ratios,
-    compiled_passes,
     simplex_geometry,
     simplex_incidence,
     stiffness_terms,
@@ -120,9 +119,9 @@ class SimplicialComplex(SimplicialTopology, Domain):
 
     # -- geometry ------------------------------------------------------------------
     def _compiled_geometry(self):
-        """Whether the geometry comes from the compiled pass (tetrahedra and triangles in
-        tetrahedral dimension or less: :data:`COMPILED_MIN_VERTICES_PER_SIMPLEX` to 4
-        vertices), where the volumes are computed first and the gradients when asked for.
+        """Whether the geometry comes from the compiled pass (simplices of
+        :data:`COMPILED_MIN_VERTICES_PER_SIMPLEX` to 4 vertices: tetrahedra), where the
+        volumes are computed first and the gradients when asked for.
         """
         return COMPILED_MIN_VERTICES_PER_SIMPLEX <= self.simplices.shape[1] <= 4
 
@@ -223,9 +222,10 @@ class SimplicialComplex(SimplicialTopology, Domain):
 
     def build_stiffness(self):
         """The stiffness (see the module docstring)."""
-        if self.split_from is None and compiled_passes(self.simplices):
+        if self.split_from is None and self.simplices.shape[1] >= COMPILED_MIN_VERTICES_PER_SIMPLEX:
             # summed row by row over the incidence, without the edge of every vertex pair
-            # of every simplex; the same sums as below, in the same order
+            # of every simplex; the same sums as below (the terms of the same compiled
+            # stiffness_terms), in the same order
             from .._compiled_mesh import stiffness_matrix
 
             K = stiffness_matrix(self.incidence, self.sorted_simplices, self.barycentric_gradients, self.volumes)
