@@ -25,7 +25,7 @@ Sizes: ``2d:n`` / ``3d:n`` (Kuhn grid of n cells a side, a circle / ball of radi
 domain), ``ico:k`` (icosphere of subdivision k), ``sphere:f`` (geodesic sphere of
 frequency f, 10 f^2 + 2 vertices: 77 -> 59K, 158 -> 250K, 316 -> 1.0M).
 
-Choice for the band systems ``relax`` solves by default (12 h wide), medians of 3 (2
+Choice for the band systems ``relax`` solved by default when it was 12 h wide, medians of 3 (2
 cores shared with another user's work: single runs of one method spread by up to 50 %
 while it was busy, and the medians of ``auto`` and ``amg-pcg``, the same solver, differ
 by up to 17 %)::
@@ -50,6 +50,13 @@ are light (a small lumped mass against their neighbours'): the AMG V-cycle alone
 (``ndboundary.solvers.amg.light_vertex_jacobi``) 45, 51 and 61. On the wider bands of
 16 h (``3d:99``: 540 K unknowns), the V-cycle alone needed 463 iterations (94 s), with
 the step 59 (16.8 s).
+
+Those figures predate the V-cycle of forward sweeps before the coarse correction and
+backward ones after, with two energy-minimisation iterations (``ndboundary.solvers.amg``),
+and the 8 h band on simplices. With both, ``python benchmarks/solvers.py --sizes
+3d:99,3d:62 --methods auto --slow 60`` gives 7.1 s (2.3 + 4.8, 72 iterations) at 277 K
+unknowns on ``3d:99`` and 2.5 s (0.8 + 1.7, 59) at 115 K on ``3d:62``, at this script's rtol
+of 1e-10; ``relax`` solves to its default 1e-7 (51 iterations on ``3d:99``).
 
 Candidates (each skipped when its package is missing; by default ``--methods`` runs
 ``auto``, ``amg-pcg``, ``superlu-pcg`` and the ``-direct`` ones of PARDISO, cvxopt,
