@@ -47,11 +47,14 @@ class SimplicialTopology:
         """
         if not compiled_passes(self.simplices) or self.split_from is not None:
             return super().mean_edge_length()
-        if "_mean_edge_length" not in self.__dict__:
-            from .._compiled_mesh import edge_length_graph
+        return self._compiled_mean_edge_length
 
-            self._mean_edge_length = edge_length_graph(self.incidence, self.simplices, self.points, with_graph=False)[1]
-        return self._mean_edge_length
+    @cached_property
+    def _compiled_mean_edge_length(self) -> float:
+        """The mean edge length from one compiled pass over the incidence."""
+        from .._compiled_mesh import edge_length_graph
+
+        return edge_length_graph(self.incidence, self.simplices, self.points, with_graph=False)[1]
 
     def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
         """The edges' lengths in units of ``unit``, both ways, shape (n_vertices, n_vertices);
