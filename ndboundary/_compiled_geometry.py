@@ -15,10 +15,67 @@ __all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_vo
 
 
 @numba.njit(cache=True, nogil=True)
+def _tet_gradient(grads, s, d, e0, e1, e2, m00, m01, m02, m11, m12, m22):  # pragma: no cover - compiled
+    """Component ``d`` of tetrahedron ``s``'s gradients from that component of its edges."""
+    r = 0.0 + e0 * m00 + e1 * m01 + e2 * m02
+    t = 0.0 + e0 * m01 + e1 * m11 + e2 * m12
+    u = 0.0 + e0 * m02 + e1 * m12 + e2 * m22
+    grads[s, d, 0] = 0.0 - r - t - u
+    grads[s, d, 1] = r
+    grads[s, d, 2] = t
+    grads[s, d, 3] = u
+
+
+@numba.njit(cache=True, nogil=True)
+def _tet_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragma: no cover - compiled
+    """:func:`_small_geometry` on tetrahedra in space: the same operations in the same
+    order, so the same values to the bit, on scalars instead of small arrays, and the
+    cofactors off the first row only when the gradients are asked for.
+    """
+    k = simplices.shape[1] - 1  # 3, typed as in the general pass
+    norm = 1.0
+    for i in range(2, k + 1):
+        norm *= i
+    for s in range(simplices.shape[0]):
+        x0, x1, x2, x3 = simplices[s, 0], simplices[s, 1], simplices[s, 2], simplices[s, 3]
+        p0, p1, p2 = points[x0, 0], points[x0, 1], points[x0, 2]
+        e00, e01, e02 = points[x1, 0] - p0, points[x1, 1] - p1, points[x1, 2] - p2
+        e10, e11, e12 = points[x2, 0] - p0, points[x2, 1] - p1, points[x2, 2] - p2
+        e20, e21, e22 = points[x3, 0] - p0, points[x3, 1] - p1, points[x3, 2] - p2
+        g00 = 0.0 + e00 * e00 + e01 * e01 + e02 * e02
+        g01 = 0.0 + e00 * e10 + e01 * e11 + e02 * e12
+        g02 = 0.0 + e00 * e20 + e01 * e21 + e02 * e22
+        g11 = 0.0 + e10 * e10 + e11 * e11 + e12 * e12
+        g12 = 0.0 + e10 * e20 + e11 * e21 + e12 * e22
+        g22 = 0.0 + e20 * e20 + e21 * e21 + e22 * e22
+        scale = (0.0 + g00 + g11 + g22) / k
+        c00 = g11 * g22 - g12 * g12
+        c01 = g02 * g12 - g01 * g22
+        c02 = g01 * g12 - g02 * g11
+        det = g00 * c00 + g01 * c01 + g02 * c02
+        bad = not (det > (rtol * scale) ** k)
+        vol[s] = np.nan if bad else np.sqrt(det) / norm
+        if not with_gradients:
+            continue
+        c11 = g00 * g22 - g02 * g02
+        c12 = g01 * g02 - g00 * g12
+        c22 = g00 * g11 - g01 * g01
+        inv_det = 0.0 if bad else 1.0 / det
+        m00, m01, m02 = c00 * inv_det, c01 * inv_det, c02 * inv_det
+        m11, m12, m22 = c11 * inv_det, c12 * inv_det, c22 * inv_det
+        _tet_gradient(grads, s, 0, e00, e10, e20, m00, m01, m02, m11, m12, m22)
+        _tet_gradient(grads, s, 1, e01, e11, e21, m00, m01, m02, m11, m12, m22)
+        _tet_gradient(grads, s, 2, e02, e12, e22, m00, m01, m02, m11, m12, m22)
+
+
+@numba.njit(cache=True, nogil=True)
 def _small_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragma: no cover - compiled
     E, k1 = simplices.shape
     k = k1 - 1
     dim = points.shape[1]
+    if k == 3 and dim == 3:
+        _tet_geometry(points, simplices, rtol, grads, vol, with_gradients)
+        return
     norm = 1.0
     for i in range(2, k + 1):
         norm *= i

@@ -1,11 +1,10 @@
 """Compiled loops (numba) over the vertex-simplex incidence of large complexes: the edge
-graph and the mean edge length, the simplices across each facet, the stiffness summed
-row by row.
+graph and the mean edge length, the simplices across each facet, the stiffness.
 
-Each pass walks the simplices at every vertex with a few scalars of state, where the
-vectorised versions sort tables of every vertex pair or facet, many times the mesh's
-size: on a tetrahedral mesh of a million vertices those tables, not the arithmetic, set
-the time.
+Each pass walks the simplices at every vertex (or every simplex once) with a few scalars
+of state, where the vectorised versions sort tables of every vertex pair or facet, many
+times the mesh's size: on a tetrahedral mesh of a million vertices those tables, not the
+arithmetic, set the time.
 """
 
 from __future__ import annotations
@@ -20,49 +19,72 @@ __all__ = ["edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffnes
 
 
 @numba.njit(cache=True, nogil=True)
+def _facet_vertex(srt, f, i, t):  # pragma: no cover - compiled
+    """The ``t``-th lowest vertex of the facet of ``f`` that leaves out its ``i``-th."""
+    return srt[f, t + 1 if t >= i else t]
+
+
+@numba.njit(cache=True, nogil=True)
 def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
-    E, k1 = srt.shape
-    across[:] = -2  # not sought yet
-    for e in range(E):
-        for i in range(k1):
-            if across[e, i] != -2:
-                continue  # found from the other side
-            # facet i leaves out vertex i; its lowest vertex holds every simplex sharing it
-            a = srt[e, 1] if i == 0 else srt[e, 0]
-            found = -1
-            for q in range(indptr[a], indptr[a + 1]):
-                f = elements[q]
-                if f == e:
-                    continue
-                # f holds the facet if it holds all its vertices (both rows sorted); the
-                # vertex of f it does not hold names the facet on f's side
-                p = 0
-                held = 0
-                for t in range(k1):
-                    if t == i:
-                        continue
-                    v = srt[e, t]
-                    while p < k1 and srt[f, p] < v:
-                        p += 1
-                    if p < k1 and srt[f, p] == v:
-                        held += 1
-                if held == k1 - 1:
-                    if found >= 0:
-                        return False  # a facet of three or more simplices
-                    found = f
-            across[e, i] = found
-            if found >= 0:
-                # the same facet seen from found: it leaves out found's vertex outside it
-                for j in range(k1):
-                    v = srt[found, j]
-                    inside = False
-                    for t in range(k1):
-                        if t != i and srt[e, t] == v:
-                            inside = True
-                    if not inside:
-                        if across[found, j] == -2:
-                            across[found, j] = e
+    """The simplex across each facet into ``across``; False at a facet of three simplices
+    or more.
+
+    Every facet is met once, at its lowest vertex ``a``: the simplices at ``a`` with ``a``
+    first hold all their facets but the first there, those with ``a`` second their first
+    facet. The facets met at ``a`` are paired by their second vertex (a chain of slots per
+    vertex, emptied after ``a``) and then the rest, so one pass over the stars finds every
+    pair, where a search per facet would test every simplex at its lowest vertex.
+    """
+    V = indptr.size - 1
+    k1 = srt.shape[1]
+    width = 1
+    for a in range(V):
+        width = max(width, (indptr[a + 1] - indptr[a]) * (k1 - 1))
+    head = np.full(V, -1, dtype=np.int32)  # per second vertex: its latest slot at a
+    lead = np.empty(width, dtype=np.int64)  # a slot's second vertex
+    chain = np.empty(width, dtype=np.int64)  # the slot before it with that second vertex
+    one = np.empty((width, 2), dtype=np.int64)  # the first (simplex, facet) on the slot
+    two = np.empty((width, 2), dtype=np.int64)  # the second, or -1
+    for a in range(V):
+        n = 0
+        for q in range(indptr[a], indptr[a + 1]):
+            f = elements[q]
+            if srt[f, 0] == a:
+                lo, hi = 1, k1
+            elif srt[f, 1] == a:
+                lo, hi = 0, 1
+            else:
+                continue
+            for i in range(lo, hi):
+                b = _facet_vertex(srt, f, i, 1) if k1 > 2 else a
+                s = head[b]
+                while s >= 0:
+                    same = True
+                    for t in range(2, k1 - 1):
+                        if _facet_vertex(srt, one[s, 0], one[s, 1], t) != _facet_vertex(srt, f, i, t):
+                            same = False
+                            break
+                    if same:
                         break
+                    s = chain[s]
+                if s < 0:
+                    lead[n] = b
+                    chain[n] = head[b]
+                    head[b] = n
+                    one[n, 0] = f
+                    one[n, 1] = i
+                    two[n, 0] = -1
+                    n += 1
+                elif two[s, 0] < 0:
+                    two[s, 0] = f
+                    two[s, 1] = i
+                else:
+                    return False  # a facet of three or more simplices
+        for s in range(n):
+            head[lead[s]] = -1
+            across[one[s, 0], one[s, 1]] = two[s, 0]
+            if two[s, 0] >= 0:
+                across[two[s, 0], two[s, 1]] = one[s, 0]
     return True
 
 
@@ -154,6 +176,9 @@ def _neighbours(a, indptr, elements, simplices, mark, nbr):  # pragma: no cover 
 
 @numba.njit(cache=True, nogil=True)
 def _length(points, a, b):  # pragma: no cover - compiled
+    if points.shape[1] == 3:
+        dx, dy, dz = points[a, 0] - points[b, 0], points[a, 1] - points[b, 1], points[a, 2] - points[b, 2]
+        return np.sqrt(0.0 + dx * dx + dy * dy + dz * dz)
     sq = 0.0
     for d in range(points.shape[1]):
         diff = points[a, d] - points[b, d]
@@ -162,28 +187,40 @@ def _length(points, a, b):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _edge_counts(indptr, elements, simplices, points, nbr):  # pragma: no cover - compiled
+def _edge_counts(indptr, elements, simplices, points, nbr, rows):  # pragma: no cover - compiled
     V = indptr.size - 1
-    mark = np.full(V, -1, dtype=np.int64)
-    rows = np.zeros(V + 1, dtype=np.int64)
+    mark = np.full(V, -1, dtype=elements.dtype)
+    with_rows = rows.size > 0  # the mean alone needs no row sizes
     # how many neighbours each vertex has, and the lengths of the edges (a, b > a) summed
-    # in the lexicographic order of the edges
+    # in the lexicographic order of the edges: only the higher neighbours kept in order
     total = 0.0
     n_edges = 0
     for a in range(V):
-        count = _neighbours(a, indptr, elements, simplices, mark, nbr)
-        rows[a + 1] = rows[a] + count
-        for p in range(count):
-            if nbr[p] > a:
-                total += _length(points, a, nbr[p])
-                n_edges += 1
-    return rows, total, n_edges
+        below = 0
+        above = 0
+        for q in range(indptr[a], indptr[a + 1]):
+            s = elements[q]
+            for t in range(simplices.shape[1]):
+                b = simplices[s, t]
+                if b > a and mark[b] != a:
+                    mark[b] = a
+                    insert_sorted(nbr, above, b)
+                    above += 1
+                elif b < a and with_rows and mark[b] != a:
+                    mark[b] = a
+                    below += 1
+        if with_rows:
+            rows[a + 1] = rows[a] + below + above
+        for p in range(above):
+            total += _length(points, a, nbr[p])
+        n_edges += above
+    return total, n_edges
 
 
 @numba.njit(cache=True, nogil=True)
 def _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, unit):  # pragma: no cover - compiled
     V = indptr.size - 1
-    mark = np.full(V, -1, dtype=np.int64)
+    mark = np.full(V, -1, dtype=elements.dtype)
     for a in range(V):
         count = _neighbours(a, indptr, elements, simplices, mark, nbr)
         start = rows[a]
@@ -195,26 +232,22 @@ def _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, un
 @numba.njit(cache=True, nogil=True)
 def _stiffness_counts(indptr, elements, srt, nbr, rows):  # pragma: no cover - compiled
     V = indptr.size - 1
-    mark = np.full(V, -1, dtype=np.int64)
+    mark = np.full(V, -1, dtype=elements.dtype)
     for a in range(V):
         count = _neighbours(a, indptr, elements, srt, mark, nbr)
         rows[a + 1] = rows[a] + count + (1 if indptr[a + 1] > indptr[a] else 0)
 
 
 @numba.njit(cache=True, nogil=True)
-def _stiffness_fill(indptr, elements, srt, grads, vol, nbr, rows, cols, data):  # pragma: no cover - compiled
+def _stiffness_columns(indptr, elements, srt, nbr, rows, cols, data):  # pragma: no cover - compiled
+    """Each row's columns in order, the diagonal among them, and its entries zeroed."""
     V = indptr.size - 1
-    k1 = srt.shape[1]
-    dim = grads.shape[1]
-    mark = np.full(V, -1, dtype=np.int64)
-    local = np.zeros(V, dtype=np.int64)
+    mark = np.full(V, -1, dtype=elements.dtype)
     for a in range(V):
         if indptr[a + 1] == indptr[a]:
             continue  # a vertex in no simplex: an empty row
         count = _neighbours(a, indptr, elements, srt, mark, nbr)
-        start = rows[a]
-        # the row's columns in order, the diagonal among them
-        q = start
+        q = rows[a]
         placed = False
         for t in range(count):
             if not placed and nbr[t] > a:
@@ -225,33 +258,75 @@ def _stiffness_fill(indptr, elements, srt, grads, vol, nbr, rows, cols, data):  
             q += 1
         if not placed:
             cols[q] = a
-        for q in range(start, rows[a + 1]):
-            local[cols[q]] = q - start
+        for q in range(rows[a], rows[a + 1]):
             data[q] = 0.0
-        # every simplex at a adds its terms vol g_a . g_b, in increasing order of the
-        # simplices: the order in which a sum over the vertex pairs of every simplex adds them
-        for r in range(indptr[a], indptr[a + 1]):
-            e = elements[r]
-            ia = 0
-            while srt[e, ia] != a:
-                ia += 1
-            for ib in range(k1):
-                i, j = min(ia, ib), max(ia, ib)
+
+
+@numba.njit(cache=True, nogil=True)
+def _term(g, i, j, w):  # pragma: no cover - compiled
+    """``w g_i . g_j`` of a tetrahedron's gradients ``g`` (3, 4), in the general loop's order."""
+    return (0.0 + g[0, i] * g[0, j] + g[1, i] * g[1, j] + g[2, i] * g[2, j]) * w
+
+
+@numba.njit(cache=True, nogil=True)
+def _add_row4(cols, data, q, b, t0, t1, t2, t3):  # pragma: no cover - compiled
+    """A tetrahedron's terms added to its vertices ``b`` (increasing) in the row from ``q``."""
+    while cols[q] < b[0]:
+        q += 1
+    data[q] += t0
+    while cols[q] < b[1]:
+        q += 1
+    data[q] += t1
+    while cols[q] < b[2]:
+        q += 1
+    data[q] += t2
+    while cols[q] < b[3]:
+        q += 1
+    data[q] += t3
+
+
+@numba.njit(cache=True, nogil=True)
+def _stiffness_fill(srt, grads, vol, rows, cols, data):  # pragma: no cover - compiled
+    # every simplex adds its terms vol g_i . g_j to the rows of its vertices, in increasing
+    # order of the simplices: the order in which a sum over the vertex pairs of every
+    # simplex adds them; its vertices, increasing, are found by one scan of each row
+    E, k1 = srt.shape
+    dim = grads.shape[1]
+    if k1 == 4 and dim == 3:
+        for e in range(E):
+            g, w = grads[e], vol[e]
+            t00, t01, t02, t03 = _term(g, 0, 0, w), _term(g, 0, 1, w), _term(g, 0, 2, w), _term(g, 0, 3, w)
+            t11, t12, t13 = _term(g, 1, 1, w), _term(g, 1, 2, w), _term(g, 1, 3, w)
+            t22, t23, t33 = _term(g, 2, 2, w), _term(g, 2, 3, w), _term(g, 3, 3, w)
+            b = srt[e]
+            _add_row4(cols, data, rows[b[0]], b, t00, t01, t02, t03)
+            _add_row4(cols, data, rows[b[1]], b, t01, t11, t12, t13)
+            _add_row4(cols, data, rows[b[2]], b, t02, t12, t22, t23)
+            _add_row4(cols, data, rows[b[3]], b, t03, t13, t23, t33)
+        return
+    for e in range(E):
+        for i in range(k1):
+            q = rows[srt[e, i]]
+            for j in range(k1):
+                while cols[q] < srt[e, j]:
+                    q += 1
                 t = 0.0
                 for d in range(dim):
                     t += grads[e, d, i] * grads[e, d, j]
-                data[start + local[srt[e, ib]]] += t * vol[e]
+                data[q] += t * vol[e]
 
 
 def stiffness_matrix(incidence, sorted_simplices, grads, vol):
     """``G^T diag(vol) G`` of simplices with barycentric gradients ``grads`` (over the
-    vertices of ``sorted_simplices``), summed row by row over the simplices at each vertex
-    (``incidence``, its simplices in increasing order), in canonical CSR form.
+    vertices of ``sorted_simplices``), in canonical CSR form: the columns of each row read
+    off the simplices at its vertex (``incidence``), then every simplex's terms added to
+    the rows of its vertices.
 
     Each entry is the sum of the terms ``vol g_i . g_j`` in the order a scatter of every
     simplex's terms in simplex order makes (that of
     :func:`~ndboundary.domains.simplex_geometry.stiffness_terms`), without the table of
-    every vertex pair and without storing the terms.
+    every vertex pair and without storing the terms: each simplex's terms are computed
+    once, its gradients read in one sweep in simplex order.
 
     Examples
     --------
@@ -275,7 +350,8 @@ def stiffness_matrix(incidence, sorted_simplices, grads, vol):
     idx = np.int32 if max(int(rows[-1]), V) < np.iinfo(np.int32).max else np.int64
     cols, data = np.empty(int(rows[-1]), dtype=idx), np.empty(int(rows[-1]))
     grads, vol = np.ascontiguousarray(grads), np.ascontiguousarray(vol, dtype=np.float64)
-    _stiffness_fill(inc.indptr, inc.indices, srt, grads, vol, nbr, rows, cols, data)
+    _stiffness_columns(inc.indptr, inc.indices, srt, nbr, rows, cols, data)
+    _stiffness_fill(srt, grads, vol, rows, cols, data)
     return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
 
 
@@ -307,7 +383,8 @@ def edge_length_graph(incidence, simplices, points, *, unit=1.0, with_graph=True
     indptr, elements = inc.indptr, inc.indices
     # room for a vertex's neighbours: at most the vertices of the simplices holding it
     nbr = np.empty(int(np.diff(indptr).max(initial=0)) * simplices.shape[1], dtype=np.int64)
-    rows, total, n_edges = _edge_counts(indptr, elements, simplices, points, nbr)
+    rows = np.zeros(V + 1 if with_graph else 0, dtype=np.int64)
+    total, n_edges = _edge_counts(indptr, elements, simplices, points, nbr, rows)
     mean = float(total / n_edges) if n_edges else float("nan")
     if not with_graph:
         return None, mean

@@ -5,6 +5,7 @@ import pytest
 
 from ndboundary import LevelSet, PolygonMesh, Relaxer, SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, hex_grid, icosphere, kuhn_grid, label_by, voronoi_polygons
+from ndboundary.domains.distances import GraphDistances, IncidenceDistances
 from ndboundary.metrics import level_set_distance
 from ndboundary.pipeline.band import AUTO_BAND_WIDTH, band_width
 
@@ -127,13 +128,14 @@ def test_auto_relaxes_the_whole_domain_without_the_first_order_term():
     np.testing.assert_array_equal(paper.phi, relax(mesh, labels, on="elements", mu=0.0, band=None).phi)
 
 
-def test_a_relaxer_keeps_the_edge_graph_for_every_labelling():
+def test_a_relaxer_keeps_the_edge_distances_for_every_labelling():
     mesh = kuhn_grid(240, 2, jitter=0.2, random_state=0)
     relaxer = Relaxer(mesh)
     first = relaxer.relax(label_by(mesh, circle), on="elements")
-    graph = relaxer._graph[1]
+    distances = relaxer._distances[1]
+    assert isinstance(distances, GraphDistances)  # 115 K triangles: a graph of the edges
     second = relaxer.relax(label_by(mesh, flower), on="elements")
-    assert relaxer._graph[1] is graph
+    assert relaxer._distances[1] is distances
     for res, truth in ((first, circle), (second, flower)):
         np.testing.assert_array_equal(res.phi, relax(mesh, label_by(mesh, truth), on="elements").phi)
 
@@ -183,3 +185,56 @@ def test_a_relaxer_on_the_band_equals_relax_when_the_width_changes():
         assert res.params["band"] == one_shot.params["band"]
         np.testing.assert_array_equal(res.phi, one_shot.phi)
     assert relaxer.relax(labels, on="elements", smoothing=20).params["band"] > first.params["band"]
+
+
+def _two_grids(dim, n):
+    """Two jittered Kuhn grids side by side, as one complex without a path between them."""
+    grid = kuhn_grid(n, dim, jitter=0.25, random_state=dim)
+    shift = np.zeros(dim)
+    shift[0] = 3.0
+    return SimplicialComplex(
+        np.vstack([grid.points, grid.points + shift]), np.vstack([grid.simplices, grid.simplices + grid.n_vertices])
+    )
+
+
+@pytest.mark.parametrize("dim, n", [(3, 9), (4, 4)])
+def test_the_incidence_walk_gives_dijkstras_distances_on_the_edge_graph(dim, n, rng):
+    from scipy.sparse.csgraph import dijkstra
+
+    mesh = _two_grids(dim, n)
+    h = mesh.mean_edge_length()
+    walk = mesh.edge_distances(h)
+    assert isinstance(walk, IncidenceDistances)
+    graph = GraphDistances(mesh.edge_length_graph(h))
+    sources = rng.choice(mesh.n_vertices // 2, 6, replace=False)
+    sources = np.append(sources, sources[0])  # a repeated source
+    offsets = rng.uniform(0.0, 3.0, sources.size)
+    blocked = rng.random(mesh.n_vertices) < 0.2
+    blocked[sources] = False
+    with_offsets = ({"offsets": offsets}, {"offsets": offsets, "limit": 2.0}, {"blocked": blocked})
+    for kwargs in ({}, {"limit": 2.5}, {"limit": 0.0}, *with_offsets):
+        a, b = walk(sources, **kwargs), graph(sources, **kwargs)
+        np.testing.assert_array_equal(a, b)  # the same sums along the same paths
+        if set(kwargs) <= {"limit"}:
+            reference = dijkstra(graph.graph, indices=sources, min_only=True, limit=kwargs.get("limit", np.inf))
+            np.testing.assert_array_equal(a, reference)  # and scipy's
+        assert np.isinf(a[mesh.n_vertices // 2 :]).all()  # the other grid: no path
+    assert walk(sources)[sources[0]] == 0.0 and walk(sources, offsets=offsets)[sources[1]] <= offsets[1]
+    for distances in (walk, graph):
+        with pytest.raises(ValueError, match="offsets has shape"):
+            distances(sources, offsets=offsets[:-1])
+        with pytest.raises(ValueError, match="sources must be vertex indices"):
+            distances([0, mesh.n_vertices])
+        with pytest.raises(ValueError, match="sources must be vertex indices"):
+            distances([-1])
+
+
+def test_the_band_on_tetrahedra_is_the_same_walked_or_on_the_graph(monkeypatch):
+    mesh = kuhn_grid(36, 3, jitter=0.25, random_state=0)
+    labels = label_by(mesh, lambda x: ball(x, r=0.3))
+    walked = relax(mesh, labels, on="elements")
+    assert walked.params["band_vertices"] < mesh.n_vertices
+    on_graph = lambda self, unit=1.0: GraphDistances(self.edge_length_graph(unit))  # noqa: E731
+    monkeypatch.setattr(SimplicialComplex, "edge_distances", on_graph)
+    on_graph = relax(mesh, labels, on="elements")
+    np.testing.assert_array_equal(walked.phi, on_graph.phi)

@@ -7,6 +7,8 @@ import scipy.sparse as sp
 
 from ndboundary import SimplicialComplex
 from ndboundary._arrays import shared_facet_adjacency
+from ndboundary._compiled_geometry import small_simplex_geometry_compiled, small_simplex_volumes
+from ndboundary._compiled_mesh import facet_neighbours
 from ndboundary.datasets import hex_grid, kuhn_grid
 from ndboundary.domains import Domain
 from ndboundary.domains.simplex_geometry import (
@@ -68,6 +70,16 @@ def test_gradients_wait_until_asked_and_equal_the_vectorised_ones(tets):
     np.testing.assert_array_equal(band.barycentric_gradients, fresh.barycentric_gradients[::2])
 
 
+def test_the_tetrahedra_pass_is_the_general_one_bit_for_bit(tets):
+    # in four dimensions, with a zero last coordinate, the general loops add only zeros
+    flat = np.column_stack([tets.points, np.zeros(tets.n_vertices)])
+    grads, vol = small_simplex_geometry_compiled(tets.points, tets.sorted_simplices, 1e-10)
+    grads4, vol4 = small_simplex_geometry_compiled(flat, tets.sorted_simplices, 1e-10)
+    np.testing.assert_array_equal(grads, grads4[:, :3])
+    np.testing.assert_array_equal(vol, vol4)
+    np.testing.assert_array_equal(small_simplex_volumes(tets.points, tets.sorted_simplices, 1e-10), vol)
+
+
 def test_a_degenerate_tetrahedron_is_refused():
     points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1]]
     with pytest.raises(ValueError, match="simplex 1 .*volume"):
@@ -103,6 +115,48 @@ def test_adjacency_off_manifold_is_the_facet_tables(simplices):
     reference = shared_facet_adjacency(dom._facet_groups[0], np.repeat(np.arange(E), k1), E)
     assert (dom.adjacency != reference).nnz == 0
     assert dom.adjacency[1, 0] == (simplices[1] != [4, 5, 6, 7])  # joined unless apart
+
+
+def _reference_across(srt):
+    """The simplex across each facet by brute force, -1 on the border; None off manifold."""
+    owner = {}
+    for e, s in enumerate(srt):
+        for i in range(len(s)):
+            owner.setdefault(tuple(np.delete(s, i)), []).append((e, i))
+    across = np.full(srt.shape, -1)
+    for held in owner.values():
+        if len(held) > 2:
+            return None
+        if len(held) == 2:
+            (e, i), (f, j) = held
+            across[e, i], across[f, j] = f, e
+    return across
+
+
+def _across(srt):
+    E, k1 = srt.shape
+    inc = sp.csr_matrix((np.ones(srt.size), (srt.ravel(), np.repeat(np.arange(E), k1))), shape=(srt.max() + 1, E))
+    return facet_neighbours(inc, srt)
+
+
+@pytest.mark.parametrize("dim", [3, 4])
+def test_the_simplex_across_each_facet_is_the_brute_force_one(dim):
+    grid = kuhn_grid(4, dim, jitter=0.2, random_state=1)
+    srt = grid.sorted_simplices[np.random.default_rng(0).random(grid.n_elements) < 0.7]  # holes
+    np.testing.assert_array_equal(_across(srt), _reference_across(srt))
+    np.testing.assert_array_equal(_across(np.array([[0, 1, 2, 3], [0, 1, 2, 3]])), [[1] * 4, [0] * 4])
+    assert _across(np.array([[0, 1, 2, 3], [1, 2, 3, 4], [1, 2, 3, 5]])) is None
+
+
+def test_stiffness_of_four_simplices_is_the_pair_table_bit_for_bit():
+    grid = kuhn_grid(3, 4, jitter=0.2, random_state=3)  # the general loop, not the tetrahedra's
+    off, diag, used = grid.stiffness_sums
+    reference = symmetric_csr(grid.edges, off, diag, used)
+    reference.eliminate_zeros()
+    K = grid.K
+    np.testing.assert_array_equal(K.indptr, reference.indptr)
+    np.testing.assert_array_equal(K.indices, reference.indices)
+    np.testing.assert_array_equal(K.data, reference.data)
 
 
 def test_adjacency_of_a_jittered_grid(tets):

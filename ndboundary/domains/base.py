@@ -29,7 +29,8 @@ The cached operators ``G``, ``A``, ``K`` (``G^T diag(A) G`` unless
 :meth:`~Domain.build_stiffness` is overridden), ``mass``, ``M``, ``incidence``,
 ``adjacency`` and ``edges``; :meth:`~Domain.gradient` and :meth:`~Domain.div`;
 :meth:`~Domain.mean_edge_length` (the mesh size ``h``); :attr:`~Domain.vertex_components`
-and :meth:`~Domain.edge_graph`; the field smoothing of the paper's step 3
+and :meth:`~Domain.edge_graph`; the queries that find the band and fill phi outside it
+(:class:`~ndboundary.domains.queries.IncidenceQueries`); the field smoothing of the paper's step 3
 (:meth:`~Domain.smooth_field`: uniform averaging over each element and its neighbours);
 the calibration of the boundary weight against a regular grid
 (:meth:`~Domain.lam_reference`); the label propagation graph
@@ -48,6 +49,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..fields import smooth_rows
+from .queries import IncidenceQueries
 from .simplex_geometry import kuhn_grid_stiffness
 
 __all__ = ["Domain", "MeshQualityWarning"]
@@ -62,7 +64,7 @@ class MeshQualityWarning(UserWarning):
     """
 
 
-class Domain:
+class Domain(IncidenceQueries):
     """Base class of the domains: the operators the relaxation needs, built once and cached.
 
     See the module docstring for what a subclass provides and what it gets.
@@ -172,11 +174,6 @@ class Domain:
         f = np.asarray(f, dtype=np.float64).reshape(self.n_vertices)
         return (self.G @ f).reshape(self.n_elements, self.dim)
 
-    def element_max(self, f) -> np.ndarray:
-        """Per element, the largest value of the vertex function ``f`` over its vertices."""
-        by_element = self.incidence.T.tocsr()  # every row is non-empty
-        return np.maximum.reduceat(np.asarray(f)[by_element.indices], by_element.indptr[:-1])
-
     # -- geometry -------------------------------------------------------------
     @cached_property
     def edge_lengths(self) -> np.ndarray:
@@ -187,13 +184,6 @@ class Domain:
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method."""
         return float(self.edge_lengths.mean())
-
-    def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
-        """The edges' lengths in units of ``unit`` as a symmetric sparse matrix, both ways,
-        shape (n_vertices, n_vertices).
-        """
-        upper = self.edge_graph(self.edge_lengths / unit)
-        return (upper + upper.T).tocsr()  # a sum of sorted halves, no sort
 
     def element_centroids(self) -> np.ndarray:
         """Element centroids, shape (n_elements, dim)."""

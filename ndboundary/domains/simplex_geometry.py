@@ -319,9 +319,9 @@ def simplex_edges(srt, n_vertices):
     return edges, pair_edge
 
 
-def simplex_incidence(simplices, sorted_simplices, n_vertices):
-    """The vertex-element incidence (n_vertices, n_elements) of simplices, ones where a
-    vertex belongs to an element.
+def simplex_incidence(simplices, sorted_simplices, n_vertices, dtype=np.float64):
+    """The vertex-element incidence (n_vertices, n_elements) of simplices, ones (of
+    ``dtype``) where a vertex belongs to an element.
 
     Examples
     --------
@@ -334,14 +334,14 @@ def simplex_incidence(simplices, sorted_simplices, n_vertices):
     if not compiled_passes(simplices):
         # the element-vertex matrix, one row per simplex, transposed
         by_element = sp.csr_matrix(
-            (np.ones(E * k1), sorted_simplices.astype(idx).ravel(), np.arange(E + 1, dtype=idx) * k1),
+            (np.ones(E * k1, dtype=dtype), sorted_simplices.astype(idx).ravel(), np.arange(E + 1, dtype=idx) * k1),
             shape=(E, n_vertices),
         )
         return by_element.T.tocsr()
     from .._compiled import rows_by_value
 
     indptr, indices = rows_by_value(simplices, n_vertices, idx)  # a counting pass
-    return sp.csr_matrix((np.ones(E * k1), indices, indptr), shape=(n_vertices, E))
+    return sp.csr_matrix((np.ones(E * k1, dtype=dtype), indices, indptr), shape=(n_vertices, E))
 
 
 def kuhn_grid_stiffness(k):

@@ -228,7 +228,7 @@ class SimplicialComplex(SimplicialTopology, Domain):
             # stiffness_terms), in the same order
             from .._compiled_mesh import stiffness_matrix
 
-            K = stiffness_matrix(self.incidence, self.sorted_simplices, self.barycentric_gradients, self.volumes)
+            K = stiffness_matrix(self.vertex_simplices, self.sorted_simplices, self.barycentric_gradients, self.volumes)
             K.eliminate_zeros()
             return K
         off, diag, used = self.stiffness_sums
@@ -247,7 +247,10 @@ class SimplicialComplex(SimplicialTopology, Domain):
         return fill_unused_mass(m, self.volumes / k1)
 
     def build_incidence(self):
-        """The vertex-element incidence."""
+        """The vertex-element incidence (on :attr:`vertex_simplices`' structure, when built)."""
+        held = self.__dict__.get("vertex_simplices")
+        if held is not None:
+            return sp.csr_matrix((np.ones(held.nnz), held.indices, held.indptr), shape=held.shape)
         return simplex_incidence(self.simplices, self.sorted_simplices, self.n_vertices)
 
     def element_max(self, f):

@@ -78,8 +78,8 @@ class SplitOperators:
         """The kept simplices sharing a vertex with a split simplex, increasing."""
         P = self.parent
         near = self._split_vertices
-        if "incidence" in P.__dict__:
-            inc = P.incidence
+        inc = P.__dict__.get("vertex_simplices", P.__dict__.get("incidence"))
+        if inc is not None:
             rows = np.flatnonzero(near)
             held = np.zeros(P.n_elements, dtype=bool)
             held[inc.indices[expand_ranges(inc.indptr[rows], inc.indptr[rows + 1] - inc.indptr[rows])]] = True

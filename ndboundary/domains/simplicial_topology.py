@@ -24,7 +24,7 @@ from .._arrays import (
     shared_facet_adjacency,
     sort_rows,
 )
-from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, compiled_passes, simplex_edges
+from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, compiled_passes, simplex_edges, simplex_incidence
 
 __all__ = ["SimplicialTopology"]
 
@@ -38,6 +38,19 @@ class SimplicialTopology:
     #: :class:`~ndboundary.domains.simplicial_split.SplitOperators` that derive their
     #: operators from the parent's; None otherwise.
     split_from = None
+
+    @cached_property
+    def vertex_simplices(self) -> sp.csr_matrix:
+        """The simplices at each vertex, in increasing order: the structure of the
+        ``incidence`` (shape (n_vertices, n_elements)) with boolean entries.
+
+        The compiled passes read the structure alone, and ``incidence`` is built from it
+        when asked for: its float entries take 190 MB on a tetrahedral mesh of a million
+        vertices, which finding the band and filling phi outside it do not need.
+        """
+        if "incidence" in self.__dict__:
+            return self.incidence
+        return simplex_incidence(self.simplices, self.sorted_simplices, self.n_vertices, dtype=bool)
 
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method.
@@ -54,7 +67,7 @@ class SimplicialTopology:
         """The mean edge length from one compiled pass over the incidence."""
         from .._compiled_mesh import edge_length_graph
 
-        return edge_length_graph(self.incidence, self.simplices, self.points, with_graph=False)[1]
+        return edge_length_graph(self.vertex_simplices, self.simplices, self.points, with_graph=False)[1]
 
     def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
         """The edges' lengths in units of ``unit``, both ways, shape (n_vertices, n_vertices);
@@ -65,7 +78,38 @@ class SimplicialTopology:
             return super().edge_length_graph(unit)
         from .._compiled_mesh import edge_length_graph
 
-        return edge_length_graph(self.incidence, self.simplices, self.points, unit=unit)[0]
+        return edge_length_graph(self.vertex_simplices, self.simplices, self.points, unit=unit)[0]
+
+    def vertices_of(self, elements) -> np.ndarray:
+        """The vertices of the simplices selected by the boolean mask ``elements`` (a mask),
+        read off the simplices a column at a time.
+        """
+        elements = np.asarray(elements, dtype=bool)
+        out = np.zeros(self.n_vertices, dtype=bool)
+        for column in self.simplices.T:
+            out[column[elements]] = True
+        return out
+
+    def elements_at(self, vertices) -> np.ndarray:
+        """The simplices holding a vertex selected by the boolean mask ``vertices`` (a mask),
+        read off the simplices.
+        """
+        vertices = np.asarray(vertices, dtype=bool)
+        out = vertices[self.simplices[:, 0]]
+        for column in self.simplices.T[1:]:
+            out |= vertices[column]
+        return out
+
+    def edge_distances(self, unit=1.0):
+        """Shortest distances along the edges in units of ``unit`` (a callable, see
+        :meth:`ndboundary.Domain.edge_distances`); on tetrahedra and up, and on large
+        complexes, walked over the incidence without a graph of the edges.
+        """
+        if not compiled_passes(self.simplices) or self.split_from is not None:
+            return super().edge_distances(unit)
+        from .distances import IncidenceDistances
+
+        return IncidenceDistances(self, unit)
 
     @cached_property
     def vertex_components(self):
@@ -149,7 +193,7 @@ class SimplicialTopology:
             # each facet's partner among the simplices at its lowest vertex, in one pass
             from .._compiled_mesh import facet_adjacency, facet_neighbours
 
-            across = facet_neighbours(self.incidence, self.sorted_simplices)
+            across = facet_neighbours(self.vertex_simplices, self.sorted_simplices)
             rows = None if across is None else facet_adjacency(across)
             if rows is not None:
                 indptr, indices = rows

@@ -7,8 +7,10 @@ a vertex within a graph distance ``width * h`` of zeta's vertices (Dijkstra alon
 edges, stopped at that distance, so its cost follows the band).
 
 Outside the band, phi is the band-edge value plus the signed graph distance in units of
-``h``: ``phi = 1/2 + s (|phi_b - 1/2| + c d(b, v) / h)`` minimised over the band's vertices
-``b``, with ``s = -1`` in region 0 and ``+1`` in region 1, and ``c`` the rate at which the
+``h``: ``phi = 1/2 + s (|phi_b - 1/2| + c d(b, v) / h)`` minimised over the vertices ``b``
+of the band's edge (those that an element outside the band holds) and the paths from
+them that stay outside the band, with ``s = -1`` in region 0 and ``+1`` in region 1, and
+``c`` the rate at which the
 solved ``|phi - 1/2|`` grows with the graph distance over the band's outer half
 (:func:`growth_rate`). It is finite, on the side of 1/2 of its region, continuous with the
 band at its edge, and grows away from zeta at the rate of the solved phi
@@ -17,16 +19,16 @@ Vertices that no path joins to the band (domain components without zeta) get
 ``1/2 -/+ 1``, as the whole-domain solve pins them.
 
 Outside the band, nothing but linear passes touches the domain: finding zeta and its
-neighbourhood (:func:`~ndboundary.pipeline.boundary.element_boundary`), the edge graph
-(:func:`band_graph`, shared by every labelling of a domain), the stopped Dijkstra of
-:func:`band_elements` and the one of :func:`extend_outside`.
+neighbourhood (:func:`~ndboundary.pipeline.boundary.element_boundary`), the stopped
+Dijkstra of :func:`band_elements` and the one of :func:`extend_outside`, along the edges
+(:meth:`~ndboundary.Domain.edge_distances`: on tetrahedral and large triangle meshes a
+walk over the simplices at each vertex, elsewhere a graph of the edges that a
+:class:`~ndboundary.Relaxer` builds once for every labelling of its domain).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import dijkstra
 
 from ..domains.base import Domain
 from .params import DEFAULT_LAM, DEFAULT_SMOOTHING
@@ -37,7 +39,6 @@ __all__ = [
     "AUTO_BAND_MIN_SMOOTHING",
     "AUTO_BAND_WIDTH",
     "band_elements",
-    "band_graph",
     "band_width",
     "can_cut",
     "element_rings",
@@ -94,56 +95,32 @@ def element_rings(domain, vertices, rings=1):
     >>> int(element_rings(grid, [60]).sum()), int(element_rings(grid, [60], rings=2).sum())
     (6, 24)
     """
-    inc = domain.incidence
-    near = np.zeros(domain.n_vertices)
-    near[np.asarray(vertices, dtype=np.intp)] = 1.0
+    near = np.zeros(domain.n_vertices, dtype=bool)
+    near[np.asarray(vertices, dtype=np.intp)] = True
     for _ in range(rings - 1):
-        near = ((inc @ ((inc.T @ near) > 0).astype(np.float64)) > 0).astype(np.float64)
-    return (inc.T @ near) > 0
+        near = domain.vertices_of(domain.elements_at(near))
+    return domain.elements_at(near)
 
 
-def band_graph(domain, h):
-    """The domain's edges in units of ``h``, both ways, as a sparse matrix over the vertices
-    and one extra, edgeless node (where :func:`extend_outside` puts its virtual source).
-
-    It depends on the domain alone: a :class:`~ndboundary.Relaxer` builds it once for every
-    labelling.
-
-    Examples
-    --------
-    >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.band import band_graph
-    >>> grid = kuhn_grid(10, 1)  # a chain of 11 vertices, h = 0.2
-    >>> graph = band_graph(grid, 0.2)
-    >>> graph.shape, graph.nnz, round(float(graph[3, 4]), 9)
-    ((12, 12), 20, 1.0)
-    """
-    V = domain.n_vertices
-    lengths = domain.edge_length_graph(h)
-    # the extra node: one more, empty row and column
-    indptr = np.append(lengths.indptr, lengths.indptr[-1])
-    return sp.csr_matrix((lengths.data, lengths.indices, indptr), shape=(V + 1, V + 1))
-
-
-def band_elements(domain, sources, width, graph):
+def band_elements(domain, sources, width, distances):
     """The elements with a vertex within graph distance ``width`` (in units of ``h``) of the
-    ``sources``, along :func:`band_graph`'s ``graph``, and every vertex's distance (inf
-    beyond ``width``).
+    ``sources``, along the edges (``distances``: the domain's
+    :meth:`~ndboundary.Domain.edge_distances` in units of ``h``), and every vertex's
+    distance (inf beyond ``width``).
 
     Examples
     --------
     >>> import numpy as np
     >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.band import band_elements, band_graph
+    >>> from ndboundary.pipeline.band import band_elements
     >>> grid = kuhn_grid(20, 2)
     >>> centre = [int(np.argmin(np.linalg.norm(grid.points, axis=1)))]
-    >>> band, dist = band_elements(grid, centre, 3.0, band_graph(grid, grid.mean_edge_length()))
+    >>> band, dist = band_elements(grid, centre, 3.0, grid.edge_distances(grid.mean_edge_length()))
     >>> bool(0 < band.sum() < grid.n_elements), float(dist[centre[0]]), bool(np.isinf(dist).any())
     (True, 0.0, True)
     """
-    dist = dijkstra(graph, directed=True, indices=sources, min_only=True, limit=width)[: domain.n_vertices]
-    near = np.isfinite(dist)
-    return (domain.incidence.T @ near.astype(np.float64)) > 0, dist
+    dist = distances(sources, limit=width)
+    return domain.elements_at(np.isfinite(dist)), dist
 
 
 def growth_rate(phi_band, distance, width):
@@ -170,35 +147,35 @@ def growth_rate(phi_band, distance, width):
     return float(np.clip(slope, 0.5, 2.0))
 
 
-def extend_outside(domain, vertices, phi_band, vert_region1, graph, rate=1.0):
-    """Phi on every vertex: ``phi_band`` on the band's ``vertices``, outside it the band-edge
-    value plus ``rate`` times the signed graph distance (see the module docstring).
+def extend_outside(domain, elements, vertices, phi_band, vert_region1, distances, rate=1.0):
+    """Phi on every vertex: ``phi_band`` on the ``vertices`` of the band's ``elements``
+    (indices), outside it the band-edge value plus ``rate`` times the signed graph
+    distance from the band's edge (see the module docstring), along the edges
+    (``distances``: the domain's :meth:`~ndboundary.Domain.edge_distances` in units of
+    ``h``).
 
     Examples
     --------
     >>> import numpy as np
     >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.band import band_graph, extend_outside
-    >>> grid = kuhn_grid(10, 1)  # a chain of 11 vertices, h = 0.2
-    >>> band = np.array([4, 5, 6])
-    >>> phi = extend_outside(grid, band, np.array([0.0, 0.5, 1.0]), grid.points[:, 0] > 0, band_graph(grid, 0.2))
+    >>> from ndboundary.pipeline.band import extend_outside
+    >>> grid = kuhn_grid(10, 1)  # a chain of 11 vertices and its 10 segments, h = 0.2
+    >>> side = grid.points[:, 0] > 0
+    >>> phi = extend_outside(grid, [4, 5], [4, 5, 6], np.array([0.0, 0.5, 1.0]), side, grid.edge_distances(0.2))
     >>> phi.round(6).tolist()
     [-4.0, -3.0, -2.0, -1.0, 0.0, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0]
     """
-    V = domain.n_vertices
-    offset = np.abs(np.asarray(phi_band, dtype=np.float64) - 0.5) / rate
-    # the extra node becomes a virtual source joined to every band vertex by its offset:
-    # one Dijkstra pass. Its row is the last one, so appending it costs one copy.
-    nnz = graph.indptr[-1]
-    augmented = sp.csr_matrix(
-        (
-            np.concatenate([graph.data, offset + 1e-300]),  # an explicit zero would drop the edge
-            np.concatenate([graph.indices, vertices.astype(graph.indices.dtype)]),
-            np.append(graph.indptr[:-1], nnz + vertices.size).astype(graph.indptr.dtype),
-        ),
-        shape=graph.shape,
-    )
-    dist = rate * dijkstra(augmented, directed=True, indices=V)[:V]
+    vertices = np.asarray(vertices, dtype=np.int64)
+    band = np.zeros(domain.n_elements, dtype=bool)
+    band[np.asarray(elements, dtype=np.int64)] = True
+    inside = np.zeros(domain.n_vertices, dtype=bool)
+    inside[vertices] = True
+    # the band's edge: its vertices that an element outside it holds. Every path from
+    # outside enters the band there; the walk starts there and stays outside.
+    edge = inside & domain.vertices_of(~band)
+    at_edge = edge[vertices]
+    offset = np.abs(np.asarray(phi_band, dtype=np.float64)[at_edge] - 0.5) / rate
+    dist = rate * distances(vertices[at_edge], offsets=offset, blocked=inside & ~edge)
     sign = np.where(vert_region1, 1.0, -1.0)
     phi = np.where(np.isfinite(dist), 0.5 + sign * dist, 0.5 + sign)
     phi[vertices] = phi_band

@@ -65,10 +65,7 @@ def element_boundary(domain, region1):
     >>> zeta.sources.size, zeta.facets.shape  # 20 vertices, joined by 20 jagged edges
     (20, (20, 2))
     """
-    inc = domain.incidence
-    n1 = inc @ region1.astype(np.float64)
-    n0 = inc @ (~region1).astype(np.float64)
-    sources = np.flatnonzero((n1 > 0) & (n0 > 0))
+    sources = np.flatnonzero(domain.vertices_of(region1) & domain.vertices_of(~region1))
     S = sp.csr_matrix(
         (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
     )

@@ -92,17 +92,13 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     >>> padded.split.tolist(), padded.work.n_vertices, padded.work.n_elements
     ([0], 122, 202)
     """
-    inc = domain.incidence
     if on == "elements":
         straddle = np.zeros(domain.n_elements, dtype=bool)
     else:
-        per_elem = inc.T @ region1.astype(np.float64)
-        size = np.asarray(inc.sum(axis=0)).ravel()
-        straddle = (per_elem > 0) & (per_elem < size)
+        straddle = domain.elements_at(region1) & domain.elements_at(~region1)
     hot = np.zeros(domain.n_vertices, dtype=bool)
     hot[boundary.sources] = True
-    flat = (inc.T @ (~hot).astype(np.float64)) == 0
-    flat &= ~straddle
+    flat = ~domain.elements_at(~hot) & ~straddle
     if enabled and flat.any():
         work, parent = domain.split_elements(flat)
     else:
@@ -110,9 +106,9 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     split = np.flatnonzero(flat) if work is not domain else np.zeros(0, dtype=np.int64)
     if on == "elements":
         elem_region1 = region1[parent]
-        vert_region1 = (inc @ region1.astype(np.float64)) > 0
+        vert_region1 = domain.vertices_of(region1)
     else:
-        elem_region1 = (inc.T @ region1.astype(np.float64))[parent] > 0
+        elem_region1 = domain.elements_at(region1)[parent]
         straddle = straddle[parent]
         vert_region1 = region1
     S, targets = pinned_rows(domain, boundary.S, vert_region1)

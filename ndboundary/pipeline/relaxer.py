@@ -23,7 +23,6 @@ from .band import (
     AUTO_BAND_MAX_SHARE,
     AUTO_BAND_MIN_VERTICES,
     band_elements,
-    band_graph,
     band_width,
     element_rings,
     extend_outside,
@@ -88,7 +87,7 @@ class Relaxer:
     integration system (with PARDISO's ordering, which serves every labelling of the
     domain). Another smoothing of the same labels then costs the smoothing and a
     back-substitution; another ``lam`` reuses everything but the factorisation. On the
-    band (:mod:`ndboundary.pipeline.band`) it keeps the edge graph the band is found on,
+    band (:mod:`ndboundary.pipeline.band`) it keeps the edge distances the band is found by,
     which serves every labelling of the domain, and the band's own relaxer, which serves
     every labelling with the same band. Memory is bounded to one labelling and one
     factor: :attr:`nbytes` reports it and :meth:`clear` frees it.
@@ -127,7 +126,7 @@ class Relaxer:
         self._heat = None  # (key, u, heat_info, X)
         self._band = None  # (key, boundary, lam_scale or None, (width, mask, distance from zeta))
         self._band_relaxer = None  # (digest of the band's mask, relaxer of the band, its vertices)
-        self._graph = None  # the edge graph of the band's searches: the same for every labelling
+        self._distances = None  # the band's searches along the edges: the same for every labelling
         self._h = _h  # the mesh size of the domain this one is a band of
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
@@ -136,7 +135,7 @@ class Relaxer:
     @property
     def nbytes(self) -> int:
         """Memory held for the next relaxation: padded operators, heat, field and factor (bytes)."""
-        held = _nbytes([self._labelling, self._heat, self._graph], {id(self.domain)}) + self._factors.nbytes
+        held = _nbytes([self._labelling, self._heat, self._distances], {id(self.domain)}) + self._factors.nbytes
         if self._band is not None:
             held += _nbytes([self._band[1], self._band[3]], set())
         if self._band_relaxer is not None:
@@ -146,7 +145,7 @@ class Relaxer:
 
     def clear(self):
         """Free everything kept for the next relaxation (the domain's own operators stay)."""
-        self._labelling = self._heat = self._band = self._band_relaxer = self._graph = None
+        self._labelling = self._heat = self._band = self._band_relaxer = self._distances = None
         self._factors.clear()
 
     def relax(
@@ -238,20 +237,20 @@ class Relaxer:
         t0 = time.perf_counter()
         h = self.domain.mean_edge_length() if self._h is None else self._h
         params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
-        results, graph = [], self._graph
+        results, distances = [], self._distances
         # the squared operator and PARDISO's ordering serve every region; each factor its own
         shared = self._factors if self._keep else FactorCache(keep_factor=False)
         for r in range(classes.size):
             relaxer = Relaxer(self.domain, _keep=False, _h=h)
-            relaxer._graph = graph  # the band's edge graph serves every region
+            relaxer._distances = distances  # the band's searches serve every region
             relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
             relaxer._shared = shared
             if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
                 relaxer._sectors = (codes, r)
             results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
-            graph = relaxer._graph
+            distances = relaxer._distances
         if self._keep:
-            self._graph = graph
+            self._distances = distances
         timings = {}
         for res in results:
             for step, seconds in res.timings.items():
@@ -265,15 +264,15 @@ class Relaxer:
         when the band holds every element (the whole-domain relaxation is then the same)
         or, for ``band="auto"``, most of them (the whole domain then costs no more).
 
-        The edge graph serves every labelling, and the band's relaxer (its operators,
+        The edge distances serve every labelling, and the band's relaxer (its operators,
         orderings and factor) every labelling whose band is the same. ``start`` is when the
         relaxation began: the "locate" time counts from there.
         """
         domain, on = self.domain, p["on"]
         tick = start  # locating zeta and the band includes the mesh size h
-        if self._graph is None or self._graph[0] != h:
-            self._graph = (h, band_graph(domain, h))
-        graph = self._graph[1]
+        if self._distances is None or self._distances[0] != h:
+            self._distances = (h, domain.edge_distances(h))
+        distances = self._distances[1]
         if self._band is not None and self._band[0] == key:
             boundary, scale, cached = self._band[1:]
         else:
@@ -286,7 +285,7 @@ class Relaxer:
         def band_of(width):
             if cached is not None and cached[0] == width:
                 return cached[1:]
-            return band_elements(domain, boundary.sources, width, graph)
+            return band_elements(domain, boundary.sources, width, distances)
 
         width = p["band"]
         if width == "auto":
@@ -330,12 +329,12 @@ class Relaxer:
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
         res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
         tick = time.perf_counter()
-        vert_region1 = region1 if on == "vertices" else (domain.incidence @ region1.astype(np.float64)) > 0
+        vert_region1 = region1 if on == "vertices" else domain.vertices_of(region1)
         rate = growth_rate(res.phi, dist[vertices], width)
         if self._fill:
-            res.phi = extend_outside(domain, vertices, res.phi, vert_region1, graph, rate)
+            res.phi = extend_outside(domain, np.flatnonzero(mask), vertices, res.phi, vert_region1, distances, rate)
         else:
-            res.phi = DeferredFill(vertices, res.phi, vert_region1, graph, rate)
+            res.phi = DeferredFill(np.flatnonzero(mask), vertices, res.phi, vert_region1, distances, rate)
         u = np.zeros(domain.n_vertices)
         u[vertices] = res.u
         res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain

@@ -23,12 +23,13 @@ class DeferredFill:
     of a many-region relaxation follow its bands.
     """
 
-    def __init__(self, vertices, phi_band, side, graph, rate):
-        self.vertices, self.phi_band, self.side, self.graph, self.rate = vertices, phi_band, side, graph, rate
+    def __init__(self, elements, vertices, phi_band, side, distances, rate):
+        self.elements, self.vertices, self.phi_band = elements, vertices, phi_band
+        self.side, self.distances, self.rate = side, distances, rate
 
     def filled(self, domain):
         """Phi on every vertex of ``domain``."""
-        return extend_outside(domain, self.vertices, self.phi_band, self.side, self.graph, self.rate)
+        return extend_outside(domain, self.elements, self.vertices, self.phi_band, self.side, self.distances, self.rate)
 
     def bounded(self, n_vertices):
         """Phi on the band, and outside it ``1/2 +- c`` (``+`` on the region's side), with

@@ -1,0 +1,70 @@
+"""What the relaxation asks of a domain's incidence and edges beyond its operators:
+:class:`IncidenceQueries`, mixed into :class:`~ndboundary.Domain`.
+
+The band (:mod:`ndboundary.pipeline.band`) is found, and phi filled outside it, by these
+queries alone: which vertices the selected elements hold, which elements hold the
+selected vertices, and distances along the edges. Here they read the ``incidence`` and
+the ``edges``; a domain that can answer them from its own arrays overrides them
+(:class:`~ndboundary.SimplicialComplex` reads its simplices, without the incidence of a
+large mesh).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .distances import GraphDistances
+
+__all__ = ["IncidenceQueries"]
+
+
+class IncidenceQueries:
+    """Queries over a domain's ``incidence``, ``edges`` and ``edge_lengths``."""
+
+    def vertices_of(self, elements) -> np.ndarray:
+        """The vertices of the elements selected by the boolean mask ``elements``, as a
+        boolean mask over the vertices.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ndboundary.datasets import kuhn_grid
+        >>> grid = kuhn_grid(2, 2)  # 9 vertices, 8 triangles
+        >>> np.flatnonzero(grid.vertices_of(np.arange(8) == 0)).tolist()
+        [0, 3, 4]
+        """
+        return (self.incidence @ np.asarray(elements, dtype=np.float64)) > 0
+
+    def elements_at(self, vertices) -> np.ndarray:
+        """The elements holding a vertex selected by the boolean mask ``vertices``, as a
+        boolean mask over the elements.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ndboundary.datasets import kuhn_grid
+        >>> grid = kuhn_grid(2, 2)
+        >>> int(grid.elements_at(np.arange(9) == 4).sum())  # the centre: six triangles
+        6
+        """
+        return (self.incidence.T @ np.asarray(vertices, dtype=np.float64)) > 0
+
+    def element_max(self, f) -> np.ndarray:
+        """Per element, the largest value of the vertex function ``f`` over its vertices."""
+        by_element = self.incidence.T.tocsr()  # every row is non-empty
+        return np.maximum.reduceat(np.asarray(f)[by_element.indices], by_element.indptr[:-1])
+
+    def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
+        """The edges' lengths in units of ``unit`` as a symmetric sparse matrix, both ways,
+        shape (n_vertices, n_vertices).
+        """
+        upper = self.edge_graph(self.edge_lengths / unit)
+        return (upper + upper.T).tocsr()  # a sum of sorted halves, no sort
+
+    def edge_distances(self, unit=1.0):
+        """Shortest distances along the edges in units of ``unit``: a callable
+        ``distances(sources, offsets=None, limit=inf)`` (see
+        :mod:`~ndboundary.domains.distances`), here Dijkstra on :meth:`edge_length_graph`.
+        """
+        return GraphDistances(self.edge_length_graph(unit))
