@@ -215,3 +215,79 @@ def rows_by_value(rows, n, dtype):
     indices = np.empty(rows.size, dtype=dtype)
     _rows_by_value(rows, int(n), indptr, indices)
     return indptr, indices
+
+
+@numba.njit(cache=True, nogil=True)
+def _root(parent, v):  # pragma: no cover - compiled
+    while parent[v] != v:
+        parent[v] = parent[parent[v]]  # path halving
+        v = parent[v]
+    return v
+
+
+@numba.njit(cache=True, nogil=True)
+def _components(rows, labels):  # pragma: no cover - compiled
+    n = labels.size
+    parent = np.arange(n)
+    for r in range(rows.shape[0]):
+        a = _root(parent, rows[r, 0])
+        for c in range(1, rows.shape[1]):
+            b = _root(parent, rows[r, c])
+            # the lower vertex stays the root: every root is its component's lowest vertex
+            if b < a:
+                parent[a] = b
+                a = b
+            elif b > a:
+                parent[b] = a
+    count = 0
+    for v in range(n):
+        a = _root(parent, v)
+        if a == v:
+            labels[v] = count
+            count += 1
+        else:
+            labels[v] = labels[a]  # a < v: labelled already
+    return count
+
+
+def row_components(rows, n):
+    """The connected components of the values ``0..n-1`` joined by the rows of an integer
+    array (the vertices of simplices): ``(n_components, labels)``, numbered in the order
+    of their lowest value, as :func:`scipy.sparse.csgraph.connected_components` numbers
+    the components of the graph of the rows' edges. One union-find pass, without the graph.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled import row_components
+    >>> n, labels = row_components(np.array([[0, 3], [4, 1], [3, 5]]), 6)
+    >>> n, labels.tolist()  # 2 is in no row: a component of its own
+    (3, [0, 1, 2, 0, 1, 0])
+    """
+    labels = np.empty(int(n), dtype=np.int32)
+    count = _components(np.ascontiguousarray(rows), labels)
+    return int(count), labels
+
+
+@numba.njit(cache=True, nogil=True)
+def _row_sums(rows, weights, out):  # pragma: no cover - compiled
+    for r in range(rows.shape[0]):
+        for c in range(rows.shape[1]):
+            out[rows[r, c]] += weights[r]
+
+
+def row_sums(rows, weights, n):
+    """For every value ``0..n-1``, the sum of ``weights[r]`` over the rows ``r`` holding it:
+    ``np.bincount(rows.ravel(), weights=np.repeat(weights, rows.shape[1]), minlength=n)``,
+    the same sums in the same order, without the repeated weights.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled import row_sums
+    >>> row_sums(np.array([[0, 1], [1, 2]]), np.array([1.0, 10.0]), 4).tolist()
+    [1.0, 11.0, 10.0, 0.0]
+    """
+    out = np.zeros(int(n))
+    _row_sums(np.ascontiguousarray(rows), np.ascontiguousarray(weights, dtype=np.float64), out)
+    return out

@@ -183,3 +183,23 @@ def test_the_band_reaches_as_far_on_every_cell_type():
     defaults = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
     assert band_width(defaults, kuhn_grid(4, 3)) == AUTO_BAND_WIDTH == 8.0
     assert band_width(defaults, hex_grid(4)) == 1.5 * AUTO_BAND_WIDTH
+
+
+def test_components_and_mass_equal_the_edge_graphs_and_bincounts(tets):
+    from scipy.sparse.csgraph import connected_components
+
+    # three copies of the grid, the middle one unused, and a loose vertex at the end
+    V = tets.n_vertices
+    points = np.vstack([tets.points + [3.0 * i, 0.0, 0.0] for i in range(3)] + [[[9.0, 9.0, 9.0]]])
+    simplices = np.vstack([tets.simplices[::-1] + 2 * V, tets.simplices])
+    mesh = SimplicialComplex(points, simplices)
+    n, labels = mesh.vertex_components
+    n_ref, labels_ref = connected_components(Domain.edge_length_graph(mesh), directed=False)
+    assert n == n_ref == V + 3  # two grids, and every unused vertex alone
+    np.testing.assert_array_equal(labels, labels_ref)
+    k1 = simplices.shape[1]
+    share = np.repeat(mesh.volumes / k1, k1)
+    reference = np.bincount(simplices.ravel(), weights=share, minlength=mesh.n_vertices)
+    used = reference > 0
+    np.testing.assert_array_equal(mesh.mass[used], reference[used])  # the same sums, bit for bit
+    assert (mesh.mass[~used] > 0).all()

@@ -34,6 +34,7 @@ from .base import Domain
 from .simplex_geometry import (
     COMPILED_MIN_VERTICES_PER_SIMPLEX,
     aspect_ratios,
+    compiled_passes,
     simplex_geometry,
     simplex_incidence,
     stiffness_terms,
@@ -242,9 +243,15 @@ class SimplicialComplex(SimplicialTopology, Domain):
             m = self.split_from.mass(self)
             if m is not None:
                 return m
-        k1 = self.simplices.shape[1]
-        m = np.bincount(self.simplices.ravel(), weights=np.repeat(self.volumes / k1, k1), minlength=self.n_vertices)
-        return fill_unused_mass(m, self.volumes / k1)
+        share = self.volumes / self.simplices.shape[1]
+        if compiled_passes(self.simplices):
+            from .._compiled import row_sums
+
+            m = row_sums(self.simplices, share, self.n_vertices)  # the same sums, no repeated shares
+        else:
+            k1 = self.simplices.shape[1]
+            m = np.bincount(self.simplices.ravel(), weights=np.repeat(share, k1), minlength=self.n_vertices)
+        return fill_unused_mass(m, share)
 
     def build_incidence(self):
         """The vertex-element incidence (on :attr:`vertex_simplices`' structure, when built)."""

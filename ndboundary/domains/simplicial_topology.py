@@ -13,7 +13,6 @@ from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from .._arrays import (
     counting_sort,
@@ -114,11 +113,14 @@ class SimplicialTopology:
     @cached_property
     def vertex_components(self):
         """Connected components of the vertices along the edges: ``(n_components, labels)``;
-        on tetrahedra and up, and on large complexes, over the compiled edge graph.
+        on tetrahedra and up, and on large complexes, from one union-find pass over the
+        simplices (the same numbering), without the edges.
         """
         if not compiled_passes(self.simplices) or self.split_from is not None:
             return super().vertex_components
-        return connected_components(self.edge_length_graph(), directed=False)
+        from .._compiled import row_components
+
+        return row_components(self.simplices, self.n_vertices)
 
     @cached_property
     def edge_index(self):
