@@ -9,9 +9,10 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ndboundary import solvers
-from ndboundary.solvers import amg, cholesky, common
+from ndboundary.solvers import amg, amg_hierarchy, cholesky, common
 from ndboundary.datasets import ball, circle, kuhn_grid, label_by
 
 
@@ -144,19 +145,30 @@ def test_amg_hierarchy_is_csr_and_smoothing_follows_row_density(case, monkeypatc
 
     def spy(*args, **kwargs):
         built["kwargs"] = kwargs
-        built["ml"] = original(*args, **kwargs)
-        return built["ml"]
+        ml = original(*args, **kwargs)
+        built["levels"] = ml.levels
+        return ml
+
+    def spy_compiled(*args, **kwargs):
+        built["compiled"] = kwargs
+        built["levels"] = amg_hierarchy.energy_hierarchy(*args, **kwargs)
+        return built["levels"]
 
     monkeypatch.setattr(pyamg, "smoothed_aggregation_solver", spy)
+    monkeypatch.setattr(amg, "energy_hierarchy", spy_compiled)
     apply = amg.amg_preconditioner(A)
     dense = A.nnz / A.shape[0] > solvers.AMG_DENSE_ROWS
     assert dense == (case == "graph")
-    assert built["kwargs"]["smooth"] == ("jacobi" if dense else ("energy", {"maxiter": 2}))
-    ml = built["ml"]
-    assert len(ml.levels) >= 2
-    for level in ml.levels:
+    # graphs: pyamg's hierarchy with a Jacobi step; meshes: the compiled energy minimisation
+    if dense:
+        assert built["kwargs"]["smooth"] == "jacobi" and "compiled" not in built
+    else:
+        assert built["compiled"] == {"maxiter": 2, "max_coarse": 500} and "kwargs" not in built
+    levels = built["levels"]
+    assert len(levels) >= 2
+    for level in levels:
         for name in ("A", "P", "R"):
-            if hasattr(level, name):
+            if getattr(level, name, None) is not None:
                 assert getattr(level, name).format == "csr"
     # a symmetric positive definite operator, close enough to A^{-1} to precondition CG
     rng = np.random.default_rng(1)
@@ -168,6 +180,94 @@ def test_amg_hierarchy_is_csr_and_smoothing_follows_row_density(case, monkeypatc
     for _ in range(9):
         x = x + apply(b - A @ x)
     assert np.linalg.norm(b - A @ x) < 1e-3 * np.linalg.norm(b)
+
+
+def _mesh_operator(n, dim, diagonal, shuffled=False):
+    """``K + D`` on a Kuhn grid: ``D`` a tenth of the lumped mass (``"mass"``) or, as on a
+    band system, the mass on one vertex in twenty and zero elsewhere (``"sparse"``); the
+    columns of each row in random order for ``shuffled``.
+    """
+    dom = kuhn_grid(n, dim, jitter=0.25, random_state=0)
+    rng = np.random.default_rng(0)
+    d = 0.1 * dom.mass if diagonal == "mass" else np.where(rng.random(dom.n_vertices) < 0.05, dom.mass, 0.0)
+    A = (dom.K + sp.diags(d)).tocsr()
+    if shuffled:
+        for i in range(A.shape[0]):
+            row = slice(A.indptr[i], A.indptr[i + 1])
+            order = rng.permutation(A.indptr[i + 1] - A.indptr[i])
+            A.indices[row], A.data[row] = A.indices[row][order], A.data[row][order]
+        A.has_sorted_indices = False
+    return A
+
+
+@pytest.mark.parametrize(
+    "n, dim, diagonal, shuffled",
+    [(12, 3, "mass", False), (12, 3, "mass", True), (30, 3, "sparse", False), (60, 2, "sparse", False)],
+    ids=["3d", "3d-unsorted", "3d-band-like", "2d-band-like"],
+)
+def test_compiled_hierarchy_reproduces_pyamg(n, dim, diagonal, shuffled):
+    _skip_unless_available("amg")
+    import pyamg
+
+    A = _mesh_operator(n, dim, diagonal, shuffled)
+    original = A.copy()
+    levels = amg_hierarchy.energy_hierarchy(A, maxiter=2, max_coarse=500)
+    assert (A != original).nnz == 0 and np.array_equal(A.indices, original.indices)  # A untouched
+    ml = pyamg.smoothed_aggregation_solver(
+        original, symmetry="symmetric", strength="symmetric", smooth=("energy", {"maxiter": 2}),
+        improve_candidates=None, max_coarse=500, keep=True,
+    )  # fmt: skip
+    assert len(levels) == len(ml.levels) >= 2
+    for k, (mine, theirs) in enumerate(zip(levels, ml.levels, strict=True)):
+        A_ref = theirs.A.tocsr()
+        if k > 0:  # the coarse operators list their columns in pyamg's order
+            assert np.array_equal(mine.A.indptr, A_ref.indptr) and np.array_equal(mine.A.indices, A_ref.indices)
+        assert spla.norm(mine.A - A_ref) < 1e-12 * spla.norm(A_ref)
+        if k == len(levels) - 1:
+            assert mine.P is None and mine.aggregates is None
+            continue
+        AggOp = theirs.AggOp.tocsr()
+        aggregates = np.full(AggOp.shape[0], -1)
+        aggregates[np.repeat(np.arange(AggOp.shape[0]), np.diff(AggOp.indptr))] = AggOp.indices
+        assert np.array_equal(mine.aggregates, aggregates)
+        P_ref = theirs.P.tocsr()
+        assert np.array_equal(mine.P.indptr, P_ref.indptr) and np.array_equal(mine.P.indices, P_ref.indices)
+        assert _rel(mine.P.data, P_ref.data) < 1e-12
+        assert (mine.R != mine.P.T).nnz == 0
+        if k == 0:  # the coarse candidate vector still interpolates the constants
+            assert np.allclose(mine.P @ np.sqrt(np.bincount(mine.aggregates)), 1.0, rtol=0, atol=1e-12)
+
+
+def test_compiled_v_cycle_is_spd_and_equals_pyamgs():
+    _skip_unless_available("amg")
+    import pyamg
+
+    A = _mesh_operator(8, 3, "sparse")  # 729 unknowns: two levels
+    apply = amg.amg_preconditioner(A)
+    n = A.shape[0]
+    M = np.column_stack([apply(e) for e in np.eye(n)])
+    assert np.abs(M - M.T).max() < 1e-12 * np.abs(M).max()
+    # I - M A is the cycle's error propagation: A-symmetric, its spectrum in [0, 1)
+    with common.one_blas_thread():
+        L = np.linalg.cholesky(A.toarray())
+        spectrum = np.linalg.eigvalsh(L.T @ M @ L)
+    assert spectrum.min() > 0.1 and spectrum.max() < 1 + 1e-10
+    # the cycle over pyamg's own hierarchy
+    ml = pyamg.smoothed_aggregation_solver(
+        A, symmetry="symmetric", strength="symmetric", smooth=("energy", {"maxiter": 2}),
+        improve_candidates=None, max_coarse=500,
+    )  # fmt: skip
+    assert len(ml.levels) >= 2
+    for level in ml.levels[:-1]:
+        level.P, level.R = level.P.tocsr(), level.R.tocsr()
+    for level in ml.levels:
+        level.A = level.A.tocsr()
+    ref = amg._v_cycle(
+        ml.levels, lambda b: ml.coarse_solver(ml.levels[-1].A, b), ("forward",) * 2, ("backward",) * 2,
+        pyamg.amg_core.gauss_seidel,
+    )  # fmt: skip
+    v = np.random.default_rng(0).standard_normal(n)
+    assert _rel(apply(v), ref(v)) < 1e-12
 
 
 def _relax_system(n, r):
@@ -575,7 +675,8 @@ def test_auto_factorises_nearly_dense_matrices_by_lapack(monkeypatch):
     assert calls == [] and _rel(x, np.linalg.solve(A.toarray(), b)) < 1e-12
     indefinite = sp.csr_matrix(B @ B.T - np.eye(n))
     solvers.factorize_spd(indefinite)
-    assert len(calls) == sum(common.load_optional(cholesky.BACKENDS[k]) is not None for k in ("pardiso", "cvxopt", "cholmod"))
+    installed = sum(common.load_optional(cholesky.BACKENDS[k]) is not None for k in ("pardiso", "cvxopt", "cholmod"))
+    assert len(calls) == installed
 
 
 def test_factor_cache_keeps_the_squared_operator_for_every_labelling():
