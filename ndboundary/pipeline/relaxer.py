@@ -24,7 +24,6 @@ from .band import (
     AUTO_BAND_MIN_VERTICES,
     band_elements,
     band_width,
-    element_rings,
     extend_outside,
     growth_rate,
 )
@@ -264,9 +263,8 @@ class Relaxer:
         when the band holds every element (the whole-domain relaxation is then the same)
         or, for ``band="auto"``, most of them (the whole domain then costs no more).
 
-        The edge distances serve every labelling, and the band's relaxer (its operators,
-        orderings and factor) every labelling whose band is the same. ``start`` is when the
-        relaxation began: the "locate" time counts from there.
+        The edge distances serve every labelling, the band's relaxer (operators, orderings,
+        factor) every labelling with the same band. "locate" counts from ``start``.
         """
         domain, on = self.domain, p["on"]
         tick = start  # locating zeta and the band includes the mesh size h
@@ -287,6 +285,17 @@ class Relaxer:
                 return cached[1:]
             return band_elements(domain, boundary.sources, width, distances)
 
+        def relaxer_of(mask):
+            """``(digest of mask, the band's relaxer, its vertices)``, the last one's if the same."""
+            mask_key = digest("band", mask)
+            if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
+                return self._band_relaxer
+            sub, vertices = domain.subdomain(mask)
+            return mask_key, Relaxer(sub, _keep=self._keep, _h=h), vertices
+
+        def labels_of(mask, vertices):
+            return region1[mask] if on == "elements" else region1[vertices]
+
         width = p["band"]
         if width == "auto":
             # the narrowest band auto can choose first: when it already holds most of the
@@ -299,32 +308,30 @@ class Relaxer:
             mask, dist = band_of(width)
             if mask.mean() > AUTO_BAND_MAX_SHARE:
                 return boundary
+            band = relaxer_of(mask)
             if scale is None:
-                scale = self._boundary_weight_scale(region1, boundary, on, pad, h)
+                # read on the band's padding, which its relaxation then uses: the band holds
+                # the two rings of elements around zeta that the scale depends on
+                scale = band[1]._lam_scale(labels_of(mask, band[2]), on, pad, h)
             wider = band_width(p, domain, scale)
             if wider > width:
                 width = wider
                 mask, dist = band_of(width)
-            if mask.mean() > AUTO_BAND_MAX_SHARE:
-                return boundary
+                if mask.mean() > AUTO_BAND_MAX_SHARE:
+                    return boundary
+                band = relaxer_of(mask)
         else:
             mask, dist = band_of(width)
-        if mask.all():
-            return boundary
-        mask_key = digest("band", mask)
-        if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
-            relaxer, vertices = self._band_relaxer[1:]
-        else:
-            self._band_relaxer = None
-            sub, vertices = domain.subdomain(mask)
-            relaxer = Relaxer(sub, _keep=self._keep, _h=h)
-        if self._keep:
-            self._band = (key, boundary, scale, (width, mask, dist))
-            self._band_relaxer = (mask_key, relaxer, vertices)
+            if mask.all():
+                return boundary
+            band = relaxer_of(mask)
+        _, relaxer, vertices = band
+        self._band_relaxer = band if self._keep else None
+        self._band = (key, boundary, scale, (width, mask, dist)) if self._keep else None
         if verbose:
             print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
         locate = time.perf_counter() - tick
-        sub_labels = region1[mask] if on == "elements" else region1[vertices]
+        sub_labels = labels_of(mask, vertices)
         relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
         res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
@@ -345,21 +352,16 @@ class Relaxer:
         res.params.update(band=width, band_vertices=int(vertices.size))
         return res
 
-    def _boundary_weight_scale(self, region1, boundary, on, pad, h):
-        """``lam_scale`` of the labelling (:func:`boundary_weight_scale`), from the two rings
-        of elements around zeta, padded: they hold the stiffness and mass it reads.
+    def _lam_scale(self, region1, on, pad, h):
+        """``lam_scale`` of the labelling (:func:`boundary_weight_scale`) on this domain (a
+        band), from its padding, which is kept for the relaxation that follows.
         """
-        domain = self.domain
-        ring = element_rings(domain, boundary.sources, rings=2)
-        sub, vertices = domain.subdomain(ring)
-        labels = region1[ring] if on == "elements" else region1[vertices]
-        zeta = (element_boundary if on == "elements" else vertex_boundary)(sub, labels)
-        padded = pad_domain(sub, labels, zeta, on, pad)
-        return boundary_weight_scale(padded.work, h, zeta.sources)
+        boundary, padded = self._padded(_labels_key(region1, on, bool(pad)), region1, on, bool(pad), keep=True)
+        return boundary_weight_scale(padded.work, h, boundary.sources)
 
-    def _padded(self, key, region1, on, pad, boundary=None):
+    def _padded(self, key, region1, on, pad, boundary=None, keep=False):
         """Zeta (``boundary`` when already found) and the padded domain of a labelling, kept
-        for the next call.
+        for the next call (by a relaxer that keeps what it computes, or when ``keep``).
         """
         if self._labelling is not None and self._labelling[0] == key:
             return self._labelling[1:]
@@ -372,7 +374,7 @@ class Relaxer:
         check_element_shapes(domain, stacklevel=5)
         padded = pad_domain(domain, region1, boundary, on, pad)
         _ = padded.work.K, padded.work.mass  # assembled (and timed) with the padding
-        if self._keep:
+        if self._keep or keep:
             self._labelling = (key, boundary, padded)
         return boundary, padded
 
