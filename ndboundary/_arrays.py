@@ -21,6 +21,7 @@ __all__ = [
     "fill_unused_mass",
     "first_of_groups",
     "group_rows",
+    "held_bytes",
     "index_dtype",
     "kept_then",
     "mixed_facets",
@@ -279,3 +280,23 @@ def ragged_next(offsets):
 def ragged_rows(indices, offsets):
     """The rows of a ragged array as a list of arrays."""
     return np.split(indices, offsets[1:-1])
+
+
+def held_bytes(value, skip):
+    """Bytes held by the arrays and sparse matrices in ``value`` (a dict, list or object),
+    not counting the objects in ``skip`` (the domain's own operators).
+    """
+    if value is None or id(value) in skip:
+        return 0
+    if isinstance(value, np.ndarray):
+        return value.nbytes
+    if sp.issparse(value):
+        return sum(getattr(value, a).nbytes for a in ("data", "indices", "indptr", "offsets") if hasattr(value, a))
+    if isinstance(value, (list, tuple)):
+        return sum(held_bytes(v, skip) for v in value)
+    if isinstance(value, dict):
+        return sum(held_bytes(v, skip) for v in value.values())
+    if hasattr(value, "__dict__") and not isinstance(value, type):
+        skip.add(id(value))  # count every object once
+        return held_bytes(vars(value), skip)
+    return 0

@@ -13,8 +13,8 @@ import sys
 import time
 
 import numpy as np
-import scipy.sparse as sp
 
+from .._arrays import held_bytes
 from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
@@ -56,26 +56,6 @@ class _Progress:
         if self.verbose:
             print(f"[ndboundary] {name:<12s} {self.times[name]:8.3f} s", file=sys.stderr, flush=True)
         self.tick = time.perf_counter()
-
-
-def _nbytes(value, skip):
-    """Bytes held by the arrays and sparse matrices in ``value`` (a dict, list or object),
-    not counting the objects in ``skip`` (the domain's own operators).
-    """
-    if value is None or id(value) in skip:
-        return 0
-    if isinstance(value, np.ndarray):
-        return value.nbytes
-    if sp.issparse(value):
-        return sum(getattr(value, a).nbytes for a in ("data", "indices", "indptr", "offsets") if hasattr(value, a))
-    if isinstance(value, (list, tuple)):
-        return sum(_nbytes(v, skip) for v in value)
-    if isinstance(value, dict):
-        return sum(_nbytes(v, skip) for v in value.values())
-    if hasattr(value, "__dict__") and not isinstance(value, type):
-        skip.add(id(value))  # count every object once
-        return _nbytes(vars(value), skip)
-    return 0
 
 
 class Relaxer:
@@ -134,12 +114,12 @@ class Relaxer:
     @property
     def nbytes(self) -> int:
         """Memory held for the next relaxation: padded operators, heat, field and factor (bytes)."""
-        held = _nbytes([self._labelling, self._heat, self._distances], {id(self.domain)}) + self._factors.nbytes
+        held = held_bytes([self._labelling, self._heat, self._distances], {id(self.domain)}) + self._factors.nbytes
         if self._band is not None:
-            held += _nbytes([self._band[1], self._band[3]], set())
+            held += held_bytes([self._band[1], self._band[3]], set())
         if self._band_relaxer is not None:
             sub = self._band_relaxer[1]
-            held += sub.nbytes + _nbytes(sub.domain, set())
+            held += sub.nbytes + held_bytes(sub.domain, set())
         return int(held)
 
     def clear(self):
@@ -268,6 +248,7 @@ class Relaxer:
         """
         domain, on = self.domain, p["on"]
         tick = start  # locating zeta and the band includes the mesh size h
+        padding = 0.0
         if self._distances is None or self._distances[0] != h:
             self._distances = (h, domain.edge_distances(h))
         distances = self._distances[1]
@@ -312,7 +293,10 @@ class Relaxer:
             if scale is None:
                 # read on the band's padding, which its relaxation then uses: the band holds
                 # the two rings of elements around zeta that the scale depends on
+                padding = time.perf_counter()  # timed as the band's padding, not as locating it
                 scale = band[1]._lam_scale(labels_of(mask, band[2]), on, pad, h)
+                padding = time.perf_counter() - padding
+                tick += padding
             wider = band_width(p, domain, scale)
             if wider > width:
                 width = wider
@@ -349,6 +333,7 @@ class Relaxer:
         if verbose:
             print(f"[ndboundary] {'fill':<12s} {fill:8.3f} s", file=sys.stderr, flush=True)
         res.timings = {"locate": locate, **res.timings, "fill": fill}
+        res.timings["pad"] += padding
         res.params.update(band=width, band_vertices=int(vertices.size))
         return res
 
