@@ -1,6 +1,6 @@
 """Shortest distances along the edges of a simplicial complex, walked over its vertex-simplex
-incidence (numba): Dijkstra with a binary heap, the edge lengths computed as the walk
-reaches them.
+incidence, or along a graph (numba): Dijkstra with a binary heap and decrease-key, the
+edge lengths of the complex computed as the walk reaches them.
 
 The band search and the fill outside the band need distances along the edges. A graph of
 the edges costs a pass over the whole complex and, on a tetrahedral mesh of a million
@@ -18,56 +18,87 @@ __all__ = ["graph_distances", "incidence_distances"]
 
 
 @numba.njit(cache=True, nogil=True)
-def _push(keys, items, n, key, item):  # pragma: no cover - compiled
-    """Add ``(key, item)`` to the heap ``keys[:n]``, ``items[:n]`` (room for it assumed)."""
-    i = n
+def _up(keys, items, where, i):  # pragma: no cover - compiled
+    """Move the heap's entry ``i`` up to its place."""
+    key, item = keys[i], items[i]
     while i > 0:
         parent = (i - 1) >> 1
         if keys[parent] <= key:
             break
         keys[i] = keys[parent]
         items[i] = items[parent]
+        where[items[i]] = i
         i = parent
     keys[i] = key
     items[i] = item
+    where[item] = i
 
 
 @numba.njit(cache=True, nogil=True)
-def _pop(keys, items, n):  # pragma: no cover - compiled
-    """Remove the smallest entry of the heap ``keys[:n]`` (``n > 0``); return it."""
-    key, item = keys[0], items[0]
-    n -= 1
-    last_key, last_item = keys[n], items[n]
-    i = 0
+def _down(keys, items, where, n, i):  # pragma: no cover - compiled
+    """Move the heap's entry ``i`` (of ``n``) down to its place."""
+    key, item = keys[i], items[i]
     while True:
         child = 2 * i + 1
         if child >= n:
             break
         if child + 1 < n and keys[child + 1] < keys[child]:
             child += 1
-        if keys[child] >= last_key:
+        if keys[child] >= key:
             break
         keys[i] = keys[child]
         items[i] = items[child]
+        where[items[i]] = i
         i = child
-    keys[i] = last_key
-    items[i] = last_item
-    return key, item
+    keys[i] = key
+    items[i] = item
+    where[item] = i
+
+
+@numba.njit(cache=True, nogil=True)
+def _improve(keys, items, where, n, b, key):  # pragma: no cover - compiled
+    """Vertex ``b`` enters the heap at ``key``, or moves up to it; the heap's new size."""
+    if where[b] < 0:
+        keys[n] = key
+        items[n] = b
+        _up(keys, items, where, n)
+        return n + 1
+    keys[where[b]] = key
+    _up(keys, items, where, where[b])
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def _pop(keys, items, where, n):  # pragma: no cover - compiled
+    """The heap's smallest vertex, removed (``n > 0`` entries before)."""
+    a = items[0]
+    where[a] = -1
+    n -= 1
+    if n > 0:
+        keys[0] = keys[n]
+        items[0] = items[n]
+        where[items[0]] = 0
+        _down(keys, items, where, n, 0)
+    return a
 
 
 @numba.njit(cache=True, nogil=True)
 def _seed(sources, offsets, limit, dist):  # pragma: no cover - compiled
-    """The heap of the sources at their offsets (within ``limit``), and its size."""
-    keys = np.empty(max(64, 2 * sources.size), dtype=np.float64)
-    items = np.empty(keys.size, dtype=np.int64)
+    """The heap (``keys``, ``items``, each vertex's place ``where`` or -1) holding the
+    sources at their offsets (within ``limit``), and its size. Each vertex is in it at
+    most once: an improvement moves it up (Dijkstra with decrease-key).
+    """
+    V = dist.size
+    keys = np.empty(V, dtype=np.float64)
+    items = np.empty(V, dtype=np.int64)
+    where = np.full(V, -1, dtype=np.int64)
     n = 0
     for i in range(sources.size):
         s, d0 = sources[i], offsets[i]
         if d0 < dist[s] and d0 <= limit:
             dist[s] = d0
-            _push(keys, items, n, d0, s)
-            n += 1
-    return keys, items, n
+            n = _improve(keys, items, where, n, s, d0)
+    return keys, items, where, n
 
 
 @numba.njit(cache=True, nogil=True)
@@ -76,13 +107,14 @@ def _walk_simplices(
 ):  # pragma: no cover - compiled
     dim = points.shape[1]
     mark = np.full(dist.size, -1, dtype=np.int64)  # the neighbours of the vertex being settled
-    keys, items, n = _seed(sources, offsets, limit, dist)
+    keys, items, where, n = _seed(sources, offsets, limit, dist)
     while n > 0:
-        d, a = _pop(keys, items, n)
+        a = _pop(keys, items, where, n)
         n -= 1
-        if done[a] or d > dist[a]:
-            continue  # a stale entry: the vertex entered the heap again when it improved
+        if done[a]:
+            continue  # a blocked source: its offset stands, no path leaves it
         done[a] = True
+        d = dist[a]
         for q in range(indptr[a], indptr[a + 1]):
             e = elements[q]
             for t in range(simplices.shape[1]):
@@ -97,21 +129,19 @@ def _walk_simplices(
                 nd = d + np.sqrt(sq) / unit
                 if nd < dist[b] and nd <= limit:
                     dist[b] = nd
-                    if n == keys.size:
-                        keys, items = _grow(keys, items)
-                    _push(keys, items, n, nd, b)
-                    n += 1
+                    n = _improve(keys, items, where, n, b, nd)
 
 
 @numba.njit(cache=True, nogil=True)
 def _walk_graph(indptr, indices, lengths, sources, offsets, limit, done, dist):  # pragma: no cover - compiled
-    keys, items, n = _seed(sources, offsets, limit, dist)
+    keys, items, where, n = _seed(sources, offsets, limit, dist)
     while n > 0:
-        d, a = _pop(keys, items, n)
+        a = _pop(keys, items, where, n)
         n -= 1
-        if done[a] or d > dist[a]:
-            continue
+        if done[a]:
+            continue  # a blocked source: its offset stands, no path leaves it
         done[a] = True
+        d = dist[a]
         for q in range(indptr[a], indptr[a + 1]):
             b = indices[q]
             if done[b]:
@@ -119,20 +149,7 @@ def _walk_graph(indptr, indices, lengths, sources, offsets, limit, done, dist): 
             nd = d + lengths[q]
             if nd < dist[b] and nd <= limit:
                 dist[b] = nd
-                if n == keys.size:
-                    keys, items = _grow(keys, items)
-                _push(keys, items, n, nd, b)
-                n += 1
-
-
-@numba.njit(cache=True, nogil=True)
-def _grow(keys, items):  # pragma: no cover - compiled
-    """The heap's arrays, twice as long."""
-    k = np.empty(2 * keys.size, dtype=keys.dtype)
-    it = np.empty(2 * items.size, dtype=items.dtype)
-    k[: keys.size] = keys
-    it[: items.size] = items
-    return k, it
+                n = _improve(keys, items, where, n, b, nd)
 
 
 def _start(n_vertices, sources, offsets, blocked):

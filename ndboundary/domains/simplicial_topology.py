@@ -101,10 +101,11 @@ class SimplicialTopology:
 
     def edge_distances(self, unit=1.0):
         """Shortest distances along the edges in units of ``unit`` (a callable, see
-        :meth:`ndboundary.Domain.edge_distances`); on tetrahedra and up, and on large
-        complexes, walked over the incidence without a graph of the edges.
+        :meth:`ndboundary.Domain.edge_distances`); on tetrahedra and up walked over the
+        incidence, without a graph of the edges. A triangle has few edges per vertex: its
+        graph costs little memory, and walks along it less than over the triangles.
         """
-        if not compiled_passes(self.simplices) or self.split_from is not None:
+        if self.simplices.shape[1] < COMPILED_MIN_VERTICES_PER_SIMPLEX or self.split_from is not None:
             return super().edge_distances(unit)
         from .distances import IncidenceDistances
 
