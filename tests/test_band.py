@@ -238,3 +238,19 @@ def test_the_band_on_tetrahedra_is_the_same_walked_or_on_the_graph(monkeypatch):
     monkeypatch.setattr(SimplicialComplex, "edge_distances", on_graph)
     on_graph = relax(mesh, labels, on="elements")
     np.testing.assert_array_equal(walked.phi, on_graph.phi)
+
+
+@pytest.mark.parametrize("make", [lambda: kuhn_grid(6, 3), lambda: voronoi_polygons(20, random_state=0)])
+def test_incidence_queries_agree_and_refuse_bad_masks(make, rng):
+    from ndboundary.domains.queries import IncidenceQueries
+
+    mesh = make()
+    elements, vertices = rng.random(mesh.n_elements) < 0.3, rng.random(mesh.n_vertices) < 0.3
+    # the simplices' reading equals the incidence's, on complexes; any domain has both
+    np.testing.assert_array_equal(mesh.vertices_of(elements), IncidenceQueries.vertices_of(mesh, elements))
+    np.testing.assert_array_equal(mesh.elements_at(vertices), IncidenceQueries.elements_at(mesh, vertices))
+    for bad in (elements[:-1], elements.astype(int)):
+        with pytest.raises(ValueError, match="boolean mask over the"):
+            mesh.vertices_of(bad)
+    with pytest.raises(ValueError, match=f"{mesh.n_vertices} vertices"):
+        mesh.elements_at(vertices[1:])

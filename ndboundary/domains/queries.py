@@ -16,7 +16,15 @@ import scipy.sparse as sp
 
 from .distances import GraphDistances
 
-__all__ = ["IncidenceQueries"]
+__all__ = ["IncidenceQueries", "as_mask"]
+
+
+def as_mask(mask, n, what):
+    """``mask`` as a boolean array of shape (n,), or a ValueError naming ``what`` it masks."""
+    mask = np.asarray(mask)
+    if mask.shape != (n,) or mask.dtype != bool:
+        raise ValueError(f"expected a boolean mask over the {n} {what}, got {mask.dtype} of shape {mask.shape}")
+    return mask
 
 
 class IncidenceQueries:
@@ -34,7 +42,8 @@ class IncidenceQueries:
         >>> np.flatnonzero(grid.vertices_of(np.arange(8) == 0)).tolist()
         [0, 3, 4]
         """
-        return (self.incidence @ np.asarray(elements, dtype=np.float64)) > 0
+        elements = as_mask(elements, self.n_elements, "elements")
+        return (self.incidence @ elements.astype(np.float64)) > 0
 
     def elements_at(self, vertices) -> np.ndarray:
         """The elements holding a vertex selected by the boolean mask ``vertices``, as a
@@ -48,7 +57,8 @@ class IncidenceQueries:
         >>> int(grid.elements_at(np.arange(9) == 4).sum())  # the centre: six triangles
         6
         """
-        return (self.incidence.T @ np.asarray(vertices, dtype=np.float64)) > 0
+        vertices = as_mask(vertices, self.n_vertices, "vertices")
+        return (self.incidence.T @ vertices.astype(np.float64)) > 0
 
     def element_max(self, f) -> np.ndarray:
         """Per element, the largest value of the vertex function ``f`` over its vertices."""

@@ -23,6 +23,7 @@ from .._arrays import (
     shared_facet_adjacency,
     sort_rows,
 )
+from .queries import as_mask
 from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, compiled_passes, simplex_edges, simplex_incidence
 
 __all__ = ["SimplicialTopology"]
@@ -83,7 +84,7 @@ class SimplicialTopology:
         """The vertices of the simplices selected by the boolean mask ``elements`` (a mask),
         read off the simplices a column at a time.
         """
-        elements = np.asarray(elements, dtype=bool)
+        elements = as_mask(elements, self.n_elements, "elements")
         out = np.zeros(self.n_vertices, dtype=bool)
         for column in self.simplices.T:
             out[column[elements]] = True
@@ -93,7 +94,7 @@ class SimplicialTopology:
         """The simplices holding a vertex selected by the boolean mask ``vertices`` (a mask),
         read off the simplices.
         """
-        vertices = np.asarray(vertices, dtype=bool)
+        vertices = as_mask(vertices, self.n_vertices, "vertices")
         out = vertices[self.simplices[:, 0]]
         for column in self.simplices.T[1:]:
             out |= vertices[column]
