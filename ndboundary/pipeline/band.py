@@ -10,9 +10,8 @@ Outside the band, phi is the band-edge value plus the signed graph distance in u
 ``h``: ``phi = 1/2 + s (|phi_b - 1/2| + c d(b, v) / h)`` minimised over the vertices ``b``
 of the band's edge (those that an element outside the band holds) and the paths from
 them that stay outside the band, with ``s = -1`` in region 0 and ``+1`` in region 1, and
-``c`` the rate at which the
-solved ``|phi - 1/2|`` grows with the graph distance over the band's outer half
-(:func:`growth_rate`). It is finite, on the side of 1/2 of its region, continuous with the
+``c`` the rate at which the solved ``|phi - 1/2|`` grows with the graph distance over the
+band's outer half (:func:`growth_rate`). It is finite, on the side of 1/2 of its region, continuous with the
 band at its edge, and grows away from zeta at the rate of the solved phi
 (``phi - 1/2`` is close to a signed distance in units of ``h``).
 Vertices that no path joins to the band (domain components without zeta) get
@@ -21,8 +20,8 @@ Vertices that no path joins to the band (domain components without zeta) get
 Outside the band, nothing but linear passes touches the domain: finding zeta and its
 neighbourhood (:func:`~ndboundary.pipeline.boundary.element_boundary`), the stopped
 Dijkstra of :func:`band_elements` and the one of :func:`extend_outside`, along the edges
-(:meth:`~ndboundary.Domain.edge_distances`: on tetrahedral and large triangle meshes a
-walk over the simplices at each vertex, elsewhere a graph of the edges that a
+(:meth:`~ndboundary.Domain.edge_distances`: on tetrahedral meshes and up a walk over the
+simplices at each vertex, elsewhere a graph of the edges that a
 :class:`~ndboundary.Relaxer` builds once for every labelling of its domain).
 """
 
