@@ -223,6 +223,8 @@ def test_the_incidence_walk_gives_dijkstras_distances_on_the_edge_graph(dim, n, 
     for distances in (walk, graph):
         with pytest.raises(ValueError, match="offsets has shape"):
             distances(sources, offsets=offsets[:-1])
+        with pytest.raises(ValueError, match="non-negative"):
+            distances(sources, offsets=np.where(offsets > 1.0, np.nan, offsets))
         with pytest.raises(ValueError, match="sources must be vertex indices"):
             distances([0, mesh.n_vertices])
         with pytest.raises(ValueError, match="sources must be vertex indices"):

@@ -33,6 +33,8 @@ def _as_sources(sources, offsets, n_vertices):
         offsets = np.asarray(offsets, dtype=np.float64).reshape(-1)
         if offsets.shape != sources.shape:
             raise ValueError(f"offsets has shape {offsets.shape}; expected one per source, {sources.shape}")
+        if not (offsets >= 0).all():  # NaN too
+            raise ValueError("offsets must be non-negative numbers (distances to start from)")
     return sources, offsets
 
 
