@@ -312,9 +312,9 @@ class Relaxer:
         _, relaxer, vertices = band
         self._band_relaxer = band if self._keep else None
         self._band = (key, boundary, scale, (width, mask, dist)) if self._keep else None
-        if verbose:
-            print(f"[ndboundary] {'locate':<12s} {time.perf_counter() - tick:8.3f} s", file=sys.stderr, flush=True)
         locate = time.perf_counter() - tick
+        if verbose:
+            print(f"[ndboundary] {'locate':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
         sub_labels = labels_of(mask, vertices)
         relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
@@ -322,10 +322,11 @@ class Relaxer:
         tick = time.perf_counter()
         vert_region1 = region1 if on == "vertices" else domain.vertices_of(region1)
         rate = growth_rate(res.phi, dist[vertices], width)
+        elements = np.flatnonzero(mask)
         if self._fill:
-            res.phi = extend_outside(domain, np.flatnonzero(mask), vertices, res.phi, vert_region1, distances, rate)
+            res.phi = extend_outside(domain, elements, vertices, res.phi, vert_region1, distances, rate)
         else:
-            res.phi = DeferredFill(np.flatnonzero(mask), vertices, res.phi, vert_region1, distances, rate)
+            res.phi = DeferredFill(elements, vertices, res.phi, vert_region1, distances, rate)
         u = np.zeros(domain.n_vertices)
         u[vertices] = res.u
         res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain
