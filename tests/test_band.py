@@ -7,7 +7,7 @@ from ndboundary import LevelSet, PolygonMesh, Relaxer, SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, hex_grid, icosphere, kuhn_grid, label_by, voronoi_polygons
 from ndboundary.domains.distances import GraphDistances, IncidenceDistances
 from ndboundary.metrics import level_set_distance
-from ndboundary.pipeline.band import AUTO_BAND_WIDTH, band_width
+from ndboundary.pipeline.band import band_width
 
 DEFAULTS = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
 
@@ -37,7 +37,7 @@ def test_band_matches_the_whole_domain(make):
     band = relax(mesh, labels, on="elements", band=width)
     assert band.params["band_vertices"] < 0.9 * mesh.n_vertices
     if isinstance(mesh, PolygonMesh):  # lam_scale < 1: a wider band
-        assert band.params["lam_scale"] < 0.9 and band.params["band"] > AUTO_BAND_WIDTH * mesh.graph_stretch
+        assert band.params["lam_scale"] < 0.9 and band.params["band"] > mesh.band_reach
     mean, worst = level_set_gap(band, whole, mesh.mean_edge_length())
     assert mean <= 0.01 and worst <= 0.05
     assert band.level_set().n_components() == whole.level_set().n_components()
@@ -111,9 +111,9 @@ def test_auto_is_the_default_and_widens_where_the_boundary_term_is_weaker():
     plane = kuhn_grid(240, 2, jitter=0.2, random_state=0)  # above AUTO_BAND_MIN_VERTICES
     labels = label_by(plane, lambda x: np.linalg.norm(x, axis=1) - 0.4)
     res = relax(plane, labels, on="elements")
-    assert res.params["band"] == AUTO_BAND_WIDTH * plane.graph_stretch and res.params["band_vertices"] < plane.n_vertices
+    assert res.params["band"] == plane.band_reach and res.params["band_vertices"] < plane.n_vertices
     assert {"locate", "fill"} <= set(res.timings)
-    assert relax(plane, labels, on="elements", lam=0.5).params["band"] > AUTO_BAND_WIDTH
+    assert relax(plane, labels, on="elements", lam=0.5).params["band"] > plane.band_reach
     few = relax(plane, labels, on="elements", smoothing=5)  # a rough field: the whole domain
     assert "band" not in few.params
     small = kuhn_grid(80, 2)
@@ -167,7 +167,7 @@ def test_band_that_reaches_the_border_matches_the_whole_domain():
     mesh = kuhn_grid(120, 2, jitter=0.25, random_state=0)
     labels = label_by(mesh, lambda x: np.hypot(x[:, 0] - 0.75, x[:, 1] - 0.75) - 0.2)  # 0.05 from two sides
     whole = relax(mesh, labels, on="elements", band=None)
-    band = relax(mesh, labels, on="elements", band=AUTO_BAND_WIDTH)
+    band = relax(mesh, labels, on="elements", band=mesh.band_reach)
     assert band.params["band_vertices"] < 0.5 * mesh.n_vertices
     mean, worst = level_set_gap(band, whole, mesh.mean_edge_length())
     assert mean <= 0.01 and worst <= 0.05
@@ -220,6 +220,16 @@ def test_the_incidence_walk_gives_dijkstras_distances_on_the_edge_graph(dim, n, 
             np.testing.assert_array_equal(a, reference)  # and scipy's
         assert np.isinf(a[mesh.n_vertices // 2 :]).all()  # the other grid: no path
     assert walk(sources)[sources[0]] == 0.0 and walk(sources, offsets=offsets)[sources[1]] <= offsets[1]
+    # prepared to avoid the blocked vertices (the fill's walk): the same distances
+    expected = walk(sources, offsets=offsets, blocked=blocked)
+    for distances in (walk, graph):
+        avoiding = distances.avoiding(blocked)
+        np.testing.assert_array_equal(avoiding(sources, offsets=offsets), expected)
+        more = blocked | (np.arange(mesh.n_vertices) % 7 == 0)
+        more[sources] = False
+        np.testing.assert_array_equal(
+            avoiding(sources, offsets=offsets, blocked=more), walk(sources, offsets=offsets, blocked=more)
+        )
     for distances in (walk, graph):
         with pytest.raises(ValueError, match="offsets has shape"):
             distances(sources, offsets=offsets[:-1])

@@ -18,7 +18,7 @@ from ndboundary.domains.simplex_geometry import (
     symmetric_csr,
 )
 from ndboundary.fields import smooth_rows
-from ndboundary.pipeline.band import AUTO_BAND_WIDTH, band_width
+from ndboundary.pipeline.band import band_width
 
 
 @pytest.fixture
@@ -179,10 +179,11 @@ def test_smoothing_with_the_identity_added_matches_the_formed_sum(tets, rng):
     np.testing.assert_array_equal(shuffled.indices, before)
 
 
-def test_the_band_reaches_as_far_on_every_cell_type():
+def test_the_band_reaches_farther_along_edges_that_follow_the_axes():
     defaults = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
-    assert band_width(defaults, kuhn_grid(4, 3)) == AUTO_BAND_WIDTH == 8.0
-    assert band_width(defaults, hex_grid(4)) == 1.5 * AUTO_BAND_WIDTH
+    assert band_width(defaults, kuhn_grid(4, 3)) == kuhn_grid(4, 3).band_reach == 6.0
+    assert band_width(defaults, kuhn_grid(4, 2)) == kuhn_grid(4, 2).band_reach == 8.0
+    assert band_width(defaults, hex_grid(4)) == hex_grid(4).band_reach == 12.0
 
 
 def test_components_and_mass_equal_the_edge_graphs_and_bincounts(tets):

@@ -231,12 +231,13 @@ class Domain(IncidenceQueries):
         """
         raise NotImplementedError(f"{type(self).__name__} cannot be cut to a band; relax it with band=None")
 
-    #: How much longer the shortest paths along the edges are than straight lines, on
-    #: average over directions: 1.5 on grid-like cells whose edges follow the axes (a
-    #: cubic lattice's mean ratio of the 1-norm to the 2-norm). The band of
-    #: ``band="auto"``, a graph distance, is widened by it to reach as far in space on
-    #: every discretisation.
-    graph_stretch = 1.5
+    #: The half-width of ``band="auto"`` with the default parameters, a graph distance
+    #: along the edges in units of ``h``: 12 on grid-like cells, whose edges follow the
+    #: axes, so that paths along them are longer than straight lines (by 1.5 on average
+    #: over directions on a cubic lattice). 10 is the least that keeps the band's level set
+    #: within 0.01 h on average of the whole domain's on hexahedra
+    #: (``benchmarks/band.py --widths 8,10,12 --cases hex-40``).
+    band_reach = 12.0
 
     @cached_property
     def usual_degree(self) -> float:

@@ -36,7 +36,7 @@ __all__ = [
     "AUTO_BAND_MAX_SHARE",
     "AUTO_BAND_MIN_VERTICES",
     "AUTO_BAND_MIN_SMOOTHING",
-    "AUTO_BAND_WIDTH",
+    "OutsideFill",
     "band_elements",
     "band_width",
     "can_cut",
@@ -44,16 +44,6 @@ __all__ = [
     "extend_outside",
     "growth_rate",
 ]
-
-#: ``band="auto"`` with the default ``lam``, ``smoothing`` and ``mu``: the band's half-width
-#: in units of ``h``, as a straight-line distance; the graph distance that selects the band
-#: is this times the domain's :attr:`~ndboundary.Domain.graph_stretch` (how much longer
-#: paths along its edges are than straight lines). The first-order term of the
-#: integration (``mu > 0``) screens phi from what lies farther from zeta, and the boundary
-#: term holds it there: the level set matches the whole-domain solve within 0.01 h on
-#: average and 0.05 h at worst from 6 h on triangles and tetrahedra, and from 10 h on
-#: hexahedra, where 8 h is not enough (``benchmarks/band.py --widths 6,8,10,12``).
-AUTO_BAND_WIDTH = 8.0
 
 #: ``band="auto"`` relaxes the whole domain with fewer smoothing passes than this: a field
 #: smoothed a few times only is rough, and its integration depends on what lies far from
@@ -146,12 +136,72 @@ def growth_rate(phi_band, distance, width):
     return float(np.clip(slope, 0.5, 2.0))
 
 
+class OutsideFill:
+    """The fill of phi outside a band (see the module docstring), prepared from the band
+    alone, before its phi is known.
+
+    ``elements``: the band's elements (indices); ``vertices``: its vertices, in the order
+    of the band's phi; ``distances``: the domain's
+    :meth:`~ndboundary.Domain.edge_distances` in units of ``h``. :meth:`prepare` builds
+    what the walk outside the band needs (the graph of its edges, where that walks
+    faster): it depends on the band only, so a relaxation runs it beside the band's solve.
+    Calling the fill with the band's phi gives phi on every vertex.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import OutsideFill
+    >>> grid = kuhn_grid(10, 1)  # a chain of 11 vertices and its 10 segments, h = 0.2
+    >>> fill = OutsideFill(grid, [4, 5], [4, 5, 6], grid.edge_distances(0.2)).prepare()
+    >>> fill(np.array([0.0, 0.5, 1.0]), grid.points[:, 0] > 0).round(6).tolist()
+    [-4.0, -3.0, -2.0, -1.0, 0.0, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0]
+    """
+
+    def __init__(self, domain, elements, vertices, distances):
+        self.vertices = np.asarray(vertices, dtype=np.int64)
+        band = np.zeros(domain.n_elements, dtype=bool)
+        band[np.asarray(elements, dtype=np.int64)] = True
+        inside = np.zeros(domain.n_vertices, dtype=bool)
+        inside[self.vertices] = True
+        # the band's edge: its vertices that an element outside it holds. Every path from
+        # outside enters the band there; the walk starts there and stays outside.
+        edge = inside & domain.vertices_of(~band)
+        self.at_edge = edge[self.vertices]
+        self.blocked = inside & ~edge
+        self.distances, self.walk = distances, None
+
+    def prepare(self):
+        """Build the walk outside the band (``distances.avoiding`` its interior) and return
+        the fill.
+        """
+        if self.walk is None:
+            self.walk = self.distances.avoiding(self.blocked)
+        return self
+
+    def __call__(self, phi_band, side, rate=1.0):
+        """Phi on every vertex: ``phi_band`` on the band's vertices, outside it the
+        band-edge value plus ``rate`` times the signed graph distance from the band's
+        edge (``side``: the vertices of region 1, a mask).
+        """
+        offset = np.abs(np.asarray(phi_band, dtype=np.float64)[self.at_edge] - 0.5) / rate
+        sources = self.vertices[self.at_edge]
+        if self.walk is not None:
+            dist = rate * self.walk(sources, offsets=offset)
+        else:
+            dist = rate * self.distances(sources, offsets=offset, blocked=self.blocked)
+        sign = np.where(side, 1.0, -1.0)
+        phi = np.where(np.isfinite(dist), 0.5 + sign * dist, 0.5 + sign)
+        phi[self.vertices] = phi_band
+        return phi
+
+
 def extend_outside(domain, elements, vertices, phi_band, vert_region1, distances, rate=1.0):
     """Phi on every vertex: ``phi_band`` on the ``vertices`` of the band's ``elements``
     (indices), outside it the band-edge value plus ``rate`` times the signed graph
     distance from the band's edge (see the module docstring), along the edges
     (``distances``: the domain's :meth:`~ndboundary.Domain.edge_distances` in units of
-    ``h``).
+    ``h``). The one-off form of :class:`OutsideFill`.
 
     Examples
     --------
@@ -164,31 +214,19 @@ def extend_outside(domain, elements, vertices, phi_band, vert_region1, distances
     >>> phi.round(6).tolist()
     [-4.0, -3.0, -2.0, -1.0, 0.0, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0]
     """
-    vertices = np.asarray(vertices, dtype=np.int64)
-    band = np.zeros(domain.n_elements, dtype=bool)
-    band[np.asarray(elements, dtype=np.int64)] = True
-    inside = np.zeros(domain.n_vertices, dtype=bool)
-    inside[vertices] = True
-    # the band's edge: its vertices that an element outside it holds. Every path from
-    # outside enters the band there; the walk starts there and stays outside.
-    edge = inside & domain.vertices_of(~band)
-    at_edge = edge[vertices]
-    offset = np.abs(np.asarray(phi_band, dtype=np.float64)[at_edge] - 0.5) / rate
-    dist = rate * distances(vertices[at_edge], offsets=offset, blocked=inside & ~edge)
-    sign = np.where(vert_region1, 1.0, -1.0)
-    phi = np.where(np.isfinite(dist), 0.5 + sign * dist, 0.5 + sign)
-    phi[vertices] = phi_band
-    return phi
+    return OutsideFill(domain, elements, vertices, distances)(phi_band, vert_region1, rate)
 
 
 def band_width(params, domain, lam_scale=1.0):
     """The band's half-width in units of ``h`` for ``band="auto"``, or None for the whole
     domain.
 
-    :data:`AUTO_BAND_WIDTH` times the domain's ``graph_stretch`` for the default
-    parameters (8 h on simplicial complexes, whose diagonal edges make graph distances
-    close to straight ones; 12 h on quads, polygons and hexahedra), wider for a weaker boundary term
-    or fewer smoothing passes, each of which lets phi at zeta depend on more of the
+    The domain's :attr:`~ndboundary.Domain.band_reach` for the default parameters (8 h
+    on triangles and 6 h on tetrahedra and up, whose diagonal edges make graph distances
+    close to straight ones; 12 h on quads, polygons and hexahedra). The first-order term of the
+    integration (``mu > 0``) screens phi from what lies farther from zeta, and the
+    boundary term holds it there. The band is wider for a weaker boundary term or fewer
+    smoothing passes, each of which lets phi at zeta depend on more of the
     domain: times ``(DEFAULT_LAM / (lam lam_scale))^(3/4)`` when the boundary weight
     ``lam * lam_scale`` (``lam_scale``: :func:`~ndboundary.pipeline.integration.boundary_weight_scale`)
     falls below the default's, and times ``(DEFAULT_SMOOTHING / smoothing)^(1/2)`` below
@@ -204,7 +242,7 @@ def band_width(params, domain, lam_scale=1.0):
     >>> band_width(defaults, kuhn_grid(4, 2)), band_width(defaults, kuhn_grid(4, 2), lam_scale=0.25)
     (8.0, 22.6)
     >>> band_width({**defaults, "smoothing": 15}, kuhn_grid(4, 3))
-    16.0
+    12.0
     >>> band_width({**defaults, "mu": 0.0}, kuhn_grid(4, 2)) is None
     True
     """
@@ -212,4 +250,4 @@ def band_width(params, domain, lam_scale=1.0):
         return None
     weaker = max(1.0, DEFAULT_LAM / (params["lam"] * lam_scale)) ** 0.75
     rougher = max(1.0, DEFAULT_SMOOTHING / params["smoothing"]) ** 0.5
-    return round(float(AUTO_BAND_WIDTH * domain.graph_stretch * weaker * rougher), 1)
+    return round(float(domain.band_reach * weaker * rougher), 1)

@@ -73,9 +73,9 @@ def relax(
         and fill phi outside them with the band-edge value plus the signed graph distance
         in units of ``h`` (:mod:`ndboundary.pipeline.band`): beyond linear passes to find
         zeta and the band, the cost follows the band, not the domain. ``"auto"``
-        (:func:`~ndboundary.pipeline.band.band_width`): 8 mean edge lengths on simplicial
-        complexes and 12 on quads, polygons and hexahedra (the domain's ``graph_stretch``),
-        in every dimension, with the default parameters, wider for a weaker boundary term (times
+        (:func:`~ndboundary.pipeline.band.band_width`): 8 mean edge lengths on triangles, 6
+        on tetrahedra and up, 12 on quads, polygons and hexahedra (the domain's
+        ``band_reach``) with the default parameters, wider for a weaker boundary term (times
         ``(2 / (lam * lam_scale))^(3/4)`` when the boundary weight falls below the
         default's) or fewer smoothing passes (times ``(60 / smoothing)^(1/2)`` below 60);
         the whole domain when it has fewer than 20 000 vertices, when the band would hold

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -22,9 +23,9 @@ from ..solvers.cache import digest
 from .band import (
     AUTO_BAND_MAX_SHARE,
     AUTO_BAND_MIN_VERTICES,
+    OutsideFill,
     band_elements,
     band_width,
-    extend_outside,
     growth_rate,
 )
 from .boundary import Boundary, element_boundary, vertex_boundary
@@ -318,15 +319,25 @@ class Relaxer:
         sub_labels = labels_of(mask, vertices)
         relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
-        res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
-        tick = time.perf_counter()
-        vert_region1 = region1 if on == "vertices" else domain.vertices_of(region1)
-        rate = growth_rate(res.phi, dist[vertices], width)
         elements = np.flatnonzero(mask)
+
+        def side():
+            return region1 if on == "vertices" else domain.vertices_of(region1)
+
         if self._fill:
-            res.phi = extend_outside(domain, elements, vertices, res.phi, vert_region1, distances, rate)
+            with ThreadPoolExecutor(1) as pool:
+                # the walk outside the band depends on the band alone: prepared on the
+                # second core while the band is relaxed
+                outside = pool.submit(lambda: (OutsideFill(domain, elements, vertices, distances).prepare(), side()))
+                res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
+                tick = time.perf_counter()
+                fill, vert_region1 = outside.result()
+            res.phi = fill(res.phi, vert_region1, growth_rate(res.phi, dist[vertices], width))
         else:
-            res.phi = DeferredFill(elements, vertices, res.phi, vert_region1, distances, rate)
+            res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
+            tick = time.perf_counter()
+            rate = growth_rate(res.phi, dist[vertices], width)
+            res.phi = DeferredFill(elements, vertices, res.phi, side(), distances, rate)
         u = np.zeros(domain.n_vertices)
         u[vertices] = res.u
         res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain
