@@ -27,6 +27,8 @@ simplices at each vertex, elsewhere a graph of the edges that a
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..domains.base import Domain
@@ -169,14 +171,14 @@ class OutsideFill:
         edge = inside & domain.vertices_of(~band)
         self.at_edge = edge[self.vertices]
         self.blocked = inside & ~edge
-        self.distances, self.walk = distances, None
+        self.distances = distances
+        self.walk = functools.partial(distances, blocked=self.blocked)
 
     def prepare(self):
         """Build the walk outside the band (``distances.avoiding`` its interior) and return
         the fill.
         """
-        if self.walk is None:
-            self.walk = self.distances.avoiding(self.blocked)
+        self.walk = self.distances.avoiding(self.blocked)
         return self
 
     def __call__(self, phi_band, side, rate=1.0):
@@ -185,11 +187,7 @@ class OutsideFill:
         edge (``side``: the vertices of region 1, a mask).
         """
         offset = np.abs(np.asarray(phi_band, dtype=np.float64)[self.at_edge] - 0.5) / rate
-        sources = self.vertices[self.at_edge]
-        if self.walk is not None:
-            dist = rate * self.walk(sources, offsets=offset)
-        else:
-            dist = rate * self.distances(sources, offsets=offset, blocked=self.blocked)
+        dist = rate * self.walk(self.vertices[self.at_edge], offsets=offset)
         sign = np.where(side, 1.0, -1.0)
         phi = np.where(np.isfinite(dist), 0.5 + sign * dist, 0.5 + sign)
         phi[self.vertices] = phi_band

@@ -321,23 +321,21 @@ class Relaxer:
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
         elements = np.flatnonzero(mask)
 
-        def side():
-            return region1 if on == "vertices" else domain.vertices_of(region1)
+        def outside():
+            """The fill's walk and every vertex's side: they depend on the band alone."""
+            side = region1 if on == "vertices" else domain.vertices_of(region1)
+            return (OutsideFill(domain, elements, vertices, distances).prepare() if self._fill else None), side
 
-        if self._fill:
-            with ThreadPoolExecutor(1) as pool:
-                # the walk outside the band depends on the band alone: prepared on the
-                # second core while the band is relaxed
-                outside = pool.submit(lambda: (OutsideFill(domain, elements, vertices, distances).prepare(), side()))
-                res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
-                tick = time.perf_counter()
-                fill, vert_region1 = outside.result()
-            res.phi = fill(res.phi, vert_region1, growth_rate(res.phi, dist[vertices], width))
-        else:
+        with ThreadPoolExecutor(1) as pool:
+            prepared = pool.submit(outside)  # on the second core while the band is relaxed
             res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
             tick = time.perf_counter()
-            rate = growth_rate(res.phi, dist[vertices], width)
-            res.phi = DeferredFill(elements, vertices, res.phi, side(), distances, rate)
+            fill, side = prepared.result()
+        rate = growth_rate(res.phi, dist[vertices], width)
+        if fill is not None:
+            res.phi = fill(res.phi, side, rate)
+        else:
+            res.phi = DeferredFill(elements, vertices, res.phi, side, distances, rate)
         u = np.zeros(domain.n_vertices)
         u[vertices] = res.u
         res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain
