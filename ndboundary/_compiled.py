@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _unit_row(B, i, x, y, z):  # pragma: no cover - compiled
     """Row ``i`` of ``B`` set to ``(x, y, z)`` scaled to unit length (zero stays zero)."""
     s = x * x + y * y + z * z
@@ -20,7 +20,7 @@ def _unit_row(B, i, x, y, z):  # pragma: no cover - compiled
     B[i, 2] = z * s
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def insert_sorted(values, count, b):  # pragma: no cover - compiled
     """Insert ``b`` into the increasing ``values[:count]``; a few dozen entries at most."""
     t = count

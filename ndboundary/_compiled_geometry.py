@@ -14,7 +14,7 @@ import numpy as np
 __all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_volumes", "stiffness_terms_compiled"]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _tet_gradient(grads, s, d, e0, e1, e2, m00, m01, m02, m11, m12, m22):  # pragma: no cover - compiled
     """Component ``d`` of tetrahedron ``s``'s gradients from that component of its edges."""
     r = 0.0 + e0 * m00 + e1 * m01 + e2 * m02
@@ -73,9 +73,6 @@ def _small_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pra
     E, k1 = simplices.shape
     k = k1 - 1
     dim = points.shape[1]
-    if k == 3 and dim == 3:
-        _tet_geometry(points, simplices, rtol, grads, vol, with_gradients)
-        return
     norm = 1.0
     for i in range(2, k + 1):
         norm *= i
@@ -131,6 +128,13 @@ def _small_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pra
                 grads[s, d, 0] -= row
 
 
+def _geometry_pass(k1, dim):
+    """The compiled pass for simplices of ``k1`` vertices in ``dim`` dimensions: chosen
+    here rather than inside one compiled function, so each kind compiles only its own.
+    """
+    return _tet_geometry if k1 == 4 and dim == 3 else _small_geometry
+
+
 def small_simplex_volumes(points, simplices, rtol):
     """Volumes ``sqrt(det(E^T E)) / k!`` of simplices of at most 3 dimensions, NaN for the
     degenerate ones (Gram determinant at most ``(rtol * scale)^k``, ``scale`` the mean
@@ -147,7 +151,9 @@ def small_simplex_volumes(points, simplices, rtol):
     simplices = np.ascontiguousarray(simplices)
     vol = np.empty(simplices.shape[0])
     grads = np.empty((0, 0, 0))
-    _small_geometry(np.ascontiguousarray(points, dtype=np.float64), simplices, float(rtol), grads, vol, False)
+    _geometry_pass(simplices.shape[1], points.shape[1])(
+        np.ascontiguousarray(points, dtype=np.float64), simplices, float(rtol), grads, vol, False
+    )
     return vol
 
 
@@ -172,7 +178,7 @@ def small_simplex_geometry_compiled(points, simplices, rtol):
         raise ValueError(f"simplices has shape {simplices.shape}; this pass takes at most 4 vertices per simplex")
     vol = np.empty(E)
     grads = np.empty((E, points.shape[1], k1))
-    _small_geometry(points, simplices, float(rtol), grads, vol, True)
+    _geometry_pass(k1, points.shape[1])(points, simplices, float(rtol), grads, vol, True)
     return grads, vol
 
 

@@ -18,7 +18,7 @@ from ._compiled import insert_sorted
 __all__ = ["edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _facet_vertex(srt, f, i, t):  # pragma: no cover - compiled
     """The ``t``-th lowest vertex of the facet of ``f`` that leaves out its ``i``-th."""
     return srt[f, t + 1 if t >= i else t]
@@ -262,13 +262,13 @@ def _stiffness_columns(indptr, elements, srt, nbr, rows, cols, data):  # pragma:
             data[q] = 0.0
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _term(g, i, j, w):  # pragma: no cover - compiled
     """``w g_i . g_j`` of a tetrahedron's gradients ``g`` (3, 4), in the general loop's order."""
     return (0.0 + g[0, i] * g[0, j] + g[1, i] * g[1, j] + g[2, i] * g[2, j]) * w
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _add_row4(cols, data, q, b, t0, t1, t2, t3):  # pragma: no cover - compiled
     """A tetrahedron's terms added to its vertices ``b`` (increasing) in the row from ``q``."""
     while cols[q] < b[0]:
@@ -286,24 +286,27 @@ def _add_row4(cols, data, q, b, t0, t1, t2, t3):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
+def _stiffness_fill_tets(srt, grads, vol, rows, cols, data):  # pragma: no cover - compiled
+    """:func:`_stiffness_fill` on tetrahedra in space, the same sums unrolled."""
+    for e in range(srt.shape[0]):
+        g, w = grads[e], vol[e]
+        t00, t01, t02, t03 = _term(g, 0, 0, w), _term(g, 0, 1, w), _term(g, 0, 2, w), _term(g, 0, 3, w)
+        t11, t12, t13 = _term(g, 1, 1, w), _term(g, 1, 2, w), _term(g, 1, 3, w)
+        t22, t23, t33 = _term(g, 2, 2, w), _term(g, 2, 3, w), _term(g, 3, 3, w)
+        b = srt[e]
+        _add_row4(cols, data, rows[b[0]], b, t00, t01, t02, t03)
+        _add_row4(cols, data, rows[b[1]], b, t01, t11, t12, t13)
+        _add_row4(cols, data, rows[b[2]], b, t02, t12, t22, t23)
+        _add_row4(cols, data, rows[b[3]], b, t03, t13, t23, t33)
+
+
+@numba.njit(cache=True, nogil=True)
 def _stiffness_fill(srt, grads, vol, rows, cols, data):  # pragma: no cover - compiled
     # every simplex adds its terms vol g_i . g_j to the rows of its vertices, in increasing
     # order of the simplices: the order in which a sum over the vertex pairs of every
     # simplex adds them; its vertices, increasing, are found by one scan of each row
     E, k1 = srt.shape
     dim = grads.shape[1]
-    if k1 == 4 and dim == 3:
-        for e in range(E):
-            g, w = grads[e], vol[e]
-            t00, t01, t02, t03 = _term(g, 0, 0, w), _term(g, 0, 1, w), _term(g, 0, 2, w), _term(g, 0, 3, w)
-            t11, t12, t13 = _term(g, 1, 1, w), _term(g, 1, 2, w), _term(g, 1, 3, w)
-            t22, t23, t33 = _term(g, 2, 2, w), _term(g, 2, 3, w), _term(g, 3, 3, w)
-            b = srt[e]
-            _add_row4(cols, data, rows[b[0]], b, t00, t01, t02, t03)
-            _add_row4(cols, data, rows[b[1]], b, t01, t11, t12, t13)
-            _add_row4(cols, data, rows[b[2]], b, t02, t12, t22, t23)
-            _add_row4(cols, data, rows[b[3]], b, t03, t13, t23, t33)
-        return
     for e in range(E):
         for i in range(k1):
             q = rows[srt[e, i]]
@@ -351,7 +354,8 @@ def stiffness_matrix(incidence, sorted_simplices, grads, vol):
     cols, data = np.empty(int(rows[-1]), dtype=idx), np.empty(int(rows[-1]))
     grads, vol = np.ascontiguousarray(grads), np.ascontiguousarray(vol, dtype=np.float64)
     _stiffness_columns(inc.indptr, inc.indices, srt, nbr, rows, cols, data)
-    _stiffness_fill(srt, grads, vol, rows, cols, data)
+    fill = _stiffness_fill_tets if k1 == 4 and grads.shape[1] == 3 else _stiffness_fill  # each compiles alone
+    fill(srt, grads, vol, rows, cols, data)
     return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
 
 

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 __all__ = ["graph_distances", "incidence_distances", "kept_edge_graph"]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _up(keys, items, where, i):  # pragma: no cover - compiled
     """Move the heap's entry ``i`` up to its place."""
     key, item = keys[i], items[i]
@@ -35,7 +35,7 @@ def _up(keys, items, where, i):  # pragma: no cover - compiled
     where[item] = i
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _down(keys, items, where, n, i):  # pragma: no cover - compiled
     """Move the heap's entry ``i`` (of ``n``) down to its place."""
     key, item = keys[i], items[i]
@@ -56,7 +56,7 @@ def _down(keys, items, where, n, i):  # pragma: no cover - compiled
     where[item] = i
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _improve(keys, items, where, n, b, key):  # pragma: no cover - compiled
     """Vertex ``b`` enters the heap at ``key``, or moves up to it; the heap's new size."""
     if where[b] < 0:
@@ -69,7 +69,7 @@ def _improve(keys, items, where, n, b, key):  # pragma: no cover - compiled
     return n
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _pop(keys, items, where, n):  # pragma: no cover - compiled
     """The heap's smallest vertex, removed (``n > 0`` entries before)."""
     a = items[0]

@@ -165,7 +165,8 @@ def _products(indptr, indices, data, Pp, Pj, X, count, out):  # pragma: no cover
                 acc[slot[Pj[q]]] += a * X[q]
         for q in range(Pp[i], Pp[i + 1]):
             slot[Pj[q]] = m
-    out[:] = acc[:m]
+    for q in range(m):  # a loop: a slice assignment compiles its shape checks' messages
+        out[q] = acc[q]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -184,7 +185,8 @@ def _tentative_products(indptr, indices, data, Pp, Pj, agg, values, count, out):
             acc[slot[a if a >= 0 else count]] += data[k] * values[j]
         for q in range(Pp[i], Pp[i + 1]):
             slot[Pj[q]] = m
-    out[:] = acc[:m]
+    for q in range(m):  # a loop: a slice assignment compiles its shape checks' messages
+        out[q] = acc[q]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -232,7 +234,8 @@ def _energy(indptr, indices, data, Pp, Pj, agg, values, Bc, maxiter, tol):  # pr
                 T[q] = values[i]
     R = np.empty(m)
     _tentative_products(indptr, indices, data, Pp, Pj, agg, values, count, R)
-    R[:] = -R
+    for q in range(m):
+        R[q] = -R[q]
     _constrain(Pp, Pj, R, Bc, BtBinv)
     Z = np.empty(m)
     D = np.zeros(m)
