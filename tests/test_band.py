@@ -7,6 +7,7 @@ from ndboundary import LevelSet, PolygonMesh, Relaxer, SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, hex_grid, icosphere, kuhn_grid, label_by, voronoi_polygons
 from ndboundary.domains.distances import GraphDistances, IncidenceDistances
 from ndboundary.metrics import level_set_distance
+from ndboundary.pipeline import relaxer as relaxer_module
 from ndboundary.pipeline.band import band_width
 
 DEFAULTS = {"mu": 0.03, "lam": 2.0, "smoothing": 60}
@@ -250,6 +251,23 @@ def test_the_band_on_tetrahedra_is_the_same_walked_or_on_the_graph(monkeypatch):
     monkeypatch.setattr(SimplicialComplex, "edge_distances", on_graph)
     on_graph = relax(mesh, labels, on="elements")
     np.testing.assert_array_equal(walked.phi, on_graph.phi)
+
+
+@pytest.mark.parametrize("n_regions", [2, 3])  # three: each region's fill deferred to its first read
+def test_the_fill_is_the_same_prepared_beside_the_band_or_after_it(monkeypatch, n_regions):
+    mesh = kuhn_grid(160, 2, jitter=0.25, random_state=0)
+    labels = label_by(mesh, lambda x: circle(x, r=0.3))
+    if n_regions == 3:
+        labels = labels + (labels == 1) * (mesh.element_centroids()[:, 0] > 0)
+    results = []
+    for share in (0.0, 1.1):  # the fill prepared beside every band, then after it
+        monkeypatch.setattr(relaxer_module, "FILL_BESIDE_MIN_SHARE", share)
+        r = relax(mesh, labels, on="elements")
+        assert n_regions == 3 or r.params["band_vertices"] < 0.2 * mesh.n_vertices
+        results.append(np.asarray(r.phi))
+    assert results[0].shape == ((mesh.n_vertices,) if n_regions == 2 else (mesh.n_vertices, 3))
+    assert np.isfinite(results[0]).all()
+    np.testing.assert_array_equal(*results)
 
 
 @pytest.mark.parametrize("make", [lambda: kuhn_grid(6, 3), lambda: voronoi_polygons(20, random_state=0)])

@@ -458,3 +458,58 @@ def test_small_files_are_read_line_by_line(write, monkeypatch):
 
     monkeypatch.setattr(obj, "scan_obj_bytes", refuse)
     assert read_mesh(write("small", READ_BY_SCANS["triangles"], ".obj")).n_elements == 2
+
+
+VTU_DOMAINS = {
+    "triangles": ds.kuhn_grid(5, 2, jitter=0.2, random_state=0),
+    "tetrahedra": ds.kuhn_grid(3, 3, jitter=0.1, random_state=0),
+    "quads": ds.quad_grid(4, jitter=0.2, random_state=0),
+    "polygons": ds.voronoi_polygons(12, random_state=0),  # blocks of several polygon sizes
+    "hexahedra": ds.hex_grid(3, jitter=0.2, random_state=0),
+}
+
+
+@pytest.mark.parametrize("block_bytes", [None, 64, 8 * 6])  # 48: the points' rows end blocks exactly
+@pytest.mark.parametrize("name", sorted(VTU_DOMAINS))
+def test_vtu_files_of_meshio_and_ours(tmp_path, monkeypatch, name, block_bytes):
+    import meshio
+
+    from ndboundary.io import vtu
+    from ndboundary.io.cell_blocks import blocks_from_domain
+    from ndboundary.io.meshio_formats import write_with_meshio
+
+    if block_bytes is not None:
+        monkeypatch.setattr(vtu, "BLOCK_BYTES", block_bytes)
+    domain = VTU_DOMAINS[name]
+    rng = np.random.default_rng(0)
+    point_data = {"phi": rng.random(domain.n_vertices), "flag": rng.random(domain.n_vertices) > 0.5}
+    cell_data = {"labels": rng.integers(-3, 3, domain.n_elements).astype(np.int32),
+                 "field": rng.random((domain.n_elements, 3))}  # fmt: skip
+    write_mesh(tmp_path / "ours.vtu", domain, point_data=point_data, cell_data=cell_data)
+    blocks, order = blocks_from_domain(domain)
+    write_with_meshio(tmp_path / "meshio.vtu", domain.points, blocks, order=order,
+                      point_data={**point_data, "flag": point_data["flag"].astype(np.uint8)}, cell_data=cell_data)  # fmt: skip
+    ours, theirs = meshio.read(tmp_path / "ours.vtu"), meshio.read(tmp_path / "meshio.vtu")
+    np.testing.assert_array_equal(ours.points, theirs.points)
+    assert [c.type for c in ours.cells] == [c.type for c in theirs.cells] and len(ours.cells) >= 1
+    for a, b in zip(ours.cells, theirs.cells, strict=True):
+        np.testing.assert_array_equal(a.data, b.data)
+    for key in point_data:
+        np.testing.assert_array_equal(ours.point_data[key], theirs.point_data[key])
+    assert ours.point_data["flag"].dtype == np.uint8  # booleans as VTK holds them
+    for key in cell_data:
+        for a, b in zip(ours.cell_data[key], theirs.cell_data[key], strict=True):
+            np.testing.assert_array_equal(a, b)
+    back = read_mesh(tmp_path / "ours.vtu")
+    assert (back.n_vertices, back.n_elements) == (domain.n_vertices, domain.n_elements)
+
+
+def test_vtu_writer_refuses_what_vtk_cannot_hold(tmp_path):
+    from ndboundary.io.vtu import write_vtu
+
+    square = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    with pytest.raises(ValueError, match="holds no numbers"):
+        write_vtu(tmp_path / "s.vtu", square, [("quad", [[0, 1, 2, 3]])], point_data={"name": np.array(list("abcd"))})
+    with pytest.raises(ValueError, match=r"cells of fixed size .* got \['polyhedron8'\]"):
+        write_vtu(tmp_path / "s.vtu", square, [("polyhedron8", [[0, 1, 2, 3]])])
+    assert not (tmp_path / "s.vtu").exists()

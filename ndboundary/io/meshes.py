@@ -14,6 +14,7 @@ from .meshio_formats import MESHIO_EXTENSIONS, read_with_meshio, write_with_mesh
 from .obj import read_obj, write_obj
 from .off import read_off, write_off
 from .ply import read_ply
+from .vtu import VTK_CELL_TYPES, write_vtu
 from .weld import OPEN_EDGE_FRACTION, WeldReport, open_edge_fraction, weld_blocks, weld_map
 
 __all__ = ["DATA_EXTENSIONS", "MESH_EXTENSIONS", "read_mesh", "write_mesh"]
@@ -223,5 +224,8 @@ def write_mesh(path, domain, point_data=None, cell_data=None):
         ):
             raise ValueError(f"{path}: the {ext} format holds surfaces only; use .vtu, .mesh or .hedra for solids")
         (write_obj if ext == ".obj" else write_off)(path, domain.points, blocks)
+        return
+    if ext == ".vtu" and all(kind in VTK_CELL_TYPES for kind, _ in blocks):
+        write_vtu(path, domain.points, blocks, order=order, point_data=point_data, cell_data=cell_data)
         return
     write_with_meshio(path, domain.points, blocks, order=order, point_data=point_data, cell_data=cell_data)

@@ -38,6 +38,7 @@ __all__ = [
     "AUTO_BAND_MAX_SHARE",
     "AUTO_BAND_MIN_VERTICES",
     "AUTO_BAND_MIN_SMOOTHING",
+    "FILL_BESIDE_MIN_SHARE",
     "OutsideFill",
     "band_elements",
     "band_width",
@@ -55,6 +56,13 @@ AUTO_BAND_MIN_SMOOTHING = 10
 #: ``band="auto"`` relaxes the whole domain when the band would hold more than this share of
 #: the elements: it would cost about as much, and the whole-domain solve is exact.
 AUTO_BAND_MAX_SHARE = 0.7
+
+#: The fill's walk is prepared on a second thread while the band is relaxed when the band
+#: holds at least this share of the vertices. A band vertex costs about ten times what the
+#: walk's preparation costs per vertex outside, so from about a tenth the band's relaxation
+#: hides the preparation; beside a smaller band the thread would save little and slow the
+#: band's parallel smoothing (``benchmarks/band_scaling.py``).
+FILL_BESIDE_MIN_SHARE = 0.1
 
 #: ``band="auto"`` relaxes the whole domain below this many vertices: finding zeta and the
 #: band, and filling phi outside it, would cost about what the band saves.

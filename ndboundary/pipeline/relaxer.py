@@ -23,6 +23,7 @@ from ..solvers.cache import digest
 from .band import (
     AUTO_BAND_MAX_SHARE,
     AUTO_BAND_MIN_VERTICES,
+    FILL_BESIDE_MIN_SHARE,
     OutsideFill,
     band_elements,
     band_width,
@@ -327,10 +328,12 @@ class Relaxer:
             return (OutsideFill(domain, elements, vertices, distances).prepare() if self._fill else None), side
 
         with ThreadPoolExecutor(1) as pool:
-            prepared = pool.submit(outside)  # on the second core while the band is relaxed
+            # on the second core while the band is relaxed, if the band is large enough to hide it
+            beside = vertices.size >= FILL_BESIDE_MIN_SHARE * domain.n_vertices
+            prepared = pool.submit(outside) if beside else None
             res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
             tick = time.perf_counter()
-            fill, side = prepared.result()
+            fill, side = prepared.result() if beside else outside()
         rate = growth_rate(res.phi, dist[vertices], width)
         if fill is not None:
             res.phi = fill(res.phi, side, rate)
