@@ -25,6 +25,10 @@ one compiled pass over their bytes, and the text writers format large arrays in 
 compiled pass too (a million-vertex mesh is read or written in about a second:
 ``benchmarks/io_speed.py``). Any file the compiled pass does not read in full is read
 again line by line (or by meshio), so that errors keep their messages and lines.
+``.vtu`` files of cells of fixed size are written here too (:mod:`ndboundary.io.vtu`), in
+VTK's own compressed layout, compressed on several threads, several times faster than
+meshio's encoding (``benchmarks/io_speed.py``); meshio reads them, and writes the
+``.vtu`` files of general polyhedra.
 
 :func:`read_mesh` returns the matching domain: a :class:`~ndboundary.SimplicialComplex`
 for segments, triangles or tetrahedra alone, a :class:`~ndboundary.PolygonMesh` for

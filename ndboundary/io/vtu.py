@@ -2,10 +2,11 @@
 
 The file is VTK's own default layout: every array zlib-compressed in blocks, behind the
 block sizes (``header_type="UInt64"``), in one raw appended section. meshio writes the
-same format base64-encoded and compresses at zlib's default level on one thread, which
-takes most of the time of writing a relaxed million-vertex mesh. Here the blocks are
-compressed at level 1 (the files are about a tenth larger) on a few threads, as zlib
-releases the GIL. Cells that are not of fixed size (VTK polyhedra) are left to meshio.
+same arrays base64-encoded, compressed at zlib's default level in blocks of 32 KB on one
+thread, and that compression takes most of the time of writing a relaxed mesh of a
+million vertices. Here the blocks are of 256 KB, compressed at level 1 on a few threads
+(zlib releases the GIL). Cells that are not of fixed size (VTK polyhedra) are left to
+meshio.
 """
 
 from __future__ import annotations
