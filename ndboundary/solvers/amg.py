@@ -36,11 +36,11 @@ def amg_preconditioner(A):
     pyamg's defaults and other variants; ``benchmarks/solvers.py`` measures them
     (figures in the README).
 
-    * Gauss-Seidel on every level: on meshes two forward sweeps before the coarse
-      correction and two backward ones after (the cycle stays symmetric, at half the
-      work of symmetric sweeps, for two more iterations on a 257 K-unknown tetrahedral
-      band); on graphs two symmetric sweeps before and after. One symmetric sweep
-      needed more iterations and more time on meshes for hardly any gain on graphs;
+    * Gauss-Seidel on every level: two forward sweeps before the coarse correction and
+      two backward ones after (the cycle stays symmetric, at half the work of symmetric
+      sweeps, for two more iterations on a 257 K-unknown tetrahedral band, and 13 %
+      less time in a 100 K-sample fit of ``benchmarks/scale.py``). One sweep each way
+      needed more iterations and more time;
       Chebyshev smoothing needed more than twice the iterations (close to the default
       limit of ``maxiter`` on large meshes); a W-cycle took longer for the same
       iterations.
@@ -109,14 +109,13 @@ def amg_preconditioner(A):
         def coarse(b):
             return np.asarray(solver(levels[-1].A, b), dtype=np.float64).reshape(b.shape)
 
-        pre = post = ("forward", "backward") * 2
-        return _v_cycle(levels, coarse, pre, post, pyamg.amg_core.gauss_seidel)
-    levels = energy_hierarchy(A, maxiter=2, max_coarse=500)
-    with one_blas_thread():  # at most 500 rows: more threads gain nothing, and took 1 s with the other core busy
-        inverse = sla.pinv(levels[-1].A.toarray())  # pyamg's "pinv" coarse solver
+    else:
+        levels = energy_hierarchy(A, maxiter=2, max_coarse=500)
+        with one_blas_thread():  # at most 500 rows: more threads gain nothing, and took 1 s with the other core busy
+            inverse = sla.pinv(levels[-1].A.toarray())  # pyamg's "pinv" coarse solver
 
-    def coarse(b):
-        return inverse @ b
+        def coarse(b):
+            return inverse @ b
 
     # forward sweeps before the coarse correction and backward ones after keep the cycle
     # symmetric at half the fine-level work of symmetric sweeps
