@@ -487,8 +487,8 @@ def test_vtu_files_of_meshio_and_ours(tmp_path, monkeypatch, name, block_bytes):
                  "field": rng.random((domain.n_elements, 3))}  # fmt: skip
     write_mesh(tmp_path / "ours.vtu", domain, point_data=point_data, cell_data=cell_data)
     blocks, order = blocks_from_domain(domain)
-    write_with_meshio(tmp_path / "meshio.vtu", domain.points, blocks, order=order,
-                      point_data={**point_data, "flag": point_data["flag"].astype(np.uint8)}, cell_data=cell_data)  # fmt: skip
+    as_uint8 = {**point_data, "flag": point_data["flag"].astype(np.uint8)}  # meshio takes no booleans
+    write_with_meshio(tmp_path / "meshio.vtu", domain.points, blocks, order=order, point_data=as_uint8, cell_data=cell_data)
     ours, theirs = meshio.read(tmp_path / "ours.vtu"), meshio.read(tmp_path / "meshio.vtu")
     np.testing.assert_array_equal(ours.points, theirs.points)
     assert [c.type for c in ours.cells] == [c.type for c in theirs.cells] and len(ours.cells) >= 1
@@ -512,4 +512,9 @@ def test_vtu_writer_refuses_what_vtk_cannot_hold(tmp_path):
         write_vtu(tmp_path / "s.vtu", square, [("quad", [[0, 1, 2, 3]])], point_data={"name": np.array(list("abcd"))})
     with pytest.raises(ValueError, match=r"cells of fixed size .* got \['polyhedron8'\]"):
         write_vtu(tmp_path / "s.vtu", square, [("polyhedron8", [[0, 1, 2, 3]])])
+    two = [("triangle", [[0, 1, 2]]), ("quad", [[0, 1, 2, 3]])]
+    with pytest.raises(ValueError, match="cell_data on 2 blocks needs their order"):
+        write_vtu(tmp_path / "s.vtu", square, two, cell_data={"label": np.array([1, 2])})
     assert not (tmp_path / "s.vtu").exists()
+    write_vtu(tmp_path / "s.vtu", square, [("quad", [[0, 1, 2, 3]])], cell_data={"label": np.array([5])})
+    assert read_mesh(tmp_path / "s.vtu").n_elements == 1

@@ -71,7 +71,7 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
         one of :data:`VTK_CELL_TYPES`, ``data`` of shape (n_cells, n_vertices_per_cell).
     order : list of array-like of int, optional
         Per block, the elements it holds, to put ``cell_data`` in the blocks' order;
-        needed only with ``cell_data``.
+        needed only with ``cell_data`` on several blocks.
     point_data, cell_data : dict of str to ndarray, optional
         Per-vertex and per-element arrays (element order) of shape (n,) or (n, k), of
         types VTK holds (:func:`~ndboundary.io.meshio_formats.vtk_values`).
@@ -79,7 +79,8 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
     Raises
     ------
     ValueError
-        On a kind of block this writer does not hold, or an array of a type VTK does not.
+        On a kind of block this writer does not hold, an array of a type VTK does not, or
+        ``cell_data`` on several blocks without their ``order``.
 
     Examples
     --------
@@ -101,6 +102,10 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
     sizes = np.concatenate([np.full(len(c), c.shape[1], dtype=np.int64) for c in cells])
     kinds = [VTK_CELL_TYPES[kind] for kind, _ in blocks]
     types = np.concatenate([np.full(len(c), t, dtype=np.uint8) for t, c in zip(kinds, cells, strict=True)])
+    if order is None and cell_data:
+        if len(cells) > 1:
+            raise ValueError(f"{path}: cell_data on {len(cells)} blocks needs their order")
+        order = [np.arange(len(cells[0]))]
     cell_arrays = {}
     for name, values in (cell_data or {}).items():
         values = np.asarray(values)
