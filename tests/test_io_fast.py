@@ -488,7 +488,8 @@ def test_vtu_files_of_meshio_and_ours(tmp_path, monkeypatch, name, block_bytes):
     write_mesh(tmp_path / "ours.vtu", domain, point_data=point_data, cell_data=cell_data)
     blocks, order = blocks_from_domain(domain)
     as_uint8 = {**point_data, "flag": point_data["flag"].astype(np.uint8)}  # meshio takes no booleans
-    write_with_meshio(tmp_path / "meshio.vtu", domain.points, blocks, order=order, point_data=as_uint8, cell_data=cell_data)
+    path = tmp_path / "meshio.vtu"
+    write_with_meshio(path, domain.points, blocks, order=order, point_data=as_uint8, cell_data=cell_data)
     ours, theirs = meshio.read(tmp_path / "ours.vtu"), meshio.read(tmp_path / "meshio.vtu")
     np.testing.assert_array_equal(ours.points, theirs.points)
     assert [c.type for c in ours.cells] == [c.type for c in theirs.cells] and len(ours.cells) >= 1
