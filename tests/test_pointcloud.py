@@ -192,3 +192,19 @@ def test_delaunay_complex(rng):
 def test_delaunay_refusals(X, match):
     with pytest.raises(ValueError, match=match):
         delaunay_complex(X)
+
+
+@pytest.mark.parametrize(("D", "k"), [(3, 12), (20, 8)])  # the covariance, then the Gram matrix
+def test_local_pca_frames_are_orthonormal_and_the_same_in_blocks_on_threads(monkeypatch, rng, D, k):
+    from ndboundary.domains import tangent
+
+    X, _ = _manifold(700, D, rng, m=2)
+    nbr, _ = kneighbors(X, k, method="exact")
+    whole = tangent.local_pca(X, nbr, 2)
+    monkeypatch.setattr(tangent, "_CHUNK", 64)  # 11 blocks, shared by the threads
+    Z, T = tangent.local_pca(X, nbr, 2)
+    np.testing.assert_array_equal(Z, whole[0])
+    np.testing.assert_array_equal(T, whole[1])
+    np.testing.assert_allclose(T.transpose(0, 2, 1) @ T, np.broadcast_to(np.eye(2), (700, 2, 2)), atol=1e-10)
+    offsets = X[nbr] - X[:, None, :]
+    np.testing.assert_allclose(Z, offsets @ T, atol=1e-10)  # the coordinates are the offsets in the frame

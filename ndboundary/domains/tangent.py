@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from math import gamma, pi
 
 import numpy as np
@@ -35,7 +37,8 @@ def local_pca(points, nbr, m):
     The leading eigenvectors of each point's offsets ``Y`` (k, D) are taken from the
     smaller of the Gram matrix ``Y Y^T`` (k, k) and the covariance ``Y^T Y`` (D, D): both
     give the same frame ``T`` and coordinates ``Z = Y T`` (up to the sign of a column),
-    and in few dimensions with many neighbours the covariance costs far less.
+    and in few dimensions with many neighbours the covariance costs far less. Blocks of
+    points are computed on several threads.
 
     Examples
     --------
@@ -50,26 +53,35 @@ def local_pca(points, nbr, m):
     ((1, 4, 2), (1, 3, 2), True, True)
     """
     n, k = nbr.shape
-    D = points.shape[1]
     Z = np.empty((n, k, m))
-    T = np.empty((n, D, m))
-    for s in range(0, n, _CHUNK):
-        c = slice(s, min(n, s + _CHUNK))
-        Y = points[nbr[c]] - points[c][:, None, :]  # (b, k, D)
-        if D < k:
-            w, U = np.linalg.eigh(Y.transpose(0, 2, 1) @ Y)
-            w, U = w[:, ::-1][:, :m], U[:, :, ::-1][:, :, :m]
-            ok = (w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300))[:, None, :]
-            T[c] = np.where(ok, U, 0.0)
-            Z[c] = Y @ T[c]
-            continue
-        w, V = np.linalg.eigh(Y @ Y.transpose(0, 2, 1))
-        w, V = w[:, ::-1][:, :m], V[:, :, ::-1][:, :, :m]
-        ok = w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300)
-        sw = np.sqrt(np.where(ok, w, 0.0))
-        Z[c] = V * sw[:, None, :]
-        T[c] = (Y.transpose(0, 2, 1) @ V) * np.where(ok, 1.0 / np.where(ok, sw, 1.0), 0.0)[:, None, :]
+    T = np.empty((n, points.shape[1], m))
+    blocks = [slice(s, min(n, s + _CHUNK)) for s in range(0, n, _CHUNK)]
+    if len(blocks) == 1:
+        _pca_block(points, nbr, m, Z, T, blocks[0])
+    else:  # numpy's batched eigh and products release the GIL: the blocks share the cores
+        with ThreadPoolExecutor(min(len(blocks), os.cpu_count() or 1)) as pool:
+            for _ in pool.map(lambda c: _pca_block(points, nbr, m, Z, T, c), blocks):
+                pass
     return Z, T
+
+
+def _pca_block(points, nbr, m, Z, T, c):
+    """:func:`local_pca` of the points ``c`` (a slice), into ``Z[c]`` and ``T[c]``."""
+    k, D = nbr.shape[1], points.shape[1]
+    Y = points[nbr[c]] - points[c][:, None, :]  # (b, k, D)
+    if D < k:
+        w, U = np.linalg.eigh(Y.transpose(0, 2, 1) @ Y)
+        w, U = w[:, ::-1][:, :m], U[:, :, ::-1][:, :, :m]
+        ok = (w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300))[:, None, :]
+        T[c] = np.where(ok, U, 0.0)
+        Z[c] = Y @ T[c]
+        return
+    w, V = np.linalg.eigh(Y @ Y.transpose(0, 2, 1))
+    w, V = w[:, ::-1][:, :m], V[:, :, ::-1][:, :, :m]
+    ok = w > _EIG_RTOL * np.maximum(w[:, :1], 1e-300)
+    sw = np.sqrt(np.where(ok, w, 0.0))
+    Z[c] = V * sw[:, None, :]
+    T[c] = (Y.transpose(0, 2, 1) @ V) * np.where(ok, 1.0 / np.where(ok, sw, 1.0), 0.0)[:, None, :]
 
 
 def lsq_coefficients(Z):
