@@ -208,3 +208,16 @@ def test_local_pca_frames_are_orthonormal_and_the_same_in_blocks_on_threads(monk
     np.testing.assert_allclose(T.transpose(0, 2, 1) @ T, np.broadcast_to(np.eye(2), (700, 2, 2)), atol=1e-10)
     offsets = X[nbr] - X[:, None, :]
     np.testing.assert_allclose(Z, offsets @ T, atol=1e-10)  # the coordinates are the offsets in the frame
+
+
+def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
+    from ndboundary.domains import pointcloud_extension
+
+    X, t = _manifold(600, 5, rng)
+    ext = PointCloud(X, n_neighbors=12).extension(np.c_[t[:, 0], t[:, 1] ** 2], power=2.0)
+    Q = X[:300] + 0.01 * rng.normal(size=(300, 5))
+    whole = ext(Q)  # one block
+    monkeypatch.setattr(pointcloud_extension, "_CHUNK", 16)  # 19 blocks, shared by the threads
+    np.testing.assert_array_equal(ext(Q), whole)
+    assert whole.shape == (300, 2) and np.isfinite(whole).all()
+    assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the first function

@@ -32,6 +32,9 @@ refit since ``phi`` stays as fitted (:class:`NeighborExtension` gives the rules)
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 __all__ = ["EXTENSION_POWERS", "NeighborExtension"]
@@ -127,11 +130,27 @@ class NeighborExtension:
             self.power = float(power)
 
     def __call__(self, X):
-        """The functions at the points ``X`` (n, n_features): shape (n, n_functions)."""
+        """The functions at the points ``X`` (n, n_features): shape (n, n_functions).
+
+        Blocks of points are evaluated on several threads: the neighbour searches and
+        numpy's products release the GIL. The first block runs alone, so that an index
+        that prepares itself on its first query does so once.
+        """
         X = np.asarray(X, dtype=np.float64)
         out = np.empty((X.shape[0], self._phi_u.shape[1]))
-        for c, *terms in self._terms(X):
-            out[c] = _weighted_mean(*terms, self.power)
+
+        def block(start):
+            c = slice(start, min(X.shape[0], start + _CHUNK))
+            for _, *terms in self._terms(X[c]):  # one chunk
+                out[c] = _weighted_mean(*terms, self.power)
+
+        starts = range(0, X.shape[0], _CHUNK)
+        for start in starts[:1]:
+            block(start)
+        if len(starts) > 1:
+            with ThreadPoolExecutor(min(len(starts) - 1, os.cpu_count() or 1)) as pool:
+                for _ in pool.map(block, starts[1:]):
+                    pass
         return out
 
     def for_queries(self):
