@@ -214,10 +214,14 @@ def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
     from ndboundary.domains import pointcloud_extension
 
     X, t = _manifold(600, 5, rng)
-    ext = PointCloud(X, n_neighbors=12).extension(np.c_[t[:, 0], t[:, 1] ** 2], power=2.0)
+    cloud, phi, labels = PointCloud(X, n_neighbors=12), np.c_[t[:, 0], -t[:, 0]], (t[:, 0] > 0).astype(int)
     Q = X[:300] + 0.01 * rng.normal(size=(300, 5))
-    whole = ext(Q)  # one block
-    monkeypatch.setattr(pointcloud_extension, "_CHUNK", 16)  # 19 blocks, shared by the threads
-    np.testing.assert_array_equal(ext(Q), whole)
+    ext = cloud.extension(phi, labels=labels)  # the power by leave-one-out, over 25 neighbours
+    whole, loo = ext(Q), ext.leave_one_out(np.arange(600))  # one block each
+    monkeypatch.setattr(pointcloud_extension, "_CHUNK", 16)  # blocks shared by the threads
+    blocks = cloud.extension(phi, labels=labels)
+    assert blocks.power == ext.power
+    np.testing.assert_array_equal(blocks.leave_one_out(np.arange(600)), loo)
+    np.testing.assert_array_equal(blocks(Q), whole)
     assert whole.shape == (300, 2) and np.isfinite(whole).all()
-    assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the first function
+    assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the function

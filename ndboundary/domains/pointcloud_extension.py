@@ -33,6 +33,7 @@ refit since ``phi`` stays as fitted (:class:`NeighborExtension` gives the rules)
 from __future__ import annotations
 
 import os
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -43,6 +44,29 @@ __all__ = ["EXTENSION_POWERS", "NeighborExtension"]
 #: earlier one is kept.
 EXTENSION_POWERS = (0.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 _CHUNK = 8192
+
+
+def _in_blocks(n, compute):
+    """``(c, compute(c))`` for the blocks ``c`` of :data:`_CHUNK` rows of ``range(n)``, in
+    order. The first block is computed alone, so that an index that prepares itself on its
+    first query does so once; the others on several threads, as the neighbour searches and
+    numpy's products release the GIL, a few blocks ahead of the one yielded.
+    """
+    blocks = [slice(s, min(n, s + _CHUNK)) for s in range(0, n, _CHUNK)]
+    if not blocks:
+        return
+    yield blocks[0], compute(blocks[0])
+    rest = blocks[1:]
+    workers = min(len(rest), os.cpu_count() or 1)
+    if not rest:
+        return
+    with ThreadPoolExecutor(workers) as pool:
+        ahead = deque(pool.submit(compute, c) for c in rest[:workers])
+        for i, c in enumerate(rest):
+            result = ahead.popleft().result()
+            if i + workers < len(rest):
+                ahead.append(pool.submit(compute, rest[i + workers]))
+            yield c, result
 
 
 def _weighted_mean(vals, taper, log_ratio, power):
@@ -132,25 +156,17 @@ class NeighborExtension:
     def __call__(self, X):
         """The functions at the points ``X`` (n, n_features): shape (n, n_functions).
 
-        Blocks of points are evaluated on several threads: the neighbour searches and
-        numpy's products release the GIL. The first block runs alone, so that an index
-        that prepares itself on its first query does so once.
+        Blocks of points are evaluated on several threads (:func:`_in_blocks`).
         """
         X = np.asarray(X, dtype=np.float64)
         out = np.empty((X.shape[0], self._phi_u.shape[1]))
 
-        def block(start):
-            c = slice(start, min(X.shape[0], start + _CHUNK))
+        def block(c):
             for _, *terms in self._terms(X[c]):  # one chunk
                 out[c] = _weighted_mean(*terms, self.power)
 
-        starts = range(0, X.shape[0], _CHUNK)
-        for start in starts[:1]:
-            block(start)
-        if len(starts) > 1:
-            with ThreadPoolExecutor(min(len(starts) - 1, os.cpu_count() or 1)) as pool:
-                for _ in pool.map(block, starts[1:]):
-                    pass
+        for _ in _in_blocks(X.shape[0], block):
+            pass
         return out
 
     def for_queries(self):
@@ -223,8 +239,8 @@ class NeighborExtension:
         k0, nxt0 = self._sizes(0)
         need = max(k1 + nxt1, k0 + nxt0 - 1)
         X = dom.points[rows]
-        for a in range(0, rows.size, _CHUNK):
-            c = slice(a, min(rows.size, a + _CHUNK))
+
+        def block(c):
             u = dom.unique_inverse[rows[c]]
             if need <= dom.neighbors.shape[1]:
                 ind, dist = dom.neighbors[u, :need], dom.distances[u, :need]
@@ -234,7 +250,10 @@ class NeighborExtension:
             left_out = self._from_neighbors(X[c], ind[:, : k1 + nxt1], dist[:, : k1 + nxt1], k1, nxt1)
             with_self = np.concatenate([u[:, None], ind], axis=1)[:, : k0 + nxt0]
             zero = np.concatenate([np.zeros((u.size, 1)), dist], axis=1)[:, : k0 + nxt0]
-            yield c, left_out, self._from_neighbors(X[c], with_self, zero, k0, nxt0)
+            return left_out, self._from_neighbors(X[c], with_self, zero, k0, nxt0)
+
+        for c, (left_out, kept) in _in_blocks(rows.size, block):
+            yield c, left_out, kept
 
     def _terms(self, X, rows=None):
         """Per chunk of ``X``: ``(slice, vals, taper, log_ratio)``.
