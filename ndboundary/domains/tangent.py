@@ -56,8 +56,9 @@ def local_pca(points, nbr, m):
     Z = np.empty((n, k, m))
     T = np.empty((n, points.shape[1], m))
     blocks = [slice(s, min(n, s + _CHUNK)) for s in range(0, n, _CHUNK)]
-    if len(blocks) == 1:
-        _pca_block(points, nbr, m, Z, T, blocks[0])
+    if len(blocks) <= 1:
+        for c in blocks:
+            _pca_block(points, nbr, m, Z, T, c)
     else:  # numpy's batched eigh and products release the GIL: the blocks share the cores
         with ThreadPoolExecutor(min(len(blocks), os.cpu_count() or 1)) as pool:
             for _ in pool.map(lambda c: _pca_block(points, nbr, m, Z, T, c), blocks):
