@@ -32,11 +32,9 @@ refit since ``phi`` stays as fitted (:class:`NeighborExtension` gives the rules)
 
 from __future__ import annotations
 
-import os
-from collections import deque
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
+
+from .._threads import in_blocks
 
 __all__ = ["EXTENSION_POWERS", "NeighborExtension"]
 
@@ -44,29 +42,6 @@ __all__ = ["EXTENSION_POWERS", "NeighborExtension"]
 #: earlier one is kept.
 EXTENSION_POWERS = (0.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 _CHUNK = 8192
-
-
-def _in_blocks(n, compute):
-    """``(c, compute(c))`` for the blocks ``c`` of :data:`_CHUNK` rows of ``range(n)``, in
-    order. The first block is computed alone, so that an index that prepares itself on its
-    first query does so once; the others on several threads, as the neighbour searches and
-    numpy's products release the GIL, a few blocks ahead of the one yielded.
-    """
-    blocks = [slice(s, min(n, s + _CHUNK)) for s in range(0, n, _CHUNK)]
-    if not blocks:
-        return
-    yield blocks[0], compute(blocks[0])
-    rest = blocks[1:]
-    workers = min(len(rest), os.cpu_count() or 1)
-    if not rest:
-        return
-    with ThreadPoolExecutor(workers) as pool:
-        ahead = deque(pool.submit(compute, c) for c in rest[:workers])
-        for i, c in enumerate(rest):
-            result = ahead.popleft().result()
-            if i + workers < len(rest):
-                ahead.append(pool.submit(compute, rest[i + workers]))
-            yield c, result
 
 
 def _weighted_mean(vals, taper, log_ratio, power):
@@ -156,7 +131,7 @@ class NeighborExtension:
     def __call__(self, X):
         """The functions at the points ``X`` (n, n_features): shape (n, n_functions).
 
-        Blocks of points are evaluated on several threads (:func:`_in_blocks`).
+        Blocks of points are evaluated on several threads (:func:`~ndboundary._threads.in_blocks`).
         """
         X = np.asarray(X, dtype=np.float64)
         out = np.empty((X.shape[0], self._phi_u.shape[1]))
@@ -165,7 +140,7 @@ class NeighborExtension:
             for _, *terms in self._terms(X[c]):  # one chunk
                 out[c] = _weighted_mean(*terms, self.power)
 
-        for _ in _in_blocks(X.shape[0], block):
+        for _ in in_blocks(X.shape[0], _CHUNK, block):
             pass
         return out
 
@@ -252,7 +227,7 @@ class NeighborExtension:
             zero = np.concatenate([np.zeros((u.size, 1)), dist], axis=1)[:, : k0 + nxt0]
             return left_out, self._from_neighbors(X[c], with_self, zero, k0, nxt0)
 
-        for c, (left_out, kept) in _in_blocks(rows.size, block):
+        for c, (left_out, kept) in in_blocks(rows.size, _CHUNK, block):
             yield c, left_out, kept
 
     def _terms(self, X, rows=None):

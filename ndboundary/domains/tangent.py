@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from math import gamma, pi
 
 import numpy as np
 import scipy.sparse as sp
+
+from .._threads import in_blocks
 
 __all__ = ["ball_volume", "frame_transport", "local_pca", "lsq_coefficients"]
 
@@ -55,14 +55,9 @@ def local_pca(points, nbr, m):
     n, k = nbr.shape
     Z = np.empty((n, k, m))
     T = np.empty((n, points.shape[1], m))
-    blocks = [slice(s, min(n, s + _CHUNK)) for s in range(0, n, _CHUNK)]
-    if len(blocks) <= 1:
-        for c in blocks:
-            _pca_block(points, nbr, m, Z, T, c)
-    else:  # numpy's batched eigh and products release the GIL: the blocks share the cores
-        with ThreadPoolExecutor(min(len(blocks), os.cpu_count() or 1)) as pool:
-            for _ in pool.map(lambda c: _pca_block(points, nbr, m, Z, T, c), blocks):
-                pass
+    # numpy's batched eigh and products release the GIL: the blocks share the cores
+    for _ in in_blocks(n, _CHUNK, lambda c: _pca_block(points, nbr, m, Z, T, c)):
+        pass
     return Z, T
 
 
