@@ -4,9 +4,13 @@ of simplicial complexes.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
 import scipy.sparse as sp
+from ._kernels import kernel
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -30,9 +34,10 @@ def insert_sorted(values, count, b):  # pragma: no cover - compiled
     values[t] = b
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
-    for i in numba.prange(A.shape[0]):
+@kernel("void(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8, i8)")
+@numba.njit(cache=True, nogil=True)
+def _sweep3(indptr, indices, data, A, B, start, stop):  # pragma: no cover - compiled
+    for i in range(start, stop):
         x = 0.0
         y = 0.0
         z = 0.0
@@ -45,9 +50,10 @@ def _sweep3(indptr, indices, data, A, B):  # pragma: no cover - compiled
         _unit_row(B, i, x, y, z)
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _sweep3_unit(indptr, indices, A, B, with_self):  # pragma: no cover - compiled
-    for i in numba.prange(A.shape[0]):
+@kernel("void(i4[::1], i4[::1], f8[:, ::1], f8[:, ::1], b1, i8, i8)")
+@numba.njit(cache=True, nogil=True)
+def _sweep3_unit(indptr, indices, A, B, with_self, start, stop):  # pragma: no cover - compiled
+    for i in range(start, stop):
         x = 0.0
         y = 0.0
         z = 0.0
@@ -69,10 +75,11 @@ def _sweep3_unit(indptr, indices, A, B, with_self):  # pragma: no cover - compil
         _unit_row(B, i, x, y, z)
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _sweep(indptr, indices, data, A, B):  # pragma: no cover - compiled
+@kernel("void(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8, i8)")
+@numba.njit(cache=True, nogil=True)
+def _sweep(indptr, indices, data, A, B, start, stop):  # pragma: no cover - compiled
     d = A.shape[1]
-    for i in numba.prange(A.shape[0]):
+    for i in range(start, stop):
         for c in range(d):
             B[i, c] = 0.0
         for p in range(indptr[i], indptr[i + 1]):
@@ -114,16 +121,37 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
     B = np.empty_like(A)
     if unit:
         # uniform weights (the usual case): no weights to read
-        for _ in range(passes):
-            _sweep3_unit(indptr, indices, A, B, bool(plus_identity))
-            A, B = B, A
+        def one(A, B, start, stop):
+            _sweep3_unit(indptr, indices, A, B, bool(plus_identity), start, stop)
     else:
+
+        def one(A, B, start, stop):
+            sweep(indptr, indices, data, A, B, start, stop)
+
+    bounds = _row_blocks(indptr)
+    with ThreadPoolExecutor(len(bounds) - 1) as pool:
         for _ in range(passes):
-            sweep(indptr, indices, data, A, B)
+            # every row reads the previous sweep's rows only: the blocks are independent
+            list(pool.map(one, [A] * (len(bounds) - 1), [B] * (len(bounds) - 1), bounds[:-1], bounds[1:]))
             A, B = B, A
     return A[:, :d].copy() if d == 2 else A
 
 
+#: rows below which one thread sweeps them all
+MIN_ROWS_PER_THREAD = 20_000
+
+
+def _row_blocks(indptr):
+    """Row bounds of one block per thread (one block for small matrices), with about
+    equal numbers of entries.
+    """
+    n = indptr.size - 1
+    blocks = max(1, min(os.cpu_count() or 1, n // MIN_ROWS_PER_THREAD))
+    cuts = np.searchsorted(indptr, np.arange(1, blocks) * (int(indptr[-1]) / blocks))
+    return [0, *(int(c) for c in np.minimum(cuts, n)), n]
+
+
+@kernel("Tuple((i4[:, ::1], i8[::1]))(i4[::1], i4[::1], i8)")
 @numba.njit(cache=True, nogil=True)
 def _unique_pairs(first, second, n):  # pragma: no cover - compiled
     m = first.size
@@ -181,6 +209,7 @@ def unique_pairs(first, second, n):
     return _unique_pairs(np.ascontiguousarray(first), np.ascontiguousarray(second), int(n))
 
 
+@kernel("void(i8[:, ::1], i8, i4[::1], i4[::1])")
 @numba.njit(cache=True, nogil=True)
 def _rows_by_value(rows, n, indptr, indices):  # pragma: no cover - compiled
     m, width = rows.shape
@@ -225,6 +254,7 @@ def _root(parent, v):  # pragma: no cover - compiled
     return v
 
 
+@kernel("i8(i8[:, ::1], i4[::1])")
 @numba.njit(cache=True, nogil=True)
 def _components(rows, labels):  # pragma: no cover - compiled
     n = labels.size
@@ -269,6 +299,7 @@ def row_components(rows, n):
     return int(count), labels
 
 
+@kernel("void(i8[:, ::1], f8[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _row_sums(rows, weights, out):  # pragma: no cover - compiled
     for r in range(rows.shape[0]):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from ._kernels import kernel
 
 __all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_volumes", "stiffness_terms_compiled"]
 
@@ -26,6 +27,7 @@ def _tet_gradient(grads, s, d, e0, e1, e2, m00, m01, m02, m11, m12, m22):  # pra
     grads[s, d, 3] = u
 
 
+@kernel("void(f8[:, ::1], i8[:, ::1], f8, f8[:, :, ::1], f8[::1], b1)")
 @numba.njit(cache=True, nogil=True)
 def _tet_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragma: no cover - compiled
     """:func:`_small_geometry` on tetrahedra in space: the same operations in the same
@@ -68,6 +70,7 @@ def _tet_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragm
         _tet_gradient(grads, s, 2, e02, e12, e22, m00, m01, m02, m11, m12, m22)
 
 
+@kernel("void(f8[:, ::1], i8[:, ::1], f8, f8[:, :, ::1], f8[::1], b1)")
 @numba.njit(cache=True, nogil=True)
 def _small_geometry(points, simplices, rtol, grads, vol, with_gradients):  # pragma: no cover - compiled
     E, k1 = simplices.shape
@@ -182,6 +185,7 @@ def small_simplex_geometry_compiled(points, simplices, rtol):
     return grads, vol
 
 
+@kernel("void(f8[:, ::1], i8[:, ::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _longest(points, simplices, out):  # pragma: no cover - compiled
     k1 = simplices.shape[1]
@@ -212,6 +216,7 @@ def longest_edges(points, simplices):
     return out
 
 
+@kernel("void(f8[:, :, ::1], f8[::1], f8[:, ::1], f8[:, ::1])")
 @numba.njit(cache=True, nogil=True)
 def _stiffness_terms(grads, vol, off, diag):  # pragma: no cover - compiled
     n, dim, k1 = grads.shape

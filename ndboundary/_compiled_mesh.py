@@ -14,6 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._compiled import insert_sorted
+from ._kernels import kernel
 
 __all__ = ["edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
 
@@ -24,6 +25,7 @@ def _facet_vertex(srt, f, i, t):  # pragma: no cover - compiled
     return srt[f, t + 1 if t >= i else t]
 
 
+@kernel("b1(i4[::1], i4[::1], i8[:, ::1], i8[:, ::1])")
 @numba.njit(cache=True, nogil=True)
 def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
     """The simplex across each facet into ``across``; False at a facet of three simplices
@@ -88,6 +90,7 @@ def _across(indptr, elements, srt, across):  # pragma: no cover - compiled
     return True
 
 
+@kernel("b1(i8[:, ::1], i4[::1], i4[::1])")
 @numba.njit(cache=True, nogil=True)
 def _adjacency_rows(across, indptr, indices):  # pragma: no cover - compiled
     E, k1 = across.shape
@@ -186,6 +189,7 @@ def _length(points, a, b):  # pragma: no cover - compiled
     return np.sqrt(sq)
 
 
+@kernel("Tuple((f8, i8))(i4[::1], i4[::1], i8[:, ::1], f8[:, ::1], i8[::1], i8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _edge_counts(indptr, elements, simplices, points, nbr, rows):  # pragma: no cover - compiled
     V = indptr.size - 1
@@ -217,6 +221,7 @@ def _edge_counts(indptr, elements, simplices, points, nbr, rows):  # pragma: no 
     return total, n_edges
 
 
+@kernel("void(i4[::1], i4[::1], i8[:, ::1], f8[:, ::1], i8[::1], i8[::1], i4[::1], f8[::1], f8)")
 @numba.njit(cache=True, nogil=True)
 def _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, unit):  # pragma: no cover - compiled
     V = indptr.size - 1
@@ -229,6 +234,7 @@ def _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, un
             lengths[start + p] = _length(points, a, nbr[p]) / unit
 
 
+@kernel("void(i4[::1], i4[::1], i8[:, ::1], i8[::1], i8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _stiffness_counts(indptr, elements, srt, nbr, rows):  # pragma: no cover - compiled
     V = indptr.size - 1
@@ -238,6 +244,7 @@ def _stiffness_counts(indptr, elements, srt, nbr, rows):  # pragma: no cover - c
         rows[a + 1] = rows[a] + count + (1 if indptr[a + 1] > indptr[a] else 0)
 
 
+@kernel("void(i4[::1], i4[::1], i8[:, ::1], i8[::1], i8[::1], i4[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _stiffness_columns(indptr, elements, srt, nbr, rows, cols, data):  # pragma: no cover - compiled
     """Each row's columns in order, the diagonal among them, and its entries zeroed."""
@@ -285,6 +292,7 @@ def _add_row4(cols, data, q, b, t0, t1, t2, t3):  # pragma: no cover - compiled
     data[q] += t3
 
 
+@kernel("void(i8[:, ::1], f8[:, :, ::1], f8[::1], i8[::1], i4[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _stiffness_fill_tets(srt, grads, vol, rows, cols, data):  # pragma: no cover - compiled
     """:func:`_stiffness_fill` on tetrahedra in space, the same sums unrolled."""
@@ -300,6 +308,7 @@ def _stiffness_fill_tets(srt, grads, vol, rows, cols, data):  # pragma: no cover
         _add_row4(cols, data, rows[b[3]], b, t03, t13, t23, t33)
 
 
+@kernel("void(i8[:, ::1], f8[:, :, ::1], f8[::1], i8[::1], i4[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _stiffness_fill(srt, grads, vol, rows, cols, data):  # pragma: no cover - compiled
     # every simplex adds its terms vol g_i . g_j to the rows of its vertices, in increasing

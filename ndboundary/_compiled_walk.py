@@ -14,6 +14,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import scipy.sparse as sp
+from ._kernels import kernel
 
 __all__ = ["graph_distances", "incidence_distances", "kept_edge_graph"]
 
@@ -102,6 +103,7 @@ def _seed(sources, offsets, limit, dist):  # pragma: no cover - compiled
     return keys, items, where, n
 
 
+@kernel("void(i4[::1], i4[::1], i8[:, ::1], f8[:, ::1], f8, i8[::1], f8[::1], f8, b1[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _walk_simplices(
     indptr, elements, simplices, points, unit, sources, offsets, limit, done, dist
@@ -133,6 +135,7 @@ def _walk_simplices(
                     n = _improve(keys, items, where, n, b, nd)
 
 
+@kernel("void(i4[::1], i4[::1], f8[::1], i8[::1], f8[::1], f8, b1[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _walk_graph(indptr, indices, lengths, sources, offsets, limit, done, dist):  # pragma: no cover - compiled
     keys, items, where, n = _seed(sources, offsets, limit, dist)
@@ -153,6 +156,7 @@ def _walk_graph(indptr, indices, lengths, sources, offsets, limit, done, dist): 
                 n = _improve(keys, items, where, n, b, nd)
 
 
+@kernel("void(i4[::1], i4[::1], i8[:, ::1], f8[:, ::1], f8, b1[::1], i8[::1], i4[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _kept_edges(indptr, elements, simplices, points, unit, keep, rows, cols, lengths):  # pragma: no cover - compiled
     # with rows[-1] == 0, count each kept vertex's kept neighbours into rows; else write

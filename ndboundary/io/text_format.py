@@ -18,6 +18,7 @@ import numpy as np
 from . import common
 from .common import flat_rows
 from .text_numbers import mul64, njit_inline
+from .._kernels import kernel
 
 __all__ = ["format_index_rows", "points_text", "rows_text"]
 
@@ -120,6 +121,7 @@ def _write_g17(out, at, bits, x, scratch):  # pragma: no cover - compiled
     return at
 
 
+@kernel("u1[::1](u8[:, ::1], f8[:, ::1], b1[:, ::1], u1[::1], i8[::1], u1[::1], i8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _format_floats(bits, values, easy, pieces, piece_ends, hard_text, hard_ends):  # pragma: no cover - compiled
     """The text of rows of doubles: piece ``j`` (of ``pieces``, ends ``piece_ends``) before value ``j`` of a
@@ -192,6 +194,7 @@ def points_text(points, line_format) -> str:
     return text.tobytes().decode("ascii")
 
 
+@kernel("u1[::1](i8[::1], i8[::1], i8, u1[::1], b1)")
 @numba.njit(cache=True, nogil=True)
 def _format_rows(flat, sizes, base, prefix, with_size):  # pragma: no cover - compiled
     out = np.empty(sizes.size * (prefix.size + 22) + 21 * flat.size, dtype=np.uint8)

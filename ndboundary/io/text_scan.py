@@ -24,6 +24,7 @@ import numba
 import numpy as np
 
 from .text_numbers import NOT_PLAIN, float_token, int_token, is_blank, is_eol, njit_inline
+from .._kernels import kernel
 
 __all__ = ["DEFER", "blank_rest", "float_rows", "index_rows", "scan_obj"]
 
@@ -102,6 +103,7 @@ def _obj_indices(buf, p, flat, at, nv):  # pragma: no cover - compiled
     return count, largest, p, DEFER
 
 
+@kernel("UniTuple(i8, 2)(u1[::1], i8, u8[::1], i8[::1], i8[::1], u1[::1], i8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _obj_lines(buf, p, coords, flat, sizes, kinds, state):  # pragma: no cover - compiled
     """Scan OBJ lines from ``p`` on: ``(status, p)``; ``state`` holds the counts (see :func:`scan_obj`)."""
@@ -263,6 +265,7 @@ def _token_start(buf, p, strict):  # pragma: no cover - compiled
     return p
 
 
+@kernel("UniTuple(i8, 2)(u1[::1], i8, i8, i8, b1, u8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _float_rows(buf, p, n_rows, n_cols, strict, coords):  # pragma: no cover - compiled
     for i in range(n_rows):
@@ -306,6 +309,7 @@ def float_rows(buf, p, n_rows, n_cols, strict):
     return status, coords, p
 
 
+@kernel("UniTuple(i8, 3)(u1[::1], i8, i8, i8, i8, b1, i8, i8[::1], i8[::1], i8[::1])")
 @numba.njit(cache=True, nogil=True)
 def _index_rows(buf, p, first, n_rows, n_vertices, strict, max_count, flat, sizes, state):  # pragma: no cover
     """Rows ``first..n_rows - 1`` of :func:`index_rows`: ``(status, row reached, p)``; ``state[0]`` counts indices."""
@@ -366,6 +370,7 @@ def index_rows(buf, p, n_rows, n_vertices, strict, max_count):
     return status, flat[: state[0]], sizes, p
 
 
+@kernel("b1(u1[::1], i8, b1)")
 @numba.njit(cache=True, nogil=True)
 def blank_rest(buf, p, comments):  # pragma: no cover - compiled
     """Whether nothing but blanks, line ends and (``comments``) ``#`` comments follows ``p``."""

@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 from .._arrays import first_of_groups, group_rows, sort_rows
 from . import common
 from .common import flat_rows
+from .._kernels import kernel
 
 __all__ = ["OPEN_EDGE_FRACTION", "WeldReport", "open_edge_fraction", "weld_blocks", "weld_map"]
 
@@ -281,6 +282,7 @@ def open_edge_fraction(blocks):
     return float(np.count_nonzero(counts == 1) / counts.size)
 
 
+@kernel("UniTuple(i8, 2)(i8[::1], i8[::1], i8)")
 @numba.njit(cache=True, nogil=True)
 def _edge_counts(flat, sizes, n):  # pragma: no cover - compiled
     """The number of distinct edges of polygons (flat rows of indices in ``0..n - 1``) and of those met once.

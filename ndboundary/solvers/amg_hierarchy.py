@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 import scipy.sparse as sp
+from .._kernels import kernel
 
 __all__ = ["ENERGY_TOL", "Level", "energy_hierarchy"]
 
@@ -34,6 +35,7 @@ class Level(NamedTuple):
     aggregates: np.ndarray | None
 
 
+@kernel("Tuple((i8[::1], i8))(u4[::1], u4[::1])")
 @numba.njit(cache=True, nogil=True)
 def _aggregate(indptr, indices):  # pragma: no cover - compiled
     """The standard aggregation of pyamg (its C++ kernel, pass for pass) of the matrix's
@@ -91,6 +93,7 @@ def _aggregate(indptr, indices):  # pragma: no cover - compiled
     return x, count
 
 
+@kernel("UniTuple(u4[::1], 2)(u4[::1], u4[::1], f8[::1], i8[::1], i8)")
 @numba.njit(cache=True, nogil=True)
 def _pattern(indptr, indices, data, agg, count):  # pragma: no cover - compiled
     """The sparsity pattern of the smoothed prolongator, that of ``A T`` (``T`` the
@@ -126,6 +129,7 @@ def _pattern(indptr, indices, data, agg, count):  # pragma: no cover - compiled
     return Pp, Pj[:p].copy()
 
 
+@kernel("UniTuple(f8[::1], 2)(i8[::1], f8[::1], i8)")
 @numba.njit(cache=True, nogil=True)
 def _tentative(agg, B, count):  # pragma: no cover - compiled
     """The tentative prolongator of pyamg for one candidate vector ``B``: ``B``
@@ -204,6 +208,7 @@ def _constrain(Pp, Pj, U, Bc, BtBinv):  # pragma: no cover - compiled
             U[q] -= s * Bc[Pj[q]]
 
 
+@kernel("f8[::1](u4[::1], u4[::1], f8[::1], u4[::1], u4[::1], i8[::1], f8[::1], f8[::1], i8, f8)")
 @numba.njit(cache=True, nogil=True)
 def _energy(indptr, indices, data, Pp, Pj, agg, values, Bc, maxiter, tol):  # pragma: no cover - compiled
     """The energy minimisation of pyamg (``cg_prolongation_smoothing``, local weighting):
@@ -265,6 +270,7 @@ def _energy(indptr, indices, data, Pp, Pj, agg, values, Bc, maxiter, tol):  # pr
     return T
 
 
+@kernel("Tuple((u4[::1], u4[::1], f8[::1]))(" + ", ".join(["u4[::1], u4[::1], f8[::1]"] * 3) + ", i8)")
 @numba.njit(cache=True, nogil=True)
 def _galerkin(Rp, Rj, Rx, indptr, indices, data, Pp, Pj, Px, count):  # pragma: no cover - compiled
     """The coarse operator ``(R A) P`` as scipy's two products form it in pyamg, without

@@ -1,0 +1,101 @@
+"""Build ndboundary's compiled kernels ahead of time, so that a first run does not compile.
+
+Everything else about the package is in ``pyproject.toml``. The kernels
+(:mod:`ndboundary._kernels`) are compiled by numba's ahead-of-time compiler into the
+extension module ``ndboundary._kernels_aot``, for the CPU of the machine that builds
+(``NDBOUNDARY_AOT_CPU`` names another, ``generic`` for a portable build). Where that
+cannot be done (no C compiler, or a numba without ``numba.pycc``), the build says why and
+goes on without the module: numba then compiles each kernel on its first call, as it
+always could. ``NDBOUNDARY_NO_AOT=1`` skips the module on purpose.
+"""
+
+import os
+import shutil
+import sys
+import tempfile
+import types
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PACKAGES = ("ndboundary", "ndboundary.io", "ndboundary.solvers")
+
+
+def load_kernels():
+    """Import the kernel modules alone: the packages' ``__init__`` files import the whole
+    library, while the kernels need numpy, scipy and numba only.
+    """
+    import importlib
+
+    for name in PACKAGES:
+        package = types.ModuleType(name)
+        package.__path__ = [os.path.join(HERE, *name.split("."))]
+        sys.modules[name] = package
+    kernels = importlib.import_module("ndboundary._kernels")
+    for name in kernels.KERNEL_MODULES:
+        importlib.import_module(name)
+    return kernels
+
+
+def compiler(kernels):
+    """Numba's ahead-of-time compiler with every signature of every kernel exported.
+
+    Each kernel compiles with flags of its own, with the GIL released around each call as
+    ``nogil=True`` does for numba's dispatchers. numba's compiler shares one set of flags
+    among a module's functions, and inlining a function turns SSA off in the flags it is
+    given, so that every kernel after the first to inline one would be typed without SSA.
+    """
+    import numba.pycc.compiler as aot
+    from numba.core import sigutils
+    from numba.pycc import CC
+
+    shared = aot.compile_extra
+
+    def compile_one(typingctx, targetctx, func, args, return_type, flags, locals, **kwargs):
+        own = flags.copy()
+        own.release_gil = True
+        return shared(typingctx, targetctx, func, args, return_type, own, locals, **kwargs)
+
+    aot.compile_extra = compile_one
+    cc = CC("_kernels_aot", source_module="ndboundary._kernels")
+    cc.target_cpu = os.environ.get("NDBOUNDARY_AOT_CPU", "host")
+    for k in kernels.REGISTRY:
+        for i, sig in enumerate(k.signatures):
+            # the arguments only: numba infers the result, as its dispatcher does (a result
+            # type given beforehand changes how literals in the body unify)
+            args, _ = sigutils.normalize_signature(sig)
+            cc.export(kernels.export_name(k.module, k.name, i), args)(k.jit.py_func)
+    return cc
+
+
+class BuildKernels(build_ext):
+    """``build_ext`` that builds the kernels' module, or says why it could not and goes on."""
+
+    def run(self):
+        """Compile the kernels' module first; leave it out of the build if that fails."""
+        self._kernels_built = None
+        if os.environ.get("NDBOUNDARY_NO_AOT", "") in ("", "0"):
+            try:
+                cc = compiler(load_kernels())
+                cc.output_dir = tempfile.mkdtemp(prefix="ndboundary-kernels-")
+                cc.compile()
+                self._kernels_built = os.path.join(cc.output_dir, cc.output_file)
+            except Exception as exc:  # noqa: BLE001 - any failure leaves numba's own compilation
+                self.warn(f"kernels not built ahead of time ({exc!r}); numba compiles them on first use")
+        if self._kernels_built is None:
+            self.extensions = [e for e in self.extensions if e.name != AOT_MODULE]
+        super().run()
+
+    def build_extension(self, ext):
+        """Build ``ext``; the kernels' module is already compiled and only copied."""
+        if ext.name != AOT_MODULE:
+            return super().build_extension(ext)
+        target = self.get_ext_fullpath(ext.name)
+        os.makedirs(os.path.dirname(target), exist_ok=True)
+        shutil.copyfile(self._kernels_built, target)
+        return None
+
+
+AOT_MODULE = "ndboundary._kernels_aot"
+setup(cmdclass={"build_ext": BuildKernels}, ext_modules=[Extension(AOT_MODULE, sources=[])])
