@@ -17,6 +17,11 @@ Run::
 
     python benchmarks/io_speed.py                  # 1 M vertices, about three minutes
     python benchmarks/io_speed.py --n 300 --repeats 5
+    python benchmarks/io_speed.py --first-run      # also each format's first read after an install
+
+``--first-run`` reads each file once more in a fresh process whose numba cache is an empty
+folder, as the first read after a new install does (``first_read_s``: ``read_mesh`` alone,
+imports excluded, compilation included).
 
 Prints a table, then one JSON line per format (``{"bench": "io_speed", ...}``).
 """
@@ -27,6 +32,8 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -75,7 +82,25 @@ def formats(mesh, folder):
     ]
 
 
-def run(n, repeats, peer):
+FIRST_READ = """
+import sys, time
+from ndboundary import read_mesh
+t = time.perf_counter()
+read_mesh(sys.argv[1])
+print(time.perf_counter() - t)
+"""
+
+
+def first_read(path):
+    """``read_mesh(path)`` in a fresh process with an empty numba cache: seconds."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        done = subprocess.run([sys.executable, "-c", FIRST_READ, str(path)], env=env, capture_output=True, text=True,
+                              check=True)  # fmt: skip
+    return float(done.stdout.split()[-1])
+
+
+def run(n, repeats, peer, first=False):
     mesh = surface(n)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -88,6 +113,8 @@ def run(n, repeats, peer):
                 assert domain.n_vertices == mesh.n_vertices and domain.n_elements == mesh.n_elements
                 del domain
                 row["parse_s"], row["parse_cpu_s"], _ = timed(lambda: parse(path), repeats)  # noqa: B023
+                if first:
+                    row["first_read_s"] = first_read(path)
             if peer and reference is not None:
                 row["peer"] = reference.__name__
                 row["peer_parse_s"], _, _ = timed(lambda: reference(path), 1)  # noqa: B023
@@ -101,11 +128,12 @@ def table(rows):
     def cell(row, key):
         return f"{row[key]:.2f}" if key in row else "-"
 
-    head = ["format", "MB", "write s", "write cpu", "read s", "read cpu", "parse s", "peer", "peer s", "x peer"]
+    head = ["format", "MB", "write s", "write cpu", "read s", "read cpu", "parse s", "first read s", "peer", "peer s",
+            "x peer"]  # fmt: skip
     print("\n" + " | ".join(head))
     print(" | ".join("-" * len(h) for h in head))
     for r in rows:
-        keys = ["mb", "write_s", "write_cpu_s", "read_s", "read_cpu_s", "parse_s"]
+        keys = ["mb", "write_s", "write_cpu_s", "read_s", "read_cpu_s", "parse_s", "first_read_s"]
         print(" | ".join([r["format"], *(cell(r, k) for k in keys), r.get("peer", "-"), cell(r, "peer_parse_s"),
                           cell(r, "peer_ratio")]))  # fmt: skip
 
@@ -115,9 +143,10 @@ def main():
     parser.add_argument("--n", type=int, default=999, help="cells a side of the Kuhn grid (999: 1 M vertices)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--no-peer", action="store_true", help="skip the line readers and meshio")
+    parser.add_argument("--first-run", action="store_true", help="also time each first read after an install")
     args = parser.parse_args()
     read_mesh_warmup()
-    rows = run(args.n, args.repeats, not args.no_peer)
+    rows = run(args.n, args.repeats, not args.no_peer, args.first_run)
     table(rows)
     print()
     for row in rows:

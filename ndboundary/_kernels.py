@@ -3,7 +3,7 @@
 A kernel is a numba function with the signatures the library calls it with. Installing the
 package compiles those signatures into one extension module, ``ndboundary._kernels_aot``
 (numba's ahead-of-time compiler, run by ``setup.py``), so that a first run does not wait
-for numba to compile some forty loops. A call whose arguments match a built signature runs
+for numba to compile them. A call whose arguments match a built signature runs
 the built code, with the GIL released as ``nogil`` would; any other call, or every call
 where the module is absent (no C compiler at install, or ``NDBOUNDARY_JIT=1``), goes to
 numba's dispatcher, which compiles and caches as before. Both compile the same source.

@@ -47,6 +47,19 @@ def test_large_triangle_meshes_take_the_compiled_passes():
     np.testing.assert_array_equal(plane.incidence.indices, reference.incidence.indices)
 
 
+def test_large_triangle_meshes_take_the_compiled_geometry_and_defer_the_gradients():
+    for plane in (kuhn_grid(320, 2, jitter=0.2, random_state=0), kuhn_grid(20, 2, jitter=0.2, random_state=0)):
+        mesh = SimplicialComplex(plane.points, plane.simplices)
+        large = compiled_passes(mesh.simplices)
+        mesh.volumes
+        assert ("barycentric_gradients" in vars(mesh)) is not large  # large meshes compute them when asked
+        grads, vol = simplex_geometry(mesh.points, mesh.sorted_simplices)
+        np.testing.assert_allclose(mesh.volumes, vol, rtol=1e-12)
+        np.testing.assert_allclose(mesh.barycentric_gradients, grads, rtol=1e-10, atol=1e-10 * np.abs(grads).max())
+        x = mesh.points[:, 0]
+        np.testing.assert_allclose(mesh.K @ x, mesh.G.T @ (mesh.A[:, None] * mesh.gradient(x)).ravel(), atol=1e-10)
+
+
 def test_stiffness_is_the_sum_of_the_pair_table_bit_for_bit(tets):
     K = tets.K  # summed over the incidence
     off, diag, used = tets.stiffness_sums  # summed over the table of every vertex pair

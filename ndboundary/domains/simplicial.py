@@ -128,18 +128,19 @@ class SimplicialComplex(SimplicialTopology, Domain):
 
     # -- geometry ------------------------------------------------------------------
     def _compiled_geometry(self):
-        """Whether the geometry comes from the compiled pass (simplices of
-        :data:`COMPILED_MIN_VERTICES_PER_SIMPLEX` to 4 vertices: tetrahedra), where the
-        volumes are computed first and the gradients when asked for.
+        """Whether the geometry comes from the compiled pass, where the volumes are
+        computed first and the gradients when asked for: tetrahedra, and triangles where
+        the other passes are compiled too (:func:`compiled_passes`, large meshes).
         """
-        return COMPILED_MIN_VERTICES_PER_SIMPLEX <= self.simplices.shape[1] <= 4
+        k1 = self.simplices.shape[1]
+        return k1 == 4 or (k1 == 3 and compiled_passes(self.simplices))
 
     def _geometry(self):
         """The volumes, refusing degenerate simplices; also the barycentric gradients (see
         :func:`simplex_geometry`), over the vertices of every simplex in increasing order
-        (``sorted_simplices``, the column order of the operators), except on tetrahedra,
-        whose gradients wait until an operator needs them: a band needs them on its
-        elements only.
+        (``sorted_simplices``, the column order of the operators), except where the
+        compiled pass computes them (:meth:`_compiled_geometry`): there they wait until an
+        operator needs them, and a band needs them on its elements only.
         """
         if self._compiled_geometry():
             from .._compiled_geometry import small_simplex_volumes
