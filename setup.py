@@ -60,6 +60,15 @@ def compiler(kernels):
     aot.compile_extra = compile_one
     cc = CC("_kernels_aot", source_module="ndboundary._kernels")
     cc.target_cpu = os.environ.get("NDBOUNDARY_AOT_CPU", "host")
+    # the sources the kernels were compiled from, so that a changed file retires the module
+    sources = sorted(
+        os.path.relpath(m.__file__, HERE).replace(os.sep, "/")
+        for name, m in sys.modules.items()
+        if name.startswith("ndboundary.") and getattr(m, "__file__", None)
+    )
+    namespace = {}
+    exec(f"def built_from():\n    return {kernels.sources_digest(sources)!r}\n", namespace)
+    cc.export("built_from", "unicode_type()")(namespace["built_from"])
     for k in kernels.REGISTRY:
         for i, sig in enumerate(k.signatures):
             # the arguments only: numba infers the result, as its dispatcher does (a result
@@ -93,7 +102,10 @@ class BuildKernels(build_ext):
             return super().build_extension(ext)
         target = self.get_ext_fullpath(ext.name)
         os.makedirs(os.path.dirname(target), exist_ok=True)
-        shutil.copyfile(self._kernels_built, target)
+        # a new file renamed over the old one: processes that have the old one loaded keep it
+        partial = f"{target}.partial"
+        shutil.copyfile(self._kernels_built, partial)
+        os.replace(partial, target)
         return None
 
 

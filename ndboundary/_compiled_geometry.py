@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+
 from ._kernels import kernel
 
 __all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_volumes", "stiffness_terms_compiled"]

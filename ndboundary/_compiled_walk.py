@@ -14,6 +14,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import scipy.sparse as sp
+
 from ._kernels import kernel
 
 __all__ = ["graph_distances", "incidence_distances", "kept_edge_graph"]

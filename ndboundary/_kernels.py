@@ -6,7 +6,8 @@ package compiles those signatures into one extension module, ``ndboundary._kerne
 for numba to compile them. A call whose arguments match a built signature runs
 the built code, with the GIL released as ``nogil`` would; any other call, or every call
 where the module is absent (no C compiler at install, or ``NDBOUNDARY_JIT=1``), goes to
-numba's dispatcher, which compiles and caches as before. Both compile the same source.
+numba's dispatcher, which compiles and caches as before. Both compile the same source; the
+module records the hashes of the files it was built from, and is not used once one changes.
 
 Kernels called only from other compiled code stay plain numba functions: the build
 compiles them into their callers.
@@ -15,12 +16,15 @@ compiles them into their callers.
 from __future__ import annotations
 
 import functools
+import hashlib
 import importlib
 import os
+import warnings
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "kernel", "KERNEL_MODULES", "REGISTRY", "aot_module", "export_name"]
+__all__ = ["Kernel", "kernel", "KERNEL_MODULES", "REGISTRY", "aot_module", "export_name", "sources_digest"]
 
 #: the modules that define kernels; the build imports these and nothing else of the package
 KERNEL_MODULES = (
@@ -43,15 +47,40 @@ def export_name(module, name, i):
     return f"{module.rsplit('.', 1)[-1].lstrip('_')}__{name.lstrip('_')}__{i}"
 
 
+def sources_digest(paths):
+    """``path=sha256;...`` of the package's source files ``paths`` (relative to the
+    package's parent folder), a file that is missing hashing as ``-``.
+    """
+    root = Path(__file__).resolve().parent.parent
+    parts = []
+    for path in paths:
+        file = root / path
+        parts.append(f"{path}={hashlib.sha256(file.read_bytes()).hexdigest() if file.is_file() else '-'}")
+    return ";".join(parts)
+
+
 @functools.cache
 def aot_module():
-    """The extension module the install built, or None (absent, or ``NDBOUNDARY_JIT=1``)."""
+    """The extension module the install built, or None: absent, ``NDBOUNDARY_JIT=1``, or
+    built from sources that have changed since (with a warning: numba compiles instead).
+    """
     if os.environ.get("NDBOUNDARY_JIT", "") not in ("", "0"):
         return None
     try:
-        return importlib.import_module("ndboundary._kernels_aot")
+        module = importlib.import_module("ndboundary._kernels_aot")
     except ImportError:
         return None
+    recorded = module.built_from() if hasattr(module, "built_from") else ""
+    paths = [part.split("=", 1)[0] for part in recorded.split(";") if part]
+    if not paths or sources_digest(paths) != recorded:
+        warnings.warn(
+            "ndboundary's built kernels are older than their source; numba compiles them on first use "
+            "instead (reinstall the package to build them again)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return None
+    return module
 
 
 def _arg_check(t):

@@ -99,6 +99,31 @@ def test_every_kernel_signature_is_built():
             assert hasattr(module, _kernels.export_name(k.module, k.name, i)), (k, i)
 
 
+def test_the_module_knows_the_sources_it_was_built_from():
+    recorded = _kernels.aot_module().built_from()
+    paths = [part.split("=", 1)[0] for part in recorded.split(";")]
+    assert {"ndboundary/_kernels.py", "ndboundary/_compiled_mesh.py", "ndboundary/io/text_numbers.py"} <= set(paths)
+    assert _kernels.sources_digest(paths) == recorded
+
+
+def test_a_module_built_from_other_sources_is_not_used(monkeypatch):
+    class Stale:
+        @staticmethod
+        def built_from():
+            return "ndboundary/_kernels.py=" + "0" * 64
+
+    real = importlib.import_module
+    monkeypatch.setattr(importlib, "import_module", lambda name: Stale if name.endswith("_kernels_aot") else real(name))
+    _kernels.aot_module.cache_clear()
+    try:
+        with pytest.warns(RuntimeWarning, match="older than their source"):
+            assert _kernels.aot_module() is None
+    finally:
+        monkeypatch.undo()
+        _kernels.aot_module.cache_clear()
+    assert _kernels.aot_module() is not None
+
+
 def test_a_first_run_compiles_no_kernel_of_ours(runs):
     (built_compiled, _), (jit_compiled, _) = runs
     assert built_compiled == []

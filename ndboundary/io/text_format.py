@@ -15,10 +15,10 @@ import re
 import numba
 import numpy as np
 
+from .._kernels import kernel
 from . import common
 from .common import flat_rows
 from .text_numbers import mul64, njit_inline
-from .._kernels import kernel
 
 __all__ = ["format_index_rows", "points_text", "rows_text"]
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .text_numbers import NOT_PLAIN, float_token, int_token, is_blank, is_eol, njit_inline
 from .._kernels import kernel
+from .text_numbers import NOT_PLAIN, float_token, int_token, is_blank, is_eol, njit_inline
 
 __all__ = ["DEFER", "blank_rest", "float_rows", "index_rows", "scan_obj"]
 

@@ -18,9 +18,9 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .._arrays import first_of_groups, group_rows, sort_rows
+from .._kernels import kernel
 from . import common
 from .common import flat_rows
-from .._kernels import kernel
 
 __all__ = ["OPEN_EDGE_FRACTION", "WeldReport", "open_edge_fraction", "weld_blocks", "weld_map"]
 

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 import scipy.sparse as sp
+
 from .._kernels import kernel
 
 __all__ = ["ENERGY_TOL", "Level", "energy_hierarchy"]
