@@ -20,6 +20,8 @@ from ndboundary.datasets import kuhn_grid
 def _why_not_built():
     if os.environ.get("NDBOUNDARY_NO_AOT", "") not in ("", "0"):
         return "the install was asked not to build the kernels"
+    if os.environ.get("NDBOUNDARY_JIT", "") not in ("", "0"):
+        return "NDBOUNDARY_JIT=1: the built kernels are not used"
     compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
     if _kernels.aot_module() is None and shutil.which(compiler) is None:
         return f"no C compiler ({compiler}) to build the kernels at install"
