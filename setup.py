@@ -94,6 +94,9 @@ class BuildKernels(build_ext):
                 self.warn(f"kernels not built ahead of time ({exc!r}); numba compiles them on first use")
         if self._kernels_built is None:
             self.extensions = [e for e in self.extensions if e.name != AOT_MODULE]
+            stale = os.path.join(self.build_lib, self.get_ext_filename(AOT_MODULE))
+            if os.path.exists(stale):  # an earlier build's module must not ship with this one
+                os.remove(stale)
         super().run()
 
     def build_extension(self, ext):
