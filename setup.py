@@ -97,7 +97,11 @@ class BuildKernels(build_ext):
             stale = os.path.join(self.build_lib, self.get_ext_filename(AOT_MODULE))
             if os.path.exists(stale):  # an earlier build's module must not ship with this one
                 os.remove(stale)
-        super().run()
+        try:
+            super().run()
+        finally:
+            if self._kernels_built is not None:
+                shutil.rmtree(os.path.dirname(self._kernels_built), ignore_errors=True)
 
     def build_extension(self, ext):
         """Build ``ext``; the kernels' module is already compiled and only copied."""
