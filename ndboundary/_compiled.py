@@ -103,7 +103,8 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 
     ``W`` is a CSR matrix with sorted indices, ``X`` an (n, d) array (not modified). Every sweep reads the
     previous sweep's rows only (Jacobi order), so the result does not depend on the row
-    order; zero rows stay zero. Summing and renormalising a row in one loop reads the
+    order, and blocks of rows are swept on several threads (:func:`_row_blocks`) with the
+    same result; zero rows stay zero. Summing and renormalising a row in one loop reads the
     field once per sweep instead of the four passes of a sparse product and a
     renormalisation.
     """
