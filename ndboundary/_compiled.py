@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 
 import numba
 import numpy as np
@@ -121,20 +122,21 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
     A = np.zeros((X.shape[0], 3 if d == 2 else d))
     A[:, :d] = X
     B = np.empty_like(A)
-    if unit:
-        # uniform weights (the usual case): no weights to read
-        def one(A, B, start, stop):
-            _sweep3_unit(indptr, indices, A, B, bool(plus_identity), start, stop)
+    if unit:  # uniform weights (the usual case): no weights to read
+
+        def one(A, B, rows):
+            _sweep3_unit(indptr, indices, A, B, bool(plus_identity), *rows)
     else:
 
-        def one(A, B, start, stop):
-            sweep(indptr, indices, data, A, B, start, stop)
+        def one(A, B, rows):
+            sweep(indptr, indices, data, A, B, *rows)
 
     bounds = _row_blocks(indptr)
-    with ThreadPoolExecutor(len(bounds) - 1) as pool:
+    blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
+    with ThreadPoolExecutor(len(blocks)) as pool:
         for _ in range(passes):
             # every row reads the previous sweep's rows only: the blocks are independent
-            list(pool.map(one, [A] * (len(bounds) - 1), [B] * (len(bounds) - 1), bounds[:-1], bounds[1:]))
+            list(pool.map(partial(one, A, B), blocks))
             A, B = B, A
     return A[:, :d].copy() if d == 2 else A
 
