@@ -119,3 +119,41 @@ def test_voxel_grid_face_signs_are_the_oriented_ones(reflect):
     general = PolyhedralMesh(grid.points, grid.faces, np.split(grid.cell_faces, grid.cell_offsets[1:-1]))
     np.testing.assert_array_equal(grid.cell_face_signs, general.cell_face_signs)
     np.testing.assert_allclose(grid.A, general.A)
+
+
+def _rotation(seed):
+    q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    return q
+
+
+@pytest.mark.parametrize(
+    "spacing, origin, direction",
+    [(1.0, 0.0, None), ((0.5, 1.0, 3.0), (1.0, -2.0, 0.5), None), ((0.7, 1.1, 0.9), 0.3, "rotation"),
+     (1.0, 0.0, "reflection")],
+)  # fmt: skip
+def test_voxel_grid_operators_equal_the_general_hexahedra(spacing, origin, direction):
+    """The grid's faces and geometry come from its structure; every operator equals the one a
+    PolyhedralMesh of the same hexahedra computes (enough voxels that the stiffness is
+    computed once for their shared shape)."""
+    from ndboundary import PolyhedralMesh
+
+    direction = {"rotation": _rotation(0), "reflection": -np.eye(3), None: None}[direction]
+    grid = ImageGrid((5, 6, 7), spacing=spacing, origin=origin, direction=direction)
+    i, j, k = (a.ravel() for a in np.indices(grid.shape))
+    corner = lambda a, b, c: ((i + a) * 7 + (j + b)) * 8 + (k + c)  # noqa: E731
+    hexes = np.stack([corner(0, 0, 0), corner(1, 0, 0), corner(1, 1, 0), corner(0, 1, 0),
+                      corner(0, 0, 1), corner(1, 0, 1), corner(1, 1, 1), corner(0, 1, 1)], axis=1)  # fmt: skip
+    general = PolyhedralMesh.from_hexahedra(grid.points, hexes)
+    np.testing.assert_allclose(grid.A, general.A, rtol=1e-12)
+    np.testing.assert_allclose(grid.mass, general.mass, rtol=1e-12)
+    np.testing.assert_allclose(grid.element_centroids(), general.element_centroids(), atol=1e-12)
+    for name in ("G", "K", "adjacency", "incidence"):
+        a, b = getattr(grid, name), getattr(general, name)
+        assert abs(a - b).max() <= 1e-12 * abs(b).max(), name
+    np.testing.assert_array_equal(grid.edges, general.edges)
+    labels = np.random.default_rng(1).random(grid.n_elements) < 0.5
+    a, b = grid.interface_facets(labels), general.interface_facets(labels)
+    assert a.shape == b.shape and np.isclose(
+        np.linalg.norm(np.cross(*(grid.points[a[:, 1:]] - grid.points[a[:, :1]]).transpose(1, 0, 2)), axis=1).sum(),
+        np.linalg.norm(np.cross(*(grid.points[b[:, 1:]] - grid.points[b[:, :1]]).transpose(1, 0, 2)), axis=1).sum(),
+    )

@@ -165,3 +165,40 @@ def test_fig6_ball_in_jittered_hex_grid():
     assert ls.n_components() == 1 and ls.is_closed()
     assert fid["mean"] <= 0.15
     assert abs(excess) <= 0.02
+
+
+def _fresh(mesh):
+    """The same faces and cells built from scratch."""
+    return PolyhedralMesh(mesh.points, mesh.faces, mesh.cells)
+
+
+def _assert_same_operators(derived, fresh):
+    np.testing.assert_array_equal(derived.cell_face_signs, fresh.cell_face_signs)
+    for name in ("A", "mass"):
+        np.testing.assert_allclose(getattr(derived, name), getattr(fresh, name), rtol=1e-13)
+    for name in ("G", "K", "adjacency", "incidence"):
+        a, b = getattr(derived, name), getattr(fresh, name)
+        assert abs(a - b).max() <= 1e-13 * abs(b).max(), name
+    np.testing.assert_array_equal(derived.edges, fresh.edges)
+    pa, ta, _ = derived.simplicial_refinement()
+    pb, tb, _ = fresh.simplicial_refinement()
+    np.testing.assert_array_equal(ta, tb)
+    np.testing.assert_allclose(pa, pb, atol=1e-14)
+
+
+@pytest.mark.parametrize("voxels", [False, True])
+def test_cut_and_split_meshes_reuse_the_geometry_of_a_fresh_build(voxels):
+    """A submesh (the band) and a split (the padding), and each of the other, keep their
+    parent's geometry for what they keep: their operators are a fresh build's."""
+    from ndboundary import ImageGrid
+
+    mesh = ImageGrid((6, 5, 7), spacing=(1.0, 0.5, 2.0)) if voxels else hex_grid(6, jitter=0.25, random_state=0)
+    rng = np.random.default_rng(2)
+    sub, vertices = mesh.subdomain(rng.random(mesh.n_elements) < 0.5)
+    np.testing.assert_array_equal(sub.points, mesh.points[vertices])
+    _assert_same_operators(sub, _fresh(sub))
+    split, parent = mesh.split_elements(rng.random(mesh.n_elements) < 0.15)
+    _assert_same_operators(split, _fresh(split))
+    np.testing.assert_allclose(np.bincount(parent, weights=split.A), mesh.A, rtol=1e-12)
+    _assert_same_operators(*(lambda s: (s, _fresh(s)))(split.subdomain(rng.random(split.n_elements) < 0.5)[0]))
+    _assert_same_operators(*(lambda s: (s, _fresh(s)))(sub.split_elements(rng.random(sub.n_elements) < 0.2)[0]))

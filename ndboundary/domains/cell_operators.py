@@ -58,16 +58,9 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
         idx = starts[els][:, None] + np.arange(m)[None, :]  # (n, m)
         verts = pair_vertex[idx]
         Ge = pair_grad[idx]  # (n, m, dim)
-        A = measures[els]
-        Kc = A[:, None, None] * (Ge @ Ge.transpose(0, 2, 1))  # (n, m, m)
-        Ke = Kc
-        if stabilization > 0:
-            X = points[verts]
-            Xc = X - X.mean(axis=1, keepdims=True)
-            P = 1.0 / m + Xc @ Ge.transpose(0, 2, 1)  # (n, m, m): P[i, j] = 1/m + xc_i . g_j
-            Q = np.eye(m)[None] - P
-            s = stabilization * np.einsum("nii->n", Kc) / m
-            Ke = Kc + s[:, None, None] * (Q.transpose(0, 2, 1) @ Q)
+        X = points[verts]
+        Xc = X - X.mean(axis=1, keepdims=True)
+        Ke = _cell_stiffness_shared(Ge, measures[els], Xc, stabilization)
         rows.append(np.repeat(verts, m, axis=1).ravel())
         cols.append(np.tile(verts, (1, m)).ravel())
         vals.append(Ke.ravel())
@@ -75,6 +68,44 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_vertices, n_vertices)
     )
     return (K + K.T) * 0.5
+
+
+def _cell_stiffness(Ge, A, Xc, stabilization):
+    """Every cell's ``A G^T G + s (I - P)^T (I - P)``, shape (n, m, m)."""
+    m = Ge.shape[1]
+    Kc = A[:, None, None] * (Ge @ Ge.transpose(0, 2, 1))  # (n, m, m)
+    if stabilization <= 0:
+        return Kc
+    P = 1.0 / m + Xc @ Ge.transpose(0, 2, 1)  # (n, m, m): P[i, j] = 1/m + xc_i . g_j
+    Q = np.eye(m)[None] - P
+    s = stabilization * np.einsum("nii->n", Kc) / m
+    return Kc + s[:, None, None] * (Q.transpose(0, 2, 1) @ Q)
+
+
+def _cell_stiffness_shared(Ge, A, Xc, stabilization):
+    """:func:`_cell_stiffness`, computed once per shape where many cells share one.
+
+    Cells of the same shape (the voxels of an image, the cells of a regular grid) have
+    the same gradient coefficients and measure, and the same vertex offsets from their
+    mean up to rounding: their matrix is computed for one of them. A cell whose offsets
+    differ from its representative's by more than ``1e-9`` of its size is computed on
+    its own.
+    """
+    n = Ge.shape[0]
+    if n < 64:
+        return _cell_stiffness(Ge, A, Xc, stabilization)
+    key = np.ascontiguousarray(np.concatenate([Ge.reshape(n, -1), A[:, None]], axis=1))
+    rows = key.view(np.dtype((np.void, key.dtype.itemsize * key.shape[1]))).ravel()
+    _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+    if 4 * first.size > n:
+        return _cell_stiffness(Ge, A, Xc, stabilization)
+    inverse = inverse.ravel()
+    size = np.abs(Xc).max(axis=(1, 2))
+    own = np.flatnonzero(np.abs(Xc - Xc[first][inverse]).max(axis=(1, 2)) > 1e-9 * size)
+    Ke = _cell_stiffness(Ge[first], A[first], Xc[first], stabilization)[inverse]
+    if own.size:
+        Ke[own] = _cell_stiffness(Ge[own], A[own], Xc[own], stabilization)
+    return Ke
 
 
 def combinatorial_laplacian(edges, n_vertices, scale):

@@ -7,7 +7,10 @@ convention, so that what is relaxed lies where the scanner put it. The grid's ve
 are the pixels' corners, half a spacing from the centres. Pixels are quadrilaterals of a
 :class:`~ndboundary.PolygonMesh`, voxels hexahedra of a
 :class:`~ndboundary.PolyhedralMesh`: every operator, padding and band of those meshes
-serves the grids unchanged, with anisotropic spacing.
+serves the grids unchanged, with anisotropic spacing. A voxel grid's faces and geometry
+come from its structure (:mod:`~ndboundary.domains.voxels`) instead of a search and a
+computation per cell, and the band and the padding cut from it keep that geometry
+(:mod:`~ndboundary.domains.polyhedral_reuse`).
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ import numpy as np
 
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
-from .polyhedral_cells import HEX_FACES, faces_from_cells
+from .cell_operators import check_laplacian_options
+from .voxels import box_geometry, voxel_faces
 
 __all__ = ["ImageGrid", "PixelGrid", "VoxelGrid"]
 
@@ -142,15 +146,15 @@ class VoxelGrid(ImageGrid, PolyhedralMesh):
         if len(self.shape) != 3:
             raise ValueError(f"a VoxelGrid is 3-D, got shape {self.shape}")
         self.direction = grid_direction(direction, 3)
-        points, o, (s0, s1, s2) = grid_points(self.shape, self.spacing, self.origin, self.direction)
-        bottom = [o, o + s0, o + s0 + s1, o + s1]
-        hexes = np.stack(bottom + [b + s2 for b in bottom], axis=1)
-        faces, cell_faces = faces_from_cells(hexes, HEX_FACES)
-        # every local face of a hexahedron points out of it, and a face is listed as its
-        # first cell sees it: the other cell sees it reversed (and a reflection reverses all)
-        _, first = np.unique(cell_faces.ravel(), return_index=True)
-        signs = np.full(cell_faces.size, -1, dtype=np.int8)
-        signs[first] = 1
+        points, o, strides = grid_points(self.shape, self.spacing, self.origin, self.direction)
+        laplacian = kwargs.pop("laplacian", "consistent")
+        stabilization = check_laplacian_options(laplacian, kwargs.pop("stabilization", 4.0))
+        if kwargs:
+            raise TypeError(f"VoxelGrid got unexpected keyword arguments {sorted(kwargs)}")
+        fi, fo, ci, co, signs = voxel_faces(self.shape, o, strides)
         if self.direction is not None and np.linalg.det(self.direction) < 0:
-            signs = -signs
-        PolyhedralMesh.__init__(self, points, faces, cell_faces, face_signs=signs, **kwargs)
+            signs = -signs  # a reflection turns every face
+        geometry = box_geometry(points, fi, o, strides, self.spacing, self.direction, signs)
+        mesh = PolyhedralMesh._derived(points, fi, fo, ci, co, laplacian, stabilization, geometry)
+        self.__dict__.update(mesh.__dict__)
+        self.__dict__["_face_ids"] = np.arange(fo.size - 1)  # every face is listed once

@@ -39,10 +39,10 @@ from .._arrays import (
     fill_unused_mass,
     group_rows,
     mixed_facets,
+    ragged_next,
     ragged_rows,
     row_groups,
     shared_facet_adjacency,
-    used_vertices,
 )
 from .._validation import check_cells, check_points, check_ragged
 from .base import Domain
@@ -57,6 +57,7 @@ from .polyhedral_cells import (
     tetrahedral_refinement,
 )
 from .polyhedral_geometry import cell_geometry, face_geometry
+from .polyhedral_reuse import pyramid_cells, split_geometry, sub_geometry
 from .simplicial import SimplicialComplex
 
 __all__ = ["PolyhedralMesh"]
@@ -142,6 +143,20 @@ class PolyhedralMesh(Domain):
         self._face_geometry()
         self.cell_face_signs = orient_faces(self) if face_signs is None else face_signs
         self._cell_geometry()
+
+    @classmethod
+    def _derived(cls, points, fi, fo, ci, co, laplacian, stabilization, geometry):
+        """A mesh whose geometry is known (:mod:`.polyhedral_reuse`): nothing is recomputed."""
+        self = PolyhedralMesh.__new__(PolyhedralMesh)
+        self.stabilization, self.laplacian, self.points = stabilization, laplacian, points
+        self.face_indices, self.face_offsets, self.cell_faces, self.cell_offsets = fi, fo, ci, co
+        self.face_owner, self.face_next, _ = ragged_next(fo)
+        self.face_centres, self.fan_areas = geometry.face_centres, geometry.fan_areas
+        self.face_areas = geometry.face_areas
+        self.cell_face_signs = geometry.cell_face_signs
+        self._volumes, self._pair_grads = geometry.volumes, geometry.pair_grads
+        self.__dict__["cell_vertices"] = geometry.cell_vertices
+        return self
 
     @classmethod
     def from_hexahedra(cls, points, hexes, **kwargs):
@@ -319,28 +334,20 @@ class PolyhedralMesh(Domain):
         mask = np.asarray(mask, dtype=bool)
         if not mask.any():
             return self, np.arange(self.n_elements)
-        points, fi, fo, ci, co, parent = pyramid_split(self, mask)
-        out = PolyhedralMesh._from_flat(points, fi, fo, ci, co, self.laplacian, self.stabilization)
+        split = pyramid_split(self, mask)
+        points, fi, fo, ci, co, parent = split
+        fi_p, fo_p, ci_p, co_p, face_map = pyramid_cells(split, int(np.count_nonzero(~mask)))
+        pyramids = PolyhedralMesh._from_flat(points, fi_p, fo_p, ci_p, co_p, self.laplacian, self.stabilization)
+        pyramids.face_map = face_map
+        geometry = split_geometry(self, mask, split, pyramids)
+        out = PolyhedralMesh._derived(points, fi, fo, ci, co, self.laplacian, self.stabilization, geometry)
         out.usual_degree = self.usual_degree
         return out, parent
 
     def subdomain(self, mask):
         """The mesh of the cells selected by ``mask`` (see :meth:`Domain.subdomain`)."""
-        mask = np.asarray(mask, dtype=bool)
-        cells = np.flatnonzero(mask)
-        lens = np.diff(self.cell_offsets)[cells]
-        entries = self.cell_faces[expand_ranges(self.cell_offsets[cells], lens)]
-        faces, face_remap = used_vertices(entries, self.n_faces)
-        flens = np.diff(self.face_offsets)[faces]
-        corners = self.face_indices[expand_ranges(self.face_offsets[faces], flens)]
-        vertices, remap = used_vertices(corners, self.n_vertices)
-        fo = np.zeros(faces.size + 1, dtype=np.int64)
-        np.cumsum(flens, out=fo[1:])
-        co = np.zeros(cells.size + 1, dtype=np.int64)
-        np.cumsum(lens, out=co[1:])
-        sub = PolyhedralMesh._from_flat(
-            self.points[vertices], remap[corners], fo, face_remap[entries], co, self.laplacian, self.stabilization
-        )
+        points, fi, fo, ci, co, geometry, vertices = sub_geometry(self, np.flatnonzero(np.asarray(mask, dtype=bool)))
+        sub = PolyhedralMesh._derived(points, fi, fo, ci, co, self.laplacian, self.stabilization, geometry)
         sub.usual_degree = self.usual_degree
         return sub, vertices
 
