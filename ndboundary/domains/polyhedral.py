@@ -336,10 +336,9 @@ class PolyhedralMesh(Domain):
             return self, np.arange(self.n_elements)
         split = pyramid_split(self, mask)
         points, fi, fo, ci, co, parent = split
-        fi_p, fo_p, ci_p, co_p, face_map = pyramid_cells(split, int(np.count_nonzero(~mask)))
+        fi_p, fo_p, ci_p, co_p, first_new = pyramid_cells(split, int(np.count_nonzero(~mask)), self.n_faces)
         pyramids = PolyhedralMesh._from_flat(points, fi_p, fo_p, ci_p, co_p, self.laplacian, self.stabilization)
-        pyramids.face_map = face_map
-        geometry = split_geometry(self, mask, split, pyramids)
+        geometry = split_geometry(self, mask, pyramids, first_new)
         out = PolyhedralMesh._derived(points, fi, fo, ci, co, self.laplacian, self.stabilization, geometry)
         out.usual_degree = self.usual_degree
         return out, parent

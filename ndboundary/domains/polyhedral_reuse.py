@@ -79,15 +79,13 @@ def sub_geometry(mesh, cells):
     return mesh.points[vertices], remap[mesh.face_indices[corners]], fo, face_remap[old_faces], co, geometry, vertices
 
 
-def split_geometry(mesh, mask, split, pyramids):
-    """The geometry of ``split``, the arrays of :func:`~.polyhedral_cells.pyramid_split` of
-    ``mesh`` at ``mask``: the kept cells' and all the old faces' from ``mesh``, the new
-    faces' and cells' from ``pyramids``, the mesh of the pyramids alone (over the split's
-    points, with the faces they use in increasing order, so that the new faces come last).
+def split_geometry(mesh, mask, pyramids, first_new):
+    """The geometry of the split of ``mesh`` at ``mask`` (:func:`~.polyhedral_cells.pyramid_split`):
+    the kept cells' and all the old faces' from ``mesh``, the new faces' and cells' from
+    ``pyramids``, the mesh of the pyramids alone (:func:`pyramid_cells`), whose faces from
+    ``first_new`` on are the new ones.
     """
     kept = ~mask
-    n_old = mesh.n_faces
-    first_new = int(np.count_nonzero(pyramids.face_map < n_old))
     cv, vv = mesh.cell_vertices
     pairs = kept[cv]
     rank = np.cumsum(kept) - 1
@@ -105,16 +103,18 @@ def split_geometry(mesh, mask, split, pyramids):
     )
 
 
-def pyramid_cells(split, n_keep):
+def pyramid_cells(split, n_keep, n_old):
     """The pyramids of a split (the arrays of :func:`~.polyhedral_cells.pyramid_split`) as
     their own mesh's arrays ``(face_indices, face_offsets, cell_faces, cell_offsets)`` over
-    the split's points, and the split's face of each of its faces (``face_map``).
+    the split's points, and the number of its faces among the ``n_old`` faces of the mesh
+    that was split (they come first, the new faces after them).
     """
-    points, fi, fo, ci, co, parent = split
+    _, fi, fo, ci, co, _ = split
     ci_p = ci[co[n_keep] :]
     co_p = co[n_keep:] - co[n_keep]
     faces, remap = used_vertices(ci_p, fo.size - 1)
     flens = np.diff(fo)[faces]
     fo_p = np.zeros(faces.size + 1, dtype=np.int64)
     np.cumsum(flens, out=fo_p[1:])
-    return fi[expand_ranges(fo[faces], flens)], fo_p, remap[ci_p], co_p, faces
+    first_new = int(np.searchsorted(faces, n_old))
+    return fi[expand_ranges(fo[faces], flens)], fo_p, remap[ci_p], co_p, first_new
