@@ -155,6 +155,5 @@ class VoxelGrid(ImageGrid, PolyhedralMesh):
         if self.direction is not None and np.linalg.det(self.direction) < 0:
             signs = -signs  # a reflection turns every face
         geometry = box_geometry(points, fi, o, strides, self.spacing, self.direction, signs)
-        mesh = PolyhedralMesh._derived(points, fi, fo, ci, co, laplacian, stabilization, geometry)
-        self.__dict__.update(mesh.__dict__)
+        self._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)
         self.__dict__["_face_ids"] = np.arange(fo.size - 1)  # every face is listed once

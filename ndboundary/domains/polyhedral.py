@@ -148,6 +148,11 @@ class PolyhedralMesh(Domain):
     def _derived(cls, points, fi, fo, ci, co, laplacian, stabilization, geometry):
         """A mesh whose geometry is known (:mod:`.polyhedral_reuse`): nothing is recomputed."""
         self = PolyhedralMesh.__new__(PolyhedralMesh)
+        self._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)
+        return self
+
+    def _init_known(self, points, fi, fo, ci, co, laplacian, stabilization, geometry):
+        """Set the mesh's arrays and its known geometry."""
         self.stabilization, self.laplacian, self.points = stabilization, laplacian, points
         self.face_indices, self.face_offsets, self.cell_faces, self.cell_offsets = fi, fo, ci, co
         self.face_owner, self.face_next, _ = ragged_next(fo)
@@ -156,7 +161,6 @@ class PolyhedralMesh(Domain):
         self.cell_face_signs = geometry.cell_face_signs
         self._volumes, self._pair_grads = geometry.volumes, geometry.pair_grads
         self.__dict__["cell_vertices"] = geometry.cell_vertices
-        return self
 
     @classmethod
     def from_hexahedra(cls, points, hexes, **kwargs):

@@ -91,7 +91,7 @@ def split_geometry(mesh, mask, pyramids, first_new):
     rank = np.cumsum(kept) - 1
     n_keep = int(np.count_nonzero(kept))
     pc, pv = pyramids.cell_vertices
-    entries = kept[np.repeat(np.arange(mesh.n_elements), np.diff(mesh.cell_offsets))]
+    entries = kept[mesh.cell_face_entries[0]]
     return Geometry(
         np.concatenate([mesh.face_centres, pyramids.face_centres[first_new:]]),
         np.concatenate([mesh.fan_areas, pyramids.fan_areas[pyramids.face_offsets[first_new] :]]),
