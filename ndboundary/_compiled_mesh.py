@@ -1,5 +1,6 @@
 """Compiled loops (numba) over the vertex-simplex incidence of large complexes: the edge
-graph and the mean edge length, the simplices across each facet, the stiffness.
+graph and the mean edge length, the simplices across each facet, the stiffness; and the
+assembly of the cells' stiffness blocks of polygon and polyhedral meshes.
 
 Each pass walks the simplices at every vertex (or every simplex once) with a few scalars
 of state, where the vectorised versions sort tables of every vertex pair or facet, many
@@ -16,7 +17,7 @@ import scipy.sparse as sp
 from ._compiled import insert_sorted
 from ._kernels import kernel
 
-__all__ = ["edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
+__all__ = ["assemble_cell_blocks", "edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -365,6 +366,127 @@ def stiffness_matrix(incidence, sorted_simplices, grads, vol):
     _stiffness_columns(inc.indptr, inc.indices, srt, nbr, rows, cols, data)
     fill = _stiffness_fill_tets if k1 == 4 and grads.shape[1] == 3 else _stiffness_fill  # each compiles alone
     fill(srt, grads, vol, rows, cols, data)
+    return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _cell_neighbours(a, indptr, cells, cell_ptr, cell_verts, mark, nbr):  # pragma: no cover - compiled
+    """The distinct vertices of the cells at vertex ``a``, ``a`` among them, into ``nbr``
+    in increasing order; their count.
+    """
+    count = 0
+    for q in range(indptr[a], indptr[a + 1]):
+        c = cells[q]
+        for p in range(cell_ptr[c], cell_ptr[c + 1]):
+            b = cell_verts[p]
+            if mark[b] != a:
+                mark[b] = a
+                insert_sorted(nbr, count, b)
+                count += 1
+    return count
+
+
+@kernel("void(i8[::1], i8[::1], i8[::1], i8[::1], i8[::1], i8[::1])")
+@numba.njit(cache=True, nogil=True)
+def _cell_block_counts(indptr, cells, cell_ptr, cell_verts, nbr, rows):  # pragma: no cover - compiled
+    V = indptr.size - 1
+    mark = np.full(V, -1, dtype=np.int64)
+    for a in range(V):
+        rows[a + 1] = rows[a] + _cell_neighbours(a, indptr, cells, cell_ptr, cell_verts, mark, nbr)
+
+
+@kernel("void(i8[::1], i8[::1], i8[::1], i8[::1], i8[::1], i8[::1], i4[::1], f8[::1])")
+@numba.njit(cache=True, nogil=True)
+def _cell_block_columns(indptr, cells, cell_ptr, cell_verts, nbr, rows, cols, data):  # pragma: no cover - compiled
+    """Each row's columns in increasing order, and its entries zeroed."""
+    V = indptr.size - 1
+    mark = np.full(V, -1, dtype=np.int64)
+    for a in range(V):
+        count = _cell_neighbours(a, indptr, cells, cell_ptr, cell_verts, mark, nbr)
+        for t in range(count):
+            cols[rows[a] + t] = nbr[t]
+            data[rows[a] + t] = 0.0
+
+
+@kernel("void(i8[::1], i8[::1], f8[::1], i8[::1], i8[::1], i4[::1], f8[::1])")
+@numba.njit(cache=True, nogil=True)
+def _cell_block_fill(cell_ptr, cell_verts, blocks, block_ptr, rows, cols, data):  # pragma: no cover - compiled
+    # cell c's block is the m x m matrix blocks[block_ptr[c]:][: m * m] (row-major, m its
+    # vertex count); its symmetric part is added to the rows of its vertices in increasing
+    # order of the cells, so entries (a, b) and (b, a) are the same sum in the same order
+    for c in range(cell_ptr.size - 1):
+        start = cell_ptr[c]
+        m = cell_ptr[c + 1] - start
+        base = block_ptr[c]
+        for i in range(m):
+            a = cell_verts[start + i]
+            lo0 = rows[a]
+            hi0 = rows[a + 1]
+            for j in range(m):
+                b = cell_verts[start + j]
+                lo = lo0
+                hi = hi0
+                while hi - lo > 1:  # the column b in the row's increasing columns
+                    mid = (lo + hi) // 2
+                    if cols[mid] <= b:
+                        lo = mid
+                    else:
+                        hi = mid
+                data[lo] += 0.5 * (blocks[base + i * m + j] + blocks[base + j * m + i])
+
+
+def assemble_cell_blocks(cell_ptr, cell_verts, blocks, block_ptr, n_vertices):
+    """``sum_c P_c^T sym(B_c) P_c``: the symmetric parts of the cells' blocks added into a
+    sparse matrix over the vertices, in canonical CSR form, exactly symmetric.
+
+    The columns of each row are read off the cells at its vertex; each cell then adds its
+    block to the rows of its vertices. Cells may share one block (cells of one shape, as
+    the voxels of an image), so no block need be stored per cell.
+
+    Parameters
+    ----------
+    cell_ptr : ndarray of int64 of shape (n_cells + 1,)
+        Cell ``c``'s vertices are ``cell_verts[cell_ptr[c]:cell_ptr[c + 1]]``.
+    cell_verts : ndarray of int64
+    blocks : ndarray of float64
+        The blocks, each ``m x m`` row-major for a cell of ``m`` vertices, one after another.
+    block_ptr : ndarray of int64 of shape (n_cells,)
+        Where cell ``c``'s block starts in ``blocks``.
+    n_vertices : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
+        A vertex in no cell has an empty row.
+
+    Examples
+    --------
+    Two unit segments sharing vertex 1, one block for both:
+
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import assemble_cell_blocks
+    >>> block = np.array([1.0, -1.0, -1.0, 1.0])
+    >>> K = assemble_cell_blocks(np.array([0, 2, 4]), np.array([0, 1, 1, 2]), block, np.array([0, 0]), 3)
+    >>> K.toarray().tolist(), bool(K.has_canonical_format)
+    ([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]], True)
+    """
+    cell_ptr = np.ascontiguousarray(cell_ptr, dtype=np.int64)
+    cell_verts = np.ascontiguousarray(cell_verts, dtype=np.int64)
+    V = int(n_vertices)
+    owner = np.repeat(np.arange(cell_ptr.size - 1, dtype=np.int64), np.diff(cell_ptr))
+    indptr = np.zeros(V + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cell_verts, minlength=V), out=indptr[1:])
+    cells = owner[np.argsort(cell_verts, kind="stable")]  # the cells at each vertex, increasing
+    sizes = np.diff(cell_ptr)
+    at_vertex = np.diff(indptr)
+    nbr = np.empty(int(at_vertex.max(initial=0)) * int(sizes.max(initial=0)) + 1, dtype=np.int64)
+    rows = np.zeros(V + 1, dtype=np.int64)
+    _cell_block_counts(indptr, cells, cell_ptr, cell_verts, nbr, rows)
+    idx = np.int32 if max(int(rows[-1]), V) < np.iinfo(np.int32).max else np.int64
+    cols, data = np.empty(int(rows[-1]), dtype=idx), np.empty(int(rows[-1]))
+    _cell_block_columns(indptr, cells, cell_ptr, cell_verts, nbr, rows, cols, data)
+    blocks = np.ascontiguousarray(blocks, dtype=np.float64)
+    _cell_block_fill(cell_ptr, cell_verts, blocks, np.ascontiguousarray(block_ptr, dtype=np.int64), rows, cols, data)
     return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
 
 

@@ -6,8 +6,9 @@ import scipy.sparse as sp
 
 from ndboundary import SimplicialComplex
 from ndboundary._validation import check_cells, check_labels
-from ndboundary.datasets import icosphere, kuhn_grid
-from ndboundary import Domain
+from ndboundary.datasets import hex_grid, icosphere, kuhn_grid
+from ndboundary import Domain, ImageGrid
+from ndboundary._compiled_mesh import assemble_cell_blocks
 from ndboundary._arrays import (
     counting_sort,
     first_of_groups,
@@ -307,3 +308,54 @@ def test_check_cells_finds_the_first_row_with_a_repeated_vertex(rng, width):
     cells[12, 1] = cells[12, 0]
     with pytest.raises(ValueError, match="row 7 "):
         check_cells(cells, 20)
+
+
+def reference_cell_blocks(cell_ptr, cell_verts, blocks, block_ptr, n):
+    """``sum_c P_c^T sym(B_c) P_c`` one dense cell at a time."""
+    K = np.zeros((n, n))
+    for c in range(cell_ptr.size - 1):
+        v = cell_verts[cell_ptr[c] : cell_ptr[c + 1]]
+        m = v.size
+        B = blocks[block_ptr[c] : block_ptr[c] + m * m].reshape(m, m)
+        K[np.ix_(v, v)] += 0.5 * (B + B.T)
+    return K
+
+
+def test_cell_blocks_assemble_to_their_sum_exactly_symmetric(rng):
+    # cells of 3 to 8 vertices over 60 vertices, some sharing a block, one vertex unused
+    sizes = rng.integers(3, 9, size=200)
+    cell_ptr = np.concatenate([[0], np.cumsum(sizes)])
+    cell_verts = np.concatenate([rng.choice(59, size=m, replace=False) for m in sizes])
+    own = [rng.standard_normal(m * m) for m in sizes[:150]]  # not symmetric: the sum takes the symmetric part
+    shared = {m: rng.standard_normal(m * m) for m in range(3, 9)}
+    blocks = np.concatenate(own + list(shared.values()))
+    starts = np.concatenate([[0], np.cumsum([b.size for b in own + list(shared.values())])])
+    where = {m: starts[150 + i] for i, m in enumerate(shared)}
+    block_ptr = np.array([starts[c] if c < 150 else where[sizes[c]] for c in range(sizes.size)])
+    K = assemble_cell_blocks(cell_ptr, cell_verts, blocks, block_ptr, 60)
+    assert K.has_canonical_format and K.shape == (60, 60)
+    assert (K != K.T).nnz == 0  # symmetric to the last bit
+    assert K.indptr[-1] == K.indptr[-2]  # the unused vertex: an empty row
+    ref = reference_cell_blocks(cell_ptr, cell_verts, blocks, block_ptr, 60)
+    np.testing.assert_allclose(K.toarray(), ref, atol=1e-13 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("make", [lambda: hex_grid(5, jitter=0.2, random_state=0), lambda: ImageGrid((4, 5, 6))])
+def test_cell_stiffness_is_the_sum_of_every_cell_s_matrix(make):
+    mesh = make()  # jittered cells each with its own matrix; voxels sharing one
+    cell, vert = mesh.cell_vertices
+    starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=mesh.n_elements))])
+    n = mesh.n_vertices
+    ref = np.zeros((n, n))
+    for c in range(mesh.n_elements):
+        s = slice(starts[c], starts[c + 1])
+        v, G = vert[s], mesh._pair_grads[s]
+        X = mesh.points[v] - mesh.points[v].mean(axis=0)
+        Kc = mesh._volumes[c] * G @ G.T
+        Q = np.eye(v.size) - (1.0 / v.size + X @ G.T)
+        Kc = Kc + mesh.stabilization * np.trace(Kc) / v.size * Q.T @ Q
+        ref[np.ix_(v, v)] += 0.5 * (Kc + Kc.T)
+    K = mesh.K
+    assert K.has_canonical_format and (K != K.T).nnz == 0
+    np.testing.assert_allclose(K.toarray(), ref, atol=1e-12 * np.abs(ref).max())
+    np.testing.assert_allclose(K @ np.ones(n), 0.0, atol=1e-12 * np.abs(ref).max())

@@ -284,3 +284,19 @@ def test_incidence_queries_agree_and_refuse_bad_masks(make, rng):
             mesh.vertices_of(bad)
     with pytest.raises(ValueError, match=f"{mesh.n_vertices} vertices"):
         mesh.elements_at(vertices[1:])
+
+
+def test_auto_reads_the_boundary_scale_on_two_rings_as_the_whole_domain_gives_it():
+    # Voronoi polygons weaken the field term at zeta (lam_scale < 1): the band is widened
+    # by the scale, which is read on the two rings of elements around zeta alone
+    cells = voronoi_polygons(150, random_state=1)
+    assert cells.n_vertices > 20_000  # above AUTO_BAND_MIN_VERTICES
+    labels = label_by(cells, lambda x: np.linalg.norm(x - 0.1, axis=1) - 0.45)
+    whole = relax(cells, labels, on="elements", band=None)
+    auto = relax(cells, labels, on="elements")
+    scale = whole.params["lam_scale"]
+    assert scale < 0.9
+    assert auto.params["band"] == band_width(auto.params, cells, scale) > cells.band_reach
+    assert auto.params["lam_scale"] == pytest.approx(scale, rel=1e-9)
+    mean, worst = level_set_gap(auto, whole, cells.mean_edge_length())
+    assert mean <= 0.01 and worst <= 0.05

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from ndboundary import SimplicialComplex, marching_simplices
-from ndboundary.datasets import icosphere, kuhn_grid
+from ndboundary import SimplicialComplex, marching_simplices, relax, relax_image
+from ndboundary.datasets import icosphere, kuhn_grid, voronoi_polygons
 
 
 @pytest.mark.parametrize("dim, n", [(2, 9), (3, 5), (4, 3)])
@@ -107,3 +107,37 @@ def test_level_set_through_vertices_is_closed(dim, n, radius, chi):
     assert (values == 0).any()
     ls = marching_simplices(grid.points, grid.simplices, values, 0.0)
     assert ls.is_closed() and ls.n_components() == 1 and ls.euler_characteristic() == chi
+
+
+@pytest.mark.parametrize("value", [0.5, 0.3])
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: relax_image(ball_mask(), spacing=(1.0, 0.8, 1.2)),
+        lambda: relax_image(ball_mask()[6]),
+        lambda: relax(
+            voronoi_polygons(30, random_state=0), disc_labels(voronoi_polygons(30, random_state=0)), on="elements"
+        ),
+    ],
+    ids=["voxels", "pixels", "polygons"],
+)
+def test_level_set_refines_only_the_elements_it_crosses(make, value):
+    res = make()
+    curve = res.level_set(value)
+    assert "_refinement" not in res.domain.__dict__  # the whole refinement was never built
+    whole = marching_simplices(*res.domain.level_set_complex(res.phi), value)
+    assert curve.simplices.shape == whole.simplices.shape and curve.is_closed() and whole.is_closed()
+    assert curve.measure() == pytest.approx(whole.measure(), rel=1e-12)
+    np.testing.assert_allclose(
+        np.unique(np.round(curve.points, 9), axis=0), np.unique(np.round(whole.points, 9), axis=0), atol=1e-9
+    )
+    assert (curve.euler_characteristic(), curve.n_components()) == (whole.euler_characteristic(), whole.n_components())
+
+
+def ball_mask():
+    i, j, k = np.indices((14, 15, 16))
+    return (i - 6.7) ** 2 + (j - 7.2) ** 2 + (k - 7.9) ** 2 < 25
+
+
+def disc_labels(cells):
+    return np.linalg.norm(cells.element_centroids() - 0.05, axis=1) < 0.5

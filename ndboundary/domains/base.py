@@ -320,10 +320,24 @@ class Domain(IncidenceQueries):
     def _refinement(self):
         return self.simplicial_refinement()
 
-    def level_set_complex(self, f):
+    def level_set_complex(self, f, value=None):
         """The simplicial complex carrying the vertex function ``f`` piecewise linearly:
         ``(points, simplices, values)``, the refinement built once.
+
+        With ``value`` (a number, ``f`` one value per vertex), only the elements where the
+        level set ``f == value`` can lie are refined, on a domain that can be cut to them
+        and whose refinement is not built yet: those whose vertices lie on both sides of
+        ``value`` (a value equal to it counts as above, as in marching simplices). The
+        refinement's added points are means of an element's vertices, so an element with
+        every vertex on one side has every simplex there, and the level set's cost follows
+        the level set, not the domain.
         """
+        if value is not None and "_refinement" not in self.__dict__ and type(self).subdomain is not Domain.subdomain:
+            above = (np.asarray(f) >= value).astype(np.int64)
+            mixed = self.element_max(above) != -self.element_max(-above)
+            if mixed.any() and not mixed.all():
+                sub, vertices = self.subdomain(mixed)
+                return sub.level_set_complex(np.asarray(f)[vertices])
         points, simplices, R = self._refinement
         f = np.asarray(f, dtype=np.float64)
         return points, simplices, f if R is None else R @ f

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .._compiled_mesh import assemble_cell_blocks
 from .._validation import check_positive
 
 __all__ = ["check_laplacian_options", "combinatorial_laplacian", "local_stiffness", "refinement_matrix"]
@@ -34,6 +35,10 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
     Returns
     -------
     scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
+        Exactly symmetric: each cell adds the symmetric part of its matrix. Cells of one
+        shape share one matrix (:func:`_cell_stiffness_shared`), assembled by a compiled
+        pass (:func:`~ndboundary._compiled_mesh.assemble_cell_blocks`) without a table of
+        every cell's entries.
 
     Examples
     --------
@@ -52,22 +57,19 @@ def local_stiffness(points, pair_elem, pair_vertex, pair_grad, measures, stabili
     sizes = np.bincount(pair_elem, minlength=n_el)
     starts = np.zeros(n_el + 1, dtype=np.int64)
     np.cumsum(sizes, out=starts[1:])
-    rows, cols, vals = [], [], []
+    blocks, block_ptr, offset = [], np.zeros(n_el, dtype=np.int64), 0
     for m in np.flatnonzero(np.bincount(sizes)):
         els = np.flatnonzero(sizes == m)
         idx = starts[els][:, None] + np.arange(m)[None, :]  # (n, m)
-        verts = pair_vertex[idx]
         Ge = pair_grad[idx]  # (n, m, dim)
-        X = points[verts]
-        Xc = X - X.mean(axis=1, keepdims=True)
-        Ke = _cell_stiffness_shared(Ge, measures[els], Xc, stabilization)
-        rows.append(np.repeat(verts, m, axis=1).ravel())
-        cols.append(np.tile(verts, (1, m)).ravel())
-        vals.append(Ke.ravel())
-    K = sp.csr_matrix(
-        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_vertices, n_vertices)
-    )
-    return (K + K.T) * 0.5
+        X = points[pair_vertex[idx]]
+        Ke, which = _cell_stiffness_shared(Ge, measures[els], X - X.mean(axis=1, keepdims=True), stabilization)
+        blocks.append(Ke.ravel())
+        block_ptr[els] = offset + which * (m * m)
+        offset += Ke.size
+    if not blocks:
+        return sp.csr_matrix((n_vertices, n_vertices))
+    return assemble_cell_blocks(starts, pair_vertex, np.concatenate(blocks), block_ptr, n_vertices)
 
 
 def _cell_stiffness(Ge, A, Xc, stabilization):
@@ -83,29 +85,31 @@ def _cell_stiffness(Ge, A, Xc, stabilization):
 
 
 def _cell_stiffness_shared(Ge, A, Xc, stabilization):
-    """:func:`_cell_stiffness`, computed once per shape where many cells share one.
+    """:func:`_cell_stiffness`, computed once per shape where many cells share one:
+    ``(blocks, which)``, cell ``i``'s matrix being ``blocks[which[i]]``.
 
     Cells of the same shape (the voxels of an image, the cells of a regular grid) have
     the same gradient coefficients and measure, and the same vertex offsets from their
-    mean up to rounding: their matrix is computed for one of them. A cell whose offsets
-    differ from its representative's by more than ``1e-9`` of its size is computed on
-    its own.
+    mean up to rounding: their matrix is computed for one of them, and stored once. A
+    cell whose offsets differ from its representative's by more than ``1e-9`` of its
+    size gets a block of its own.
     """
     n = Ge.shape[0]
     if n < 64:
-        return _cell_stiffness(Ge, A, Xc, stabilization)
+        return _cell_stiffness(Ge, A, Xc, stabilization), np.arange(n)
     key = np.ascontiguousarray(np.concatenate([Ge.reshape(n, -1), A[:, None]], axis=1))
     rows = key.view(np.dtype((np.void, key.dtype.itemsize * key.shape[1]))).ravel()
     _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
     if 4 * first.size > n:
-        return _cell_stiffness(Ge, A, Xc, stabilization)
-    inverse = inverse.ravel()
+        return _cell_stiffness(Ge, A, Xc, stabilization), np.arange(n)
+    which = inverse.ravel()
     size = np.abs(Xc).max(axis=(1, 2))
-    own = np.flatnonzero(np.abs(Xc - Xc[first][inverse]).max(axis=(1, 2)) > 1e-9 * size)
-    Ke = _cell_stiffness(Ge[first], A[first], Xc[first], stabilization)[inverse]
+    own = np.flatnonzero(np.abs(Xc - Xc[first][which]).max(axis=(1, 2)) > 1e-9 * size)
+    Ke = _cell_stiffness(Ge[first], A[first], Xc[first], stabilization)
     if own.size:
-        Ke[own] = _cell_stiffness(Ge[own], A[own], Xc[own], stabilization)
-    return Ke
+        which[own] = first.size + np.arange(own.size)
+        Ke = np.concatenate([Ke, _cell_stiffness(Ge[own], A[own], Xc[own], stabilization)])
+    return Ke, which
 
 
 def combinatorial_laplacian(edges, n_vertices, scale):

@@ -337,6 +337,12 @@ class SimplicialComplex(SimplicialTopology, Domain):
         """The complex itself: ``(points, simplices, None)``."""
         return self.points, self.simplices, None
 
+    def level_set_complex(self, f, value=None):
+        """The complex itself carries ``f``: ``(points, simplices, f)``, whatever the
+        ``value`` (marching simplices passes over the simplices its level set misses).
+        """
+        return self.points, self.simplices, np.asarray(f, dtype=np.float64)
+
     def __repr__(self):
         return (
             f"SimplicialComplex(n_vertices={self.n_vertices}, n_elements={self.n_elements}, "

@@ -167,7 +167,7 @@ class RelaxResult(_RegionMethods):
         value = float(value)
         if not np.isfinite(value):
             raise ValueError(f"value must be finite, got {value!r}")
-        points, simplices, values = self.domain.level_set_complex(self.phi)
+        points, simplices, values = self.domain.level_set_complex(self.phi, value)
         return marching_simplices(points, simplices, values, value)
 
 
