@@ -4,13 +4,18 @@ Each run is a fresh process: the label volume (a ball of radius 0.32 n, its cent
 grid's symmetry, as ``images.py``'s ``ball64``), one ``relax_image`` with the defaults and
 its ``level_set()``. Prints every run, then the medians.
 
-To set this release beside another, run the same command with the other's source tree
-first on ``PYTHONPATH`` (alternating the two, as the machine's speed drifts).
+``--against DIR`` sets another source tree beside this one (a ``git worktree`` of an
+earlier release, say): each repeat runs it, then this tree, each in a fresh process, so
+that the machine's drifting speed weighs on both alike, and the ratios of the medians are
+printed. The other tree is imported from ``DIR`` ahead of the installed package (an
+editable install's import hook would otherwise win over ``PYTHONPATH``); its kernels are
+compiled by numba, so the first of its runs pays for that.
 
 Usage::
 
     python benchmarks/images_speed.py 64            # three runs at 64^3
     python benchmarks/images_speed.py 96 --repeats 1
+    python benchmarks/images_speed.py 64 --against ../release
 """
 
 from __future__ import annotations
@@ -19,6 +24,14 @@ import argparse
 import json
 import subprocess
 import sys
+from pathlib import Path
+
+#: Imports ndboundary from the folder ``{source}`` instead of the installed package.
+FROM_SOURCE = """
+import sys
+sys.meta_path = [f for f in sys.meta_path if "editable" not in getattr(f, "__module__", "").lower()]
+sys.path.insert(0, {source!r})
+"""
 
 ONE_RUN = """
 import json, resource, time
@@ -34,25 +47,41 @@ surface = result.level_set()
 t2 = time.perf_counter()
 print(json.dumps({{"relax_s": t1 - t0, "level_set_s": t2 - t1, "total_s": t2 - t0,
                    "peak_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
-                   "closed": bool(surface.is_closed())}}))
+                   "closed": bool(surface.is_closed()), "area": surface.measure()}}))
 """
+
+
+def one_run(n, source=None):
+    """One fresh process's figures, with ndboundary from ``source`` if given."""
+    code = (FROM_SOURCE.format(source=str(source)) if source else "") + ONE_RUN.format(n=n)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def medians(runs):
+    return {k: sorted(r[k] for r in runs)[len(runs) // 2] for k in ("relax_s", "level_set_s", "total_s", "peak_gb")}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("n", type=int, nargs="?", default=64, help="voxels a side (default 64)")
     parser.add_argument("--repeats", type=int, default=3, help="fresh processes (default 3)")
+    parser.add_argument("--against", type=Path, help="another source tree, run alternately with this one")
     args = parser.parse_args()
-    runs = []
+    trees = ([("against", args.against.resolve())] if args.against else []) + [("this", None)]
+    runs = {name: [] for name, _ in trees}
     for _ in range(args.repeats):
-        out = subprocess.run(
-            [sys.executable, "-c", ONE_RUN.format(n=args.n)], capture_output=True, text=True, check=True
-        )
-        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
-        fields = (f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}" for k, v in runs[-1].items())
-        print(f"ball {args.n}^3: " + ", ".join(fields), flush=True)
-    med = {k: sorted(r[k] for r in runs)[len(runs) // 2] for k in ("relax_s", "level_set_s", "total_s", "peak_gb")}
-    print(json.dumps({"bench": "images_speed", "n": args.n, "repeats": args.repeats, **med}))
+        for name, source in trees:
+            runs[name].append(one_run(args.n, source))
+            fields = (f"{k} {v:.6g}" if isinstance(v, float) else f"{k} {v}" for k, v in runs[name][-1].items())
+            print(f"{name} tree, ball {args.n}^3: " + ", ".join(fields), flush=True)
+    med = {name: medians(r) for name, r in runs.items()}
+    if args.against:
+        ratio = {k: med["this"][k] / med["against"][k] for k in ("relax_s", "total_s", "peak_gb")}
+        print("this tree / the other: " + ", ".join(f"{k} {v:.2f}" for k, v in ratio.items()))
+        print(json.dumps({"bench": "images_speed", "n": args.n, "repeats": args.repeats, **med, "ratio": ratio}))
+    else:
+        print(json.dumps({"bench": "images_speed", "n": args.n, "repeats": args.repeats, **med["this"]}))
 
 
 if __name__ == "__main__":

@@ -286,9 +286,9 @@ def test_incidence_queries_agree_and_refuse_bad_masks(make, rng):
         mesh.elements_at(vertices[1:])
 
 
-def test_auto_reads_the_boundary_scale_on_two_rings_as_the_whole_domain_gives_it():
+def test_auto_widens_the_band_by_the_whole_domain_s_boundary_scale():
     # Voronoi polygons weaken the field term at zeta (lam_scale < 1): the band is widened
-    # by the scale, which is read on the two rings of elements around zeta alone
+    # by the scale, read on a first band, which must be the whole domain's
     cells = voronoi_polygons(150, random_state=1)
     assert cells.n_vertices > 20_000  # above AUTO_BAND_MIN_VERTICES
     labels = label_by(cells, lambda x: np.linalg.norm(x - 0.1, axis=1) - 0.45)

@@ -27,7 +27,6 @@ from .band import (
     OutsideFill,
     band_elements,
     band_width,
-    element_rings,
     growth_rate,
 )
 from .boundary import Boundary, element_boundary, vertex_boundary
@@ -292,9 +291,12 @@ class Relaxer:
             mask, dist = band_of(width)
             if mask.mean() > AUTO_BAND_MAX_SHARE:
                 return boundary
+            band = relaxer_of(mask)
             if scale is None:
-                padding = time.perf_counter()  # timed as padding, not as locating the band
-                scale = self._rings_scale(boundary, region1, on, pad, h)
+                # read on the band's padding, which its relaxation then uses: the band holds
+                # the two rings of elements around zeta that the scale depends on
+                padding = time.perf_counter()  # timed as the band's padding, not as locating it
+                scale = band[1]._lam_scale(labels_of(mask, band[2]), on, pad, h)
                 padding = time.perf_counter() - padding
                 tick += padding
             wider = band_width(p, domain, scale)
@@ -303,7 +305,7 @@ class Relaxer:
                 mask, dist = band_of(width)
                 if mask.mean() > AUTO_BAND_MAX_SHARE:
                     return boundary
-            band = relaxer_of(mask)
+                band = relaxer_of(mask)
         else:
             mask, dist = band_of(width)
             if mask.all():
@@ -347,21 +349,6 @@ class Relaxer:
         res.timings["pad"] += padding
         res.params.update(band=width, band_vertices=int(vertices.size))
         return res
-
-    def _rings_scale(self, boundary, region1, on, pad, h):
-        """``lam_scale`` of the labelling (:func:`boundary_weight_scale`), read on the two
-        rings of elements around zeta alone.
-
-        The scale reads the stiffness at zeta's vertices and the mass at their neighbours:
-        the elements at zeta's vertices, and the elements at those elements' vertices, hold
-        all of it, so the value is the whole domain's. Reading it there, before the band's
-        width (which depends on it) is chosen, cuts and pads the band once: a band cut first
-        at the narrowest width and widened after would be cut, padded and assembled twice.
-        """
-        rings = element_rings(self.domain, boundary.sources, rings=2)
-        sub, vertices = self.domain.subdomain(rings)
-        labels = region1[rings] if on == "elements" else region1[vertices]
-        return Relaxer(sub, _keep=False, _h=h)._lam_scale(labels, on, pad, h)
 
     def _lam_scale(self, region1, on, pad, h):
         """``lam_scale`` of the labelling (:func:`boundary_weight_scale`) on this domain (a
