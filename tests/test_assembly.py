@@ -347,11 +347,12 @@ def test_cell_stiffness_is_the_sum_of_every_cell_s_matrix(make):
     starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=mesh.n_elements))])
     n = mesh.n_vertices
     ref = np.zeros((n, n))
+    grad = mesh.G.tocsr()
     for c in range(mesh.n_elements):
-        s = slice(starts[c], starts[c + 1])
-        v, G = vert[s], mesh._pair_grads[s]
+        v = vert[starts[c] : starts[c + 1]]
+        G = grad[3 * c : 3 * c + 3][:, v].toarray().T  # each vertex's gradient coefficient in cell c
         X = mesh.points[v] - mesh.points[v].mean(axis=0)
-        Kc = mesh._volumes[c] * G @ G.T
+        Kc = mesh.A[c] * G @ G.T
         Q = np.eye(v.size) - (1.0 / v.size + X @ G.T)
         Kc = Kc + mesh.stabilization * np.trace(Kc) / v.size * Q.T @ Q
         ref[np.ix_(v, v)] += 0.5 * (Kc + Kc.T)

@@ -52,7 +52,7 @@ from ..fields import smooth_rows
 from .queries import IncidenceQueries
 from .simplex_geometry import kuhn_grid_stiffness
 
-__all__ = ["Domain", "MeshQualityWarning"]
+__all__ = ["Domain", "MeshQualityWarning", "can_cut"]
 
 
 class MeshQualityWarning(UserWarning):
@@ -332,9 +332,8 @@ class Domain(IncidenceQueries):
         every vertex on one side has every simplex there, and the level set's cost follows
         the level set, not the domain.
         """
-        if value is not None and "_refinement" not in self.__dict__ and type(self).subdomain is not Domain.subdomain:
-            above = (np.asarray(f) >= value).astype(np.int64)
-            mixed = self.element_max(above) != -self.element_max(-above)
+        if value is not None and "_refinement" not in self.__dict__ and can_cut(self):
+            mixed, _ = self.mixed_elements((np.asarray(f) >= value).astype(np.int64))
             if mixed.any() and not mixed.all():
                 sub, vertices = self.subdomain(mixed)
                 return sub.level_set_complex(np.asarray(f)[vertices])
@@ -396,3 +395,16 @@ class Domain(IncidenceQueries):
     def build_edges(self):
         """The unique edges, ``i < j``."""
         raise NotImplementedError
+
+
+def can_cut(domain):
+    """Whether ``domain`` can be cut to a band (it provides :meth:`~ndboundary.Domain.subdomain`).
+
+    Examples
+    --------
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.domains.base import can_cut
+    >>> can_cut(kuhn_grid(4, 2))
+    True
+    """
+    return type(domain).subdomain is not Domain.subdomain

@@ -65,6 +65,23 @@ class IncidenceQueries:
         by_element = self.incidence.T.tocsr()  # every row is non-empty
         return np.maximum.reduceat(np.asarray(f)[by_element.indices], by_element.indptr[:-1])
 
+    def mixed_elements(self, codes):
+        """Per element, whether the integer vertex codes ``codes`` differ among its
+        vertices, and its lowest code: ``(mixed, lowest)``, two arrays over the elements.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ndboundary.datasets import kuhn_grid
+        >>> grid = kuhn_grid(2, 2)  # 9 vertices, 8 triangles
+        >>> mixed, lowest = grid.mixed_elements((np.arange(9) == 4).astype(int))
+        >>> int(mixed.sum()), int(lowest.max())  # the six triangles at the centre
+        (6, 0)
+        """
+        codes = np.asarray(codes)
+        lowest = -self.element_max(-codes)
+        return lowest != self.element_max(codes), lowest
+
     def edge_length_graph(self, unit=1.0) -> sp.csr_matrix:
         """The edges' lengths in units of ``unit`` as a symmetric sparse matrix, both ways,
         shape (n_vertices, n_vertices).

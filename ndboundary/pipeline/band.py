@@ -31,7 +31,7 @@ import functools
 
 import numpy as np
 
-from ..domains.base import Domain
+from ..domains.base import can_cut
 from .params import DEFAULT_LAM, DEFAULT_SMOOTHING
 
 __all__ = [
@@ -67,19 +67,6 @@ FILL_BESIDE_MIN_SHARE = 0.1
 #: ``band="auto"`` relaxes the whole domain below this many vertices: finding zeta and the
 #: band, and filling phi outside it, would cost about what the band saves.
 AUTO_BAND_MIN_VERTICES = 20_000
-
-
-def can_cut(domain):
-    """Whether ``domain`` can be cut to a band (it provides :meth:`~ndboundary.Domain.subdomain`).
-
-    Examples
-    --------
-    >>> from ndboundary.datasets import kuhn_grid
-    >>> from ndboundary.pipeline.band import can_cut
-    >>> can_cut(kuhn_grid(4, 2))
-    True
-    """
-    return type(domain).subdomain is not Domain.subdomain
 
 
 def element_rings(domain, vertices, rings=1):

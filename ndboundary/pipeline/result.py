@@ -78,9 +78,7 @@ class _RegionMethods:
             return cached
         values = self.region_values()
         domain = self.domain
-        winner = np.argmax(values, axis=1)
-        lowest = -domain.element_max(-winner)
-        mixed = lowest != domain.element_max(winner)
+        mixed, lowest = domain.mixed_elements(np.argmax(values, axis=1))
         if not can_cut(domain) or mixed.all() or not mixed.any():
             cached = (self.partition(), np.zeros(values.shape[1]))
         else:
