@@ -2,7 +2,9 @@
 
 Each run is a fresh process: the label volume (a ball of radius 0.32 n, its centre off the
 grid's symmetry, as ``images.py``'s ``ball64``), one ``relax_image`` with the defaults and
-its ``level_set()``. Prints every run, then the medians.
+its ``level_set()``; then, in the same process on the same volume, VTK's
+``vtkSurfaceNets3D`` (when the ``[bench]`` extra is installed), the peer whose ratio is
+printed. Prints every run, then the medians.
 
 ``--against DIR`` sets another source tree beside this one (a ``git worktree`` of an
 earlier release, say): each repeat runs it, then this tree, each in a fresh process, so
@@ -45,21 +47,36 @@ result = relax_image(mask)
 t1 = time.perf_counter()
 surface = result.level_set()
 t2 = time.perf_counter()
-print(json.dumps({{"relax_s": t1 - t0, "level_set_s": t2 - t1, "total_s": t2 - t0,
-                   "peak_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
-                   "closed": bool(surface.is_closed()), "area": surface.measure()}}))
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+try:  # the peer, on the same volume in the same process (the [bench] extra)
+    import sys
+    sys.path.insert(0, {bench!r})
+    from images_truths import surface_nets
+    import vtk  # imported before the clock, as ndboundary is
+    t3 = time.perf_counter()
+    surface_nets(mask, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+    peer_s = time.perf_counter() - t3
+except ImportError:
+    peer_s = float("nan")
+print(json.dumps({{"relax_s": t1 - t0, "level_set_s": t2 - t1, "total_s": t2 - t0, "peak_gb": peak,
+                   "closed": bool(surface.is_closed()), "area": surface.measure(), "surface_nets_s": peer_s}}))
 """
 
 
 def one_run(n, source=None):
     """One fresh process's figures, with ndboundary from ``source`` if given."""
-    code = (FROM_SOURCE.format(source=str(source)) if source else "") + ONE_RUN.format(n=n)
+    code = (FROM_SOURCE.format(source=str(source)) if source else "") + ONE_RUN.format(n=n, bench=str(HERE))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+#: This folder: ``images_truths.py`` holds the peer.
+HERE = Path(__file__).resolve().parent
+MEDIANS = ("relax_s", "level_set_s", "total_s", "peak_gb", "surface_nets_s")
+
+
 def medians(runs):
-    return {k: sorted(r[k] for r in runs)[len(runs) // 2] for k in ("relax_s", "level_set_s", "total_s", "peak_gb")}
+    return {k: sorted(r[k] for r in runs)[len(runs) // 2] for k in MEDIANS}
 
 
 def main():
@@ -76,6 +93,9 @@ def main():
             fields = (f"{k} {v:.6g}" if isinstance(v, float) else f"{k} {v}" for k, v in runs[name][-1].items())
             print(f"{name} tree, ball {args.n}^3: " + ", ".join(fields), flush=True)
     med = {name: medians(r) for name, r in runs.items()}
+    peer = med["this"]["surface_nets_s"]
+    print(f"this tree: {med['this']['total_s']:.2f} s, vtkSurfaceNets3D {peer:.3f} s in the same processes "
+          f"(ratio {med['this']['total_s'] / peer:.1f}x)")
     if args.against:
         ratio = {k: med["this"][k] / med["against"][k] for k in ("relax_s", "total_s", "peak_gb")}
         print("this tree / the other: " + ", ".join(f"{k} {v:.2f}" for k, v in ratio.items()))
