@@ -4,7 +4,6 @@ of simplicial complexes.
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 
@@ -13,6 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._kernels import kernel
+from ._threads import available_threads
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -145,12 +145,12 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 MIN_ROWS_PER_THREAD = 20_000
 
 
-def _row_blocks(indptr):
-    """Row bounds of one block per thread (one block for small matrices), with about
-    equal numbers of entries.
+def _row_blocks(indptr, min_rows=MIN_ROWS_PER_THREAD):
+    """Row bounds of one block per thread (one block for fewer than ``2 min_rows`` rows),
+    with about equal numbers of entries.
     """
     n = indptr.size - 1
-    blocks = max(1, min(os.cpu_count() or 1, n // MIN_ROWS_PER_THREAD))
+    blocks = max(1, min(available_threads(), n // min_rows))
     cuts = np.searchsorted(indptr, np.arange(1, blocks) * (int(indptr[-1]) / blocks))
     return [0, *(int(c) for c in np.minimum(cuts, n)), n]
 

@@ -1,6 +1,7 @@
 """Compiled loops (numba) over the vertex-simplex incidence of large complexes: the edge
-graph and the mean edge length, the simplices across each facet, the stiffness; and the
-assembly of the cells' stiffness blocks of polygon and polyhedral meshes.
+graph and the mean edge length, the simplices across each facet, the stiffness; the
+assembly of the cells' stiffness blocks of polygon and polyhedral meshes; and the
+stiffness of the gradient stencils of point clouds.
 
 Each pass walks the simplices at every vertex (or every simplex once) with a few scalars
 of state, where the vectorised versions sort tables of every vertex pair or facet, many
@@ -17,7 +18,14 @@ import scipy.sparse as sp
 from ._compiled import insert_sorted
 from ._kernels import kernel
 
-__all__ = ["assemble_cell_blocks", "edge_length_graph", "facet_adjacency", "facet_neighbours", "stiffness_matrix"]
+__all__ = [
+    "assemble_cell_blocks",
+    "edge_length_graph",
+    "facet_adjacency",
+    "facet_neighbours",
+    "stencil_stiffness",
+    "stiffness_matrix",
+]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -488,6 +496,137 @@ def assemble_cell_blocks(cell_ptr, cell_verts, blocks, block_ptr, n_vertices):
     blocks = np.ascontiguousarray(blocks, dtype=np.float64)
     _cell_block_fill(cell_ptr, cell_verts, blocks, np.ascontiguousarray(block_ptr, dtype=np.int64), rows, cols, data)
     return sp.csr_matrix((data, cols, rows.astype(idx)), shape=(V, V))
+
+
+#: Rows below which one thread assembles the stiffness of stencils: each of its rows adds
+#: a few dozen stencils of a few dozen vertices, far more work than a row of a sparse
+#: product with a vector.
+STENCIL_ROWS_PER_THREAD = 1000
+
+
+@kernel("void(i8[::1], i8[::1], i8[:, ::1], i8[::1], i8, i8)")
+@numba.njit(cache=True, nogil=True)
+def _stencil_counts(indptr, cells, stencils, counts, start, stop):  # pragma: no cover - compiled
+    """``counts[a + 1]``: the distinct vertices of the stencils at ``a``, for ``a`` in ``[start, stop)``."""
+    mark = np.full(indptr.size - 1, -1, dtype=np.int64)
+    for a in range(start, stop):
+        count = 0
+        for q in range(indptr[a], indptr[a + 1]):
+            c = cells[q]
+            for j in range(stencils.shape[1]):
+                b = stencils[c, j]
+                if b >= 0 and mark[b] != a:
+                    mark[b] = a
+                    count += 1
+        counts[a + 1] = count
+
+
+@kernel("void(i8[::1], i8[::1], i8[::1], i8[:, ::1], f8[:, :, ::1], f8[::1], i8[::1], i8[::1], f8[::1], i8, i8)")
+@numba.njit(cache=True, nogil=True)
+def _stencil_fill(indptr, cells, slots, stencils, coef, weight, rows, cols, data, start, stop):  # pragma: no cover - compiled
+    # row a, for a in [start, stop): its columns sorted, then every stencil c at a (in
+    # increasing order of c, a at its position slots[q]) adds row a of weight[c] D_c^T D_c;
+    # entries (a, b) and (b, a) add the same products over the same stencils in the same
+    # order, so the matrix is exactly symmetric
+    pos = np.full(indptr.size - 1, -1, dtype=np.int64)
+    m, width = coef.shape[1], coef.shape[2]
+    acc = np.empty(width)
+    for a in range(start, stop):
+        lo = rows[a]
+        count = 0
+        for q in range(indptr[a], indptr[a + 1]):
+            c = cells[q]
+            for j in range(stencils.shape[1]):
+                b = stencils[c, j]
+                if b >= 0 and pos[b] != -2 - a:
+                    pos[b] = -2 - a
+                    cols[lo + count] = b
+                    count += 1
+        cols[lo : lo + count].sort()
+        for t in range(count):
+            pos[cols[lo + t]] = lo + t
+            data[lo + t] = 0.0
+        for q in range(indptr[a], indptr[a + 1]):
+            c = cells[q]
+            i = slots[q]
+            acc[:] = 0.0
+            for d in range(m):  # the row i of D_c^T D_c, its columns side by side
+                g = coef[c, d, i]
+                for j in range(width):
+                    acc[j] += g * coef[c, d, j]
+            w = weight[c]
+            for j in range(width):
+                b = stencils[c, j]
+                if b >= 0:
+                    data[pos[b]] += w * acc[j]
+
+
+def stencil_stiffness(stencils, coef, weight, n_vertices):
+    """``sum_c weight[c] P_c^T D_c^T D_c P_c``: the stiffness ``G^T diag(A) G`` of gradient
+    stencils, in canonical CSR form, exactly symmetric.
+
+    Stencil ``c`` holds the vertices ``stencils[c]`` (-1: none, its column skipped) and
+    the gradient rows ``D_c = coef[c]`` over them. Each row of the matrix is assembled on
+    its own (its columns, then every stencil at its vertex), in blocks of rows on several
+    threads. The sparse product ``G^T diag(A) G`` of the same rows looks each product of
+    two entries up ``m`` times (once per row of ``D_c``), on one thread, and sorts the
+    result.
+
+    Parameters
+    ----------
+    stencils : ndarray of int of shape (n_stencils, s)
+    coef : ndarray of shape (n_stencils, m, s)
+    weight : ndarray of shape (n_stencils,)
+    n_vertices : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
+        A vertex in no stencil has an empty row.
+
+    Examples
+    --------
+    Two unit segments sharing vertex 1 (a one-row gradient each), the second of weight 2:
+
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import stencil_stiffness
+    >>> coef = np.array([[[-1.0, 1.0]], [[-1.0, 1.0]]])
+    >>> K = stencil_stiffness(np.array([[0, 1], [1, 2]]), coef, np.array([1.0, 2.0]), 3)
+    >>> K.toarray().tolist(), bool(K.has_canonical_format)
+    ([[1.0, -1.0, 0.0], [-1.0, 3.0, -2.0], [0.0, -2.0, 2.0]], True)
+    """
+    from ._compiled import _row_blocks
+
+    stencils = np.ascontiguousarray(stencils, dtype=np.int64)
+    coef = np.ascontiguousarray(coef, dtype=np.float64)
+    weight = np.ascontiguousarray(weight, dtype=np.float64)
+    V = int(n_vertices)
+    flat = stencils.ravel()
+    order = np.argsort(flat, kind="stable")
+    order = order[flat[order] >= 0]  # the stencils at each vertex, increasing
+    cells, slots = np.divmod(order, stencils.shape[1])
+    indptr = np.zeros(V + 1, dtype=np.int64)
+    np.cumsum(np.bincount(flat[order], minlength=V), out=indptr[1:])
+    rows = np.zeros(V + 1, dtype=np.int64)
+    bounds = _row_blocks(indptr, STENCIL_ROWS_PER_THREAD)
+    _threaded(_stencil_counts, bounds, indptr, cells, stencils, rows)
+    np.cumsum(rows, out=rows)
+    cols, data = np.empty(int(rows[-1]), dtype=np.int64), np.empty(int(rows[-1]))
+    _threaded(_stencil_fill, bounds, indptr, cells, slots, stencils, coef, weight, rows, cols, data)
+    return sp.csr_matrix((data, cols, rows), shape=(V, V))
+
+
+def _threaded(kernel, bounds, *args):
+    """``kernel(*args, start, stop)`` for each block ``[start, stop)`` of ``bounds``, on threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
+    if len(blocks) == 1:
+        kernel(*args, *blocks[0])
+        return
+    with ThreadPoolExecutor(len(blocks)) as pool:
+        for f in [pool.submit(kernel, *args, lo, hi) for lo, hi in blocks]:
+            f.result()
 
 
 def edge_length_graph(incidence, simplices, points, *, unit=1.0, with_graph=True):

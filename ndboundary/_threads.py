@@ -8,7 +8,30 @@ import os
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["in_blocks"]
+__all__ = ["available_threads", "in_blocks"]
+
+
+def available_threads():
+    """Threads this process should run at once: the cores it may use, or fewer when
+    ``OMP_NUM_THREADS`` says so.
+
+    A Dask worker process gets ``OMP_NUM_THREADS=1`` (``distributed.nanny.pre-spawn-environ``),
+    so that the workers of one machine share its cores instead of each starting a thread
+    per core; the passes here follow the same limit.
+
+    Examples
+    --------
+    >>> available_threads() >= 1
+    True
+    """
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on every platform
+        cores = os.cpu_count() or 1
+    limit = os.environ.get("OMP_NUM_THREADS", "")
+    if limit.strip().isdigit() and int(limit) > 0:
+        return max(1, min(cores, int(limit)))
+    return max(1, cores)
 
 
 def in_blocks(n, size, compute):
@@ -30,7 +53,7 @@ def in_blocks(n, size, compute):
     rest = blocks[1:]
     if not rest:
         return
-    workers = min(len(rest), os.cpu_count() or 1)
+    workers = min(len(rest), available_threads())
     with ThreadPoolExecutor(workers) as pool:
         ahead = deque(pool.submit(compute, c) for c in rest[:workers])
         for i, c in enumerate(rest):

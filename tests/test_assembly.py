@@ -8,7 +8,7 @@ from ndboundary import SimplicialComplex
 from ndboundary._validation import check_cells, check_labels
 from ndboundary.datasets import hex_grid, icosphere, kuhn_grid
 from ndboundary import Domain, ImageGrid
-from ndboundary._compiled_mesh import assemble_cell_blocks
+from ndboundary._compiled_mesh import assemble_cell_blocks, stencil_stiffness
 from ndboundary._arrays import (
     counting_sort,
     first_of_groups,
@@ -360,3 +360,36 @@ def test_cell_stiffness_is_the_sum_of_every_cell_s_matrix(make):
     assert K.has_canonical_format and (K != K.T).nnz == 0
     np.testing.assert_allclose(K.toarray(), ref, atol=1e-12 * np.abs(ref).max())
     np.testing.assert_allclose(K @ np.ones(n), 0.0, atol=1e-12 * np.abs(ref).max())
+
+
+def test_stencil_stiffness_is_g_transpose_a_g_exactly_symmetric(rng):
+    """Random stencils of 6 slots, some empty (-1), one row each of weight 0: the
+    stencil-by-stencil assembly equals the sparse product, bit-symmetric, canonical."""
+    n, s, m = 300, 6, 3
+    stencils = rng.integers(0, n - 5, size=(400, s))  # the last five vertices in no stencil
+    stencils[rng.random(stencils.shape) < 0.15] = -1
+    coef = rng.standard_normal((400, m, s))
+    weight = rng.uniform(0.5, 2.0, 400)
+    weight[7] = 0.0
+    K = stencil_stiffness(stencils, coef, weight, n)
+    rows = np.repeat(np.arange(400 * m), s)
+    cols = np.broadcast_to(stencils[:, None, :], (400, m, s)).ravel()
+    keep = cols >= 0
+    G = sp.csr_matrix((coef.ravel()[keep], (rows[keep], cols[keep])), shape=(400 * m, n))
+    ref = (G.T @ sp.diags(np.repeat(weight, m)) @ G).toarray()
+    np.testing.assert_allclose(K.toarray(), ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+    assert (K != K.T).nnz == 0 and K.has_canonical_format
+    assert K[n - 5 :].nnz == 0
+
+
+def test_point_cloud_stiffness_with_bridges_and_in_a_band(rng):
+    from ndboundary import PointCloud
+
+    blobs = np.concatenate([rng.normal(size=(150, 3)), 12.0 + rng.normal(size=(150, 3))])
+    cloud = PointCloud(blobs, n_neighbors=8)
+    assert cloud.bridges.shape[0] > 0
+    band, _ = cloud.subdomain(cloud.element_centroids()[:, 0] < 0.5)  # stencils cut at its edge
+    for dom in (cloud, band):
+        ref = dom.G.T @ sp.diags(np.repeat(dom.A, dom.dim)) @ dom.G
+        np.testing.assert_allclose(dom.K.toarray(), ref.toarray(), atol=1e-12 * abs(ref).max())
+        np.testing.assert_allclose(dom.K @ np.ones(dom.n_vertices), 0.0, atol=1e-10 * abs(ref).max())

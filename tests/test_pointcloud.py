@@ -225,3 +225,28 @@ def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
     np.testing.assert_array_equal(blocks(Q), whole)
     assert whole.shape == (300, 2) and np.isfinite(whole).all()
     assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the function
+
+
+@pytest.mark.parametrize("n_features", [3, 8])
+def test_exact_neighbours_by_tree_and_by_brute_force(rng, n_features):
+    """Few features search a k-d tree, more compare every pair: both are the exact graph."""
+    from ndboundary.domains.neighbors import TREE_MAX_FEATURES
+
+    X = rng.normal(size=(400, n_features))
+    ind, dist = kneighbors(X, 12, method="exact")
+    D = np.linalg.norm(X[:, None] - X[None], axis=2)
+    np.fill_diagonal(D, np.inf)
+    np.testing.assert_allclose(dist, np.sort(D, axis=1)[:, :12], rtol=1e-12)
+    np.testing.assert_array_equal(ind, np.argsort(D, axis=1, kind="stable")[:, :12])
+    assert (n_features <= TREE_MAX_FEATURES) == (n_features == 3)
+
+
+def test_threads_follow_omp_num_threads(monkeypatch):
+    from ndboundary._threads import available_threads
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    assert available_threads() == 1
+    monkeypatch.setenv("OMP_NUM_THREADS", "not a number")
+    assert available_threads() >= 1
+    monkeypatch.delenv("OMP_NUM_THREADS")
+    assert available_threads() >= 1

@@ -9,6 +9,7 @@ from ndboundary import DelaunayComplex, LevelSetClassifier, PointCloud, Relaxer,
 from ndboundary.domains.pointcloud_operators import PointCloudBand
 from ndboundary.learn import band as learn_band
 from ndboundary.learn.extrema import impose_extrema
+from ndboundary.learn.classifier import INTEGRATION_FORM
 from ndboundary.pipeline.boundary import vertex_boundary
 from ndboundary.pipeline.field import graph_distance
 
@@ -237,7 +238,9 @@ def test_classifier_relaxes_small_graphs_whole(rng):
     y = _wavy(X).astype(int)
     clf = LevelSetClassifier(n_neighbors=15).fit(X, y)
     assert clf.band_ is None
-    res = relax(clf.domain_, y == 1, on="vertices", lam=clf.lam, smoothing=0, rtol=clf.tol, band=None)
+    res = relax(
+        clf.domain_, y == 1, on="vertices", lam=clf.lam, smoothing=0, rtol=clf.tol, band=None, form=INTEGRATION_FORM
+    )
     np.testing.assert_array_equal(clf.phi_[:, 0], impose_extrema(clf.domain_, res.phi, y == 1))
 
 

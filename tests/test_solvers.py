@@ -718,3 +718,40 @@ def test_neighbour_graphs_are_preconditioned_by_a_factor_up_to_their_own_size(mo
     monkeypatch.setattr(solvers, "PCG_FACTOR_MAX_GRAPHS", n - 1)
     phi2, info2 = solvers.solve_integration(K, np.ones(n), S, 2.0, rhs, mu=0.03)
     assert info2.method == "pcg-amg" and _rel(phi2, phi) < 1e-7
+
+
+@pytest.mark.parametrize("method", ["auto", "direct", "pcg"])
+def test_gradient_integration_matches_dense(system, method):
+    K, mass, S, lam, mu, rhs, exact = system
+    A = (K + lam * (S.T @ S)).toarray()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        phi, info = solvers.solve_gradient_integration(K, S, lam, rhs, method=method)
+    assert _rel(phi, np.linalg.solve(A, rhs)) < 1e-8
+    assert info.residual < 1e-9
+    # 2-D triangles have sparse rows: auto factorises; pcg on a mesh runs a V-cycle (pyamg installed)
+    expected = {"direct": "cholesky", "pcg": "pcg-amg" if "amg" in solvers.available_backends() else "pcg-jacobi"}
+    assert info.method == expected.get(method, info.method)
+
+
+def test_gradient_integration_of_a_linear_function_is_exact_on_a_neighbour_graph():
+    """K phi = div(G f) with f itself at the pinned points: phi = f, by Jacobi-preconditioned
+    conjugate gradients (the rows of a neighbour graph's stiffness are dense)."""
+    from ndboundary import PointCloud
+
+    rng = np.random.default_rng(3)
+    cloud = PointCloud(rng.uniform(-1, 1, size=(1500, 3)), n_neighbors=20)
+    f = cloud.points @ np.array([0.3, -1.2, 0.7]) + 0.4
+    pins = rng.choice(cloud.n_vertices, 40, replace=False)
+    S = sp.csr_matrix((np.ones(pins.size), (np.arange(pins.size), pins)), shape=(pins.size, cloud.n_vertices))
+    lam = 2.0
+    rhs = cloud.div(cloud.G @ f) + lam * (S.T @ f[pins])
+    phi, info = solvers.solve_gradient_integration(cloud.K, S, lam, rhs, rtol=1e-12)
+    assert info.method == "pcg-jacobi"
+    np.testing.assert_allclose(phi, f, atol=1e-8)
+
+
+def test_gradient_integration_rejects_an_unknown_method(system):
+    K, mass, S, lam, mu, rhs, exact = system
+    with pytest.raises(ValueError, match="method must be"):
+        solvers.solve_gradient_integration(K, S, lam, rhs, method="lu")

@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._arrays import used_vertices
+from .._compiled_mesh import stencil_stiffness
 from ..fields import normalize_rows
 from .base import Domain
 from .tangent import frame_transport
@@ -127,31 +128,46 @@ class StencilDomain(Domain):
         out[self._stencil[:, 0]] = np.arange(self._stencil.shape[0])
         return out
 
-    def build_gradient(self):
-        """The gradient operator (see the module docstring of :mod:`ndboundary.domains.pointcloud`)."""
+    def _stencil_rows(self):
+        """Every element's vertices and gradient rows over them: ``(stencils, coef)`` of
+        shapes (n_elements, k + 1) and (n_elements, m, k + 1); -1 (weight 0) where a
+        stencil has no vertex. A bridge's stencil is its two ends, its one row ``(-1, 1) / L``.
+        """
         N, k1 = self._stencil.shape
-        V, m = self.n_vertices, self.intrinsic_dim
+        m, nb = self.intrinsic_dim, self.bridges.shape[0]
         coef = self._element_coef(slice(None))  # (N, m, k)
         data = np.concatenate([-coef.sum(axis=2, keepdims=True), coef], axis=2)  # (N, m, k+1)
-        indices = np.broadcast_to(self._stencil[:, None, :], (N, m, k1))
-        present = self._stencil >= 0
-        if present.all():
-            indptr = np.arange(N * m + 1, dtype=np.int64) * k1
-            G = sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(N * m, V))
-        else:
-            keep = np.broadcast_to(present[:, None, :], (N, m, k1))
-            indptr = np.zeros(N * m + 1, dtype=np.int64)
-            np.cumsum(np.repeat(present.sum(axis=1), m), out=indptr[1:])
-            G = sp.csr_matrix((data[keep], indices[keep], indptr), shape=(N * m, V))
-        nb = self.bridges.shape[0]
         if nb == 0:
-            return G
+            return self._stencil, data
+        stencils = np.full((N + nb, max(k1, 2)), -1, dtype=np.int64)
+        stencils[:N, :k1] = self._stencil
+        stencils[N:, :2] = self.bridges
+        rows = np.zeros((N + nb, m, stencils.shape[1]))
+        rows[:N, :, :k1] = data
         L = self._bridge_lengths()
-        rows = np.repeat(np.arange(nb) * m, 2)
-        cols = self.bridges.ravel()
-        vals = np.stack([-1.0 / L, 1.0 / L], axis=1).ravel()
-        Gb = sp.csr_matrix((vals, (rows, cols)), shape=(nb * m, V))
-        return sp.vstack([G, Gb]).tocsr()
+        rows[N:, 0, 0], rows[N:, 0, 1] = -1.0 / L, 1.0 / L
+        return stencils, rows
+
+    def build_gradient(self):
+        """The gradient operator (see the module docstring of :mod:`ndboundary.domains.pointcloud`)."""
+        stencils, data = self._stencil_rows()
+        E, k1 = stencils.shape
+        V, m, N = self.n_vertices, self.intrinsic_dim, self._stencil.shape[0]
+        indices = np.broadcast_to(stencils[:, None, :], (E, m, k1))
+        present = stencils >= 0
+        if present.all() and E == N:
+            indptr = np.arange(E * m + 1, dtype=np.int64) * k1
+            return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(E * m, V))
+        keep = np.broadcast_to(present[:, None, :], (E, m, k1)).copy()
+        keep[N:, 1:] = False  # a bridge's one row
+        indptr = np.zeros(E * m + 1, dtype=np.int64)
+        np.cumsum(keep.reshape(E * m, k1).sum(axis=1), out=indptr[1:])
+        return sp.csr_matrix((data[keep], indices[keep], indptr), shape=(E * m, V))
+
+    def build_stiffness(self):
+        """``K = G^T diag(A) G``, stencil by stencil (:func:`~ndboundary._compiled_mesh.stencil_stiffness`)."""
+        stencils, coef = self._stencil_rows()
+        return stencil_stiffness(stencils, coef, self.A, self.n_vertices)
 
     def build_measures(self):
         """The element measures: the point elements' vertex measures, then the bridges'."""

@@ -49,6 +49,17 @@ from .scaling import apply_scaling, fit_scaling
 
 __all__ = ["LevelSetClassifier"]
 
+#: How the classifier integrates the field (:mod:`ndboundary.pipeline.integration`): the
+#: first-order fit ``||grad phi - X||^2 + lam ||S phi - 1/2||^2``. On a neighbour graph
+#: most samples end a cut edge, so zeta's points are dense and the kinks this form puts
+#: at them average out: over the ten sets of ``benchmarks/classify.py`` it classifies
+#: as the squared Laplacian does (figures in the README), while its system is a
+#: screened Laplacian that conjugate gradients with a diagonal preconditioner solve in
+#: tens of iterations. The squared Laplacian's needs a sparse factor, which on data of
+#: high intrinsic dimension fills in to a dense matrix (minutes and gigabytes at 20 000
+#: samples).
+INTEGRATION_FORM = "gradient"
+
 
 class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     """Classify by the relaxed level sets of the class labels over a graph of the samples.
@@ -300,8 +311,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         if self.vote:
             votes = vote(self.domain_.vertex_neighborhoods(), codes, n_cls, self.vote, self.vote_threshold)
         self.phi_ = relax_classes(
-            self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_
-        )
+            self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_,
+            form=INTEGRATION_FORM,
+        )  # fmt: skip
         self._log(f"relaxed {n_cls} classes", t0)
         self.extension_ = self.domain_.extension(
             self.phi_, n_neighbors=self.extension_neighbors, power=self.extension_power, labels=codes, labelled=labelled

@@ -5,7 +5,14 @@ i.e. ``(K M^{-1} K + mu K + lam S^T S) phi = K M^{-1} d + mu d + lam S^T 1/2`` w
 ``d = G^T A X'``. ``mu = 0`` is the paper's energy; a small first-order term keeps phi
 from bending where the squared Laplacian leaves it nearly free (far from zeta on thin
 parts of a surface). ``form="plain"`` replaces ``M^{-1}`` by the identity: the paper's
-unweighted ``K^T K``.
+unweighted ``K^T K``. ``form="gradient"`` fits the gradient itself,
+``phi = argmin ||grad phi - X'||_A^2 + lam ||S phi - 1/2||^2``, i.e.
+``(K + lam S^T S) phi = d + lam S^T 1/2`` (``mu`` plays no part): a screened Laplacian,
+well conditioned where the squared one is not. Each point of zeta then pulls phi
+towards 1/2 with a kink where the squared form bends smoothly, which on a mesh, whose
+zeta is a sparse set of vertices, leaves dimples; on the neighbour graph of data, where
+most samples end a cut edge, the kinks average out (the classifier's form,
+:mod:`ndboundary.learn.extrema`).
 
 Lengths are measured in units of ``h`` (``K`` scales as ``h^{k-2}``, ``M`` as ``h^k``), so
 ``lam`` is dimensionless: a scaled, rotated or translated copy of the input relaxes to
@@ -26,14 +33,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..solvers import solve_integration
+from ..solvers import solve_gradient_integration, solve_integration
 
 __all__ = ["IntegrationSystem", "boundary_weight_scale", "integrate", "integration_system"]
 
 
 @dataclass
 class IntegrationSystem:
-    """The integration problem in units of ``h``: ``(Kh Mh^{-1} Kh + mu Kh + lam S^T S) phi = rhs``.
+    """The integration problem in units of ``h``: ``(Kh Mh^{-1} Kh + mu Kh + lam S^T S) phi = rhs``,
+    or ``(Kh + lam S^T S) phi = rhs`` for ``form="gradient"``.
 
     ``lam`` is the weight used (the given one times ``lam_scale``); ``mass`` is the mass in
     units of ``h`` (ones for ``form="plain"``).
@@ -59,6 +67,7 @@ class IntegrationSystem:
     lam_scale: float
     mu: float
     rhs: np.ndarray
+    form: str = "mass"
 
 
 def boundary_weight_scale(work, h, sources):
@@ -123,6 +132,9 @@ def integration_system(work, Xs, h, padded, sources, *, lam, mu, form):
     Kh = work.K * h ** (2 - k)
     mh = work.mass / h**k
     d = work.div(Xs) * h ** (1 - k)
+    if form == "gradient":
+        rhs = d + lam * (padded.S.T @ padded.targets)
+        return IntegrationSystem(Kh, mh, padded.S, lam, 1.0, 0.0, rhs, form)
     mh_used = np.ones_like(mh) if form == "plain" else mh
     lam_scale = _lam_scale(work, Kh, mh, sources)
     lam_used = lam * lam_scale
@@ -158,6 +170,8 @@ def integrate(system, *, rtol, solver, cache=None):
     >>> phi.shape, curve.is_closed(), curve.n_components()
     ((121,), True, 1)
     """
+    if system.form == "gradient":
+        return solve_gradient_integration(system.K, system.S, system.lam, system.rhs, rtol=rtol, method=solver, cache=cache)
     return solve_integration(
         system.K, system.mass, system.S, system.lam, system.rhs, mu=system.mu, rtol=rtol, method=solver, cache=cache
     )

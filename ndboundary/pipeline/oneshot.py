@@ -55,9 +55,13 @@ def relax(
     t : float, optional
         Diffusion time in units of ``h^2`` (``h`` = mean edge length); default 1, the
         heat method's choice.
-    form : {"mass", "plain"}, default="mass"
+    form : {"mass", "plain", "gradient"}, default="mass"
         ``"mass"`` integrates with the consistent ``K M^{-1} K``; ``"plain"`` with the
-        paper's unweighted ``K^T K`` (both in units of ``h``).
+        paper's unweighted ``K^T K`` (both in units of ``h``); ``"gradient"`` fits
+        ``grad phi`` to the field by least squares, ``(K + lam S^T S) phi``, without
+        ``mu``: far cheaper to solve on neighbour graphs, where it is the classifier's
+        form, but kinked at the points of a sparse zeta
+        (:mod:`ndboundary.pipeline.integration`).
     pad : bool, default=True
         Split the elements all of whose vertices receive heat (paper section 4).
     rtol : float, default=1e-7

@@ -43,8 +43,8 @@ def check_params(*, on, lam, smoothing, mu, t, form, rtol, solver, band=None):
     """
     if on not in ("elements", "vertices"):
         raise ValueError(f"on must be 'elements' or 'vertices', got {on!r}")
-    if form not in ("mass", "plain"):
-        raise ValueError(f"form must be 'mass' or 'plain', got {form!r}")
+    if form not in ("mass", "plain", "gradient"):
+        raise ValueError(f"form must be 'mass', 'plain' or 'gradient', got {form!r}")
     if solver not in ("auto", "pcg", "direct"):
         raise ValueError(f"solver must be 'auto', 'pcg' or 'direct', got {solver!r}")
     if band is not None and not (isinstance(band, str) and band == "auto"):

@@ -4,7 +4,8 @@
   by Jacobi-preconditioned conjugate gradients;
 * :mod:`~ndboundary.solvers.integration`: :func:`solve_integration`, the squared
   Laplacian ``(K M^{-1} K + mu K + lam S^T S) phi = r``, factorised on sparse rows,
-  by preconditioned conjugate gradients on denser ones;
+  by preconditioned conjugate gradients on denser ones; and
+  :func:`solve_gradient_integration`, its first-order form ``(K + lam S^T S) phi = r``;
 * :mod:`~ndboundary.solvers.cholesky`: :func:`factorize_spd` by the fastest installed
   sparse Cholesky backend (:data:`BACKENDS`), :func:`available_backends`;
 * :mod:`~ndboundary.solvers.pardiso`: the ctypes binding to MKL PARDISO;
@@ -39,7 +40,7 @@ from .cache import FactorCache
 from .cholesky import available_backends, factorize_spd
 from .common import ConvergenceWarning, SolveInfo, SolverFallbackWarning
 from .heat import solve_heat
-from .integration import solve_integration
+from .integration import solve_gradient_integration, solve_integration
 
 __all__ = [
     "SolveInfo",
@@ -49,6 +50,7 @@ __all__ = [
     "FactorCache",
     "factorize_spd",
     "solve_heat",
+    "solve_gradient_integration",
     "solve_integration",
 ]
 
