@@ -523,7 +523,7 @@ def _stencil_counts(indptr, cells, stencils, counts, start, stop):  # pragma: no
 
 @kernel("void(i8[::1], i8[::1], i8[::1], i8[:, ::1], f8[:, :, ::1], f8[::1], i8[::1], i8[::1], f8[::1], i8, i8)")
 @numba.njit(cache=True, nogil=True)
-def _stencil_fill(indptr, cells, slots, stencils, coef, weight, rows, cols, data, start, stop):  # pragma: no cover - compiled
+def _stencil_fill(indptr, cells, slots, stencils, coef, weight, rows, cols, data, start, stop):  # pragma: no cover
     # row a, for a in [start, stop): its columns sorted, then every stencil c at a (in
     # increasing order of c, a at its position slots[q]) adds row a of weight[c] D_c^T D_c;
     # entries (a, b) and (b, a) add the same products over the same stencils in the same

@@ -171,7 +171,8 @@ def integrate(system, *, rtol, solver, cache=None):
     ((121,), True, 1)
     """
     if system.form == "gradient":
-        return solve_gradient_integration(system.K, system.S, system.lam, system.rhs, rtol=rtol, method=solver, cache=cache)
+        K, S, lam, rhs = system.K, system.S, system.lam, system.rhs
+        return solve_gradient_integration(K, S, lam, rhs, rtol=rtol, method=solver, cache=cache)
     return solve_integration(
         system.K, system.mass, system.S, system.lam, system.rhs, mu=system.mu, rtol=rtol, method=solver, cache=cache
     )
