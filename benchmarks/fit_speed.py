@@ -9,8 +9,10 @@ compiled kernels loaded); medians of ``--repeats``.
 ``--cold``: every fit in a fresh process instead (imports and the compiled kernels'
 loading included, nothing carried over between fits), medians of ``--repeats``.
 
-``--high-dim 7000,20000``: one fit each of ``make_classification(n, 20, n_informative=8)``
-(intrinsic dimension about 11), each in a fresh process, with its peak memory.
+``--high-dim 7000,20000``: fits of ``make_classification(n, 20, n_informative=8)``
+(intrinsic dimension about 11), ``--repeats`` fresh processes each: ours with its peak
+memory (taken before the peers run), then SVC, KNN15, LabelSpreading and
+HistGradientBoosting on the same data in the same process; medians.
 
 Usage::
 
@@ -113,11 +115,29 @@ def main():
         X, y = make_classification(args.one, 20, n_informative=8, random_state=0)
         t0 = time.perf_counter()
         LevelSetClassifier().fit(X, y)
+        seconds = time.perf_counter() - t0
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
-        print(f"make_classification({args.one}, 20, n_informative=8): fit {time.perf_counter() - t0:.1f} s, peak {peak:.2f} GB")
+        peers = []
+        for model in _models("make_classification(3000, 10)").values():
+            if not isinstance(model(), LevelSetClassifier):
+                t0 = time.perf_counter()
+                model().fit(X, y)
+                peers.append(time.perf_counter() - t0)
+        print(" ".join(f"{v:.4f}" for v in [seconds, peak, *peers]))
         return
     for n in [int(v) for v in args.high_dim.split(",") if v]:
-        subprocess.run([sys.executable, __file__, "--one", str(n)], check=True)
+        runs = np.array([
+            subprocess.run([sys.executable, __file__, "--one", str(n)], check=True, capture_output=True,
+                           text=True).stdout.split()
+            for _ in range(args.repeats)
+        ], dtype=float)  # fmt: skip
+        fit, peak, *peers = np.median(runs, axis=0)
+        names = [m for m in _models("make_classification(3000, 10)") if m != "levelset"]
+        print(
+            f"make_classification({n}, 20, n_informative=8): fit {fit:.2f} s ({', '.join(f'{v:.2f}' for v in runs[:, 0])}), "
+            f"peak {peak:.2f} GB; " + "  ".join(f"{m} {v:.3f} s" for m, v in zip(names, peers, strict=True)),
+            flush=True,
+        )
     if args.high_dim:
         return
     for case in ("make_classification(3000, 10)", "digits", "digits-1-label"):

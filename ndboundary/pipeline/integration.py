@@ -9,10 +9,11 @@ unweighted ``K^T K``. ``form="gradient"`` fits the gradient itself,
 ``phi = argmin ||grad phi - X'||_A^2 + lam ||S phi - 1/2||^2``, i.e.
 ``(K + lam S^T S) phi = d + lam S^T 1/2`` (``mu`` plays no part): a screened Laplacian,
 well conditioned where the squared one is not. Each point of zeta then pulls phi
-towards 1/2 with a kink where the squared form bends smoothly, which on a mesh, whose
-zeta is a sparse set of vertices, leaves dimples; on the neighbour graph of data, where
-most samples end a cut edge, the kinks average out (the classifier's form,
-:mod:`ndboundary.learn.extrema`).
+towards 1/2 with a kink where the squared form bends smoothly: on a mesh, whose zeta is
+a sparse set of vertices, that halves the fidelity on curved boundaries
+(``tests/test_relax.py``); on the neighbour graph of data, where most samples end a cut
+edge, the kinks average out, and it is the classifier's form
+(:data:`ndboundary.learn.classifier.INTEGRATION_FORM`).
 
 Lengths are measured in units of ``h`` (``K`` scales as ``h^{k-2}``, ``M`` as ``h^k``), so
 ``lam`` is dimensionless: a scaled, rotated or translated copy of the input relaxes to
