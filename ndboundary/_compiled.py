@@ -145,12 +145,12 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 MIN_ROWS_PER_THREAD = 20_000
 
 
-def _row_blocks(indptr, min_rows=MIN_ROWS_PER_THREAD):
-    """Row bounds of one block per thread (one block for fewer than ``2 min_rows`` rows),
-    with about equal numbers of entries.
+def _row_blocks(indptr, min_rows=None):
+    """Row bounds of one block per thread (one block for fewer than ``2 min_rows`` rows,
+    :data:`MIN_ROWS_PER_THREAD` by default), with about equal numbers of entries.
     """
     n = indptr.size - 1
-    blocks = max(1, min(available_threads(), n // min_rows))
+    blocks = max(1, min(available_threads(), n // (min_rows or MIN_ROWS_PER_THREAD)))
     cuts = np.searchsorted(indptr, np.arange(1, blocks) * (int(indptr[-1]) / blocks))
     return [0, *(int(c) for c in np.minimum(cuts, n)), n]
 
