@@ -5,7 +5,8 @@ Fits ``LevelSetClassifier`` on the 5-dimensional manifold in R^50 of
 predicts, and reports rows per second:
 
 * in memory: ``predict`` on one ndarray of ``--check-n`` new samples;
-* on a ``distributed.LocalCluster`` of ``--workers`` worker processes (one thread each):
+* on a ``distributed.LocalCluster`` of ``--workers`` worker processes (``--threads`` each,
+  default one):
   the same samples as a Dask array, through the classifier's own block-wise ``predict``
   and through dask-ml's ``ParallelPostFit`` (wrapping the fitted classifier, then its
   lean copy ``for_prediction(clf)``), checked equal to the in-memory predictions;
@@ -20,6 +21,7 @@ Usage::
 
     python benchmarks/dask_predict.py [--fit-n 100000] [--max-samples 0.1] [--n 10000000]
                                       [--check-n 200000] [--chunk 100000] [--workers 2]
+                                      [--threads 1]
 """
 
 from __future__ import annotations
@@ -74,6 +76,7 @@ def main(argv=None):
     ap.add_argument("--check-n", type=int, default=200_000)
     ap.add_argument("--chunk", type=int, default=100_000)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--threads", type=int, default=1, help="threads per worker process")
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
     X, y = make_data(args.fit_n, args.features)
@@ -87,7 +90,9 @@ def main(argv=None):
     t_mem, ref = timed(lambda: clf.predict(Xc), args.repeats)
     out.update(memory_s=t_mem, memory_rows_per_s=args.check_n / t_mem, accuracy=float((ref == yc).mean()))
     with (
-        LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+        LocalCluster(
+            n_workers=args.workers, threads_per_worker=args.threads, processes=True, dashboard_address=None
+        ) as cluster,
         Client(cluster) as client,
     ):
         shipped = client.scatter(clf, broadcast=True)
