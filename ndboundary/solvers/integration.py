@@ -432,9 +432,9 @@ def solve_gradient_integration(K, S, lam, rhs, *, rtol=1e-10, maxiter=1000, meth
     >>> K = (G.T @ G).tocsr()
     >>> S = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, 5))
     >>> rhs = G.T @ np.ones(4)  # the divergence of the unit field
-    >>> phi, info = solve_gradient_integration(K, S, 1.0, rhs, method="pcg")
-    >>> phi.round(8).tolist(), info.method
-    ([0.0, 1.0, 2.0, 3.0, 4.0], 'pcg-jacobi')
+    >>> phi, info = solve_gradient_integration(K, S, 1.0, rhs, method="direct")
+    >>> (phi.round(8) + 0.0).tolist(), info.method
+    ([0.0, 1.0, 2.0, 3.0, 4.0], 'cholesky')
     """
     if method not in ("auto", "pcg", "direct"):
         raise ValueError(f"method must be 'auto', 'pcg' or 'direct', got {method!r}")
