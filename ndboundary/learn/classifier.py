@@ -54,8 +54,8 @@ __all__ = ["LevelSetClassifier"]
 #: most samples end a cut edge, so zeta's points are dense and the kinks this form puts
 #: at them average out: over the ten sets of ``benchmarks/classify.py`` it classifies
 #: as the squared Laplacian does (figures in the README), while its system is a
-#: screened Laplacian that conjugate gradients with a diagonal preconditioner solve in
-#: tens of iterations. The squared Laplacian's needs a sparse factor, which on data of
+#: screened Laplacian that conjugate gradients with a diagonal preconditioner solve
+#: (tens to a few hundred iterations). The squared Laplacian's needs a sparse factor, which on data of
 #: high intrinsic dimension fills in to a dense matrix (minutes and gigabytes at 20 000
 #: samples).
 INTEGRATION_FORM = "gradient"

