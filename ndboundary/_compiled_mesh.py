@@ -11,11 +11,13 @@ arithmetic, set the time.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
 import scipy.sparse as sp
 
-from ._compiled import insert_sorted
+from ._compiled import _row_blocks, insert_sorted
 from ._kernels import kernel
 
 __all__ = [
@@ -482,9 +484,8 @@ def assemble_cell_blocks(cell_ptr, cell_verts, blocks, block_ptr, n_vertices):
     cell_verts = np.ascontiguousarray(cell_verts, dtype=np.int64)
     V = int(n_vertices)
     owner = np.repeat(np.arange(cell_ptr.size - 1, dtype=np.int64), np.diff(cell_ptr))
-    indptr = np.zeros(V + 1, dtype=np.int64)
-    np.cumsum(np.bincount(cell_verts, minlength=V), out=indptr[1:])
-    cells = owner[np.argsort(cell_verts, kind="stable")]  # the cells at each vertex, increasing
+    order, indptr = _entries_by_vertex(cell_verts, V)
+    cells = owner[order]
     sizes = np.diff(cell_ptr)
     at_vertex = np.diff(indptr)
     nbr = np.empty(int(at_vertex.max(initial=0)) * int(sizes.max(initial=0)) + 1, dtype=np.int64)
@@ -595,18 +596,12 @@ def stencil_stiffness(stencils, coef, weight, n_vertices):
     >>> K.toarray().tolist(), bool(K.has_canonical_format)
     ([[1.0, -1.0, 0.0], [-1.0, 3.0, -2.0], [0.0, -2.0, 2.0]], True)
     """
-    from ._compiled import _row_blocks
-
     stencils = np.ascontiguousarray(stencils, dtype=np.int64)
     coef = np.ascontiguousarray(coef, dtype=np.float64)
     weight = np.ascontiguousarray(weight, dtype=np.float64)
     V = int(n_vertices)
-    flat = stencils.ravel()
-    order = np.argsort(flat, kind="stable")
-    order = order[flat[order] >= 0]  # the stencils at each vertex, increasing
+    order, indptr = _entries_by_vertex(stencils.ravel(), V)
     cells, slots = np.divmod(order, stencils.shape[1])
-    indptr = np.zeros(V + 1, dtype=np.int64)
-    np.cumsum(np.bincount(flat[order], minlength=V), out=indptr[1:])
     rows = np.zeros(V + 1, dtype=np.int64)
     bounds = _row_blocks(indptr, STENCIL_ROWS_PER_THREAD)
     _threaded(_stencil_counts, bounds, indptr, cells, stencils, rows)
@@ -616,10 +611,20 @@ def stencil_stiffness(stencils, coef, weight, n_vertices):
     return sp.csr_matrix((data, cols, rows), shape=(V, V))
 
 
+def _entries_by_vertex(verts, n_vertices):
+    """The entries of ``verts`` grouped by vertex, each group in increasing order (-1
+    entries left out), and the groups' bounds: ``(order, indptr)``, vertex ``a``'s entries
+    being ``order[indptr[a]:indptr[a + 1]]``.
+    """
+    order = np.argsort(verts, kind="stable")
+    order = order[verts[order] >= 0]
+    indptr = np.zeros(n_vertices + 1, dtype=np.int64)
+    np.cumsum(np.bincount(verts[order], minlength=n_vertices), out=indptr[1:])
+    return order, indptr
+
+
 def _threaded(kernel, bounds, *args):
     """``kernel(*args, start, stop)`` for each block ``[start, stop)`` of ``bounds``, on threads."""
-    from concurrent.futures import ThreadPoolExecutor
-
     blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
     if len(blocks) == 1:
         kernel(*args, *blocks[0])
