@@ -3,12 +3,26 @@
 The neighbour-weighted first-order extension
 ``sum_j w_j [phi_j + grad phi_j . T_j^T (x - x_j)] / sum_j w_j`` over the ``k`` training
 points nearest to ``x``, with tangent gradients and frames ``T_j`` and weights
-``w_j = (1 - d_j^2 / d_{k+1}^2) (d_1 / d_j)^p``, ``d_j`` the distance to the ``j``-th
-nearest and ``d_{k+1}`` to the next one: a neighbour's weight fades to 0 before it
-leaves the set, so the extension is continuous in ``x``. On no more than ``k`` samples
+``w_j = (1 - e_j^2 / e_{k+1}^2) (d_1 / d_j)^p``, ``e_j`` the distance to the ``j``-th
+nearest, ``e_{k+1}`` to the next one and ``d_j`` the locally scaled distance below: a
+neighbour's weight fades to 0 before it leaves the set, so the extension is continuous
+in ``x``. On no more than ``k`` samples
 it uses all but the farthest, so that there is always a next one to fade against
 (without it every weight would be 1, and the extension at any point the mean of all
 the samples' extensions).
+
+The ratios are of locally scaled distances: the ``k + 1`` nearest training points are
+found by the Euclidean distance (which the taper uses, so that the extension stays
+continuous), and ``d_j = e_j / sqrt(s_x s_j)``, ``d_1`` the smallest of them, with
+``s_j`` the distance from training point ``j`` to its :data:`LOCAL_SCALE_RANK`-th
+nearest other sample and ``s_x`` the distance from ``x`` to its
+:data:`LOCAL_SCALE_RANK`-th nearest training sample (the self-tuning scale of
+Zelnik-Manor and Perona, 2004). Where the classes have different densities, a point far
+from the data would otherwise follow the dense class, whose samples are the nearest to
+everything around them (they are hubs; Schnitzer et al., JMLR 2012, show that this
+scaling removes them). Scaled, a neighbour counts by how near ``x`` is in units of both
+their spreads: beyond a tight cluster's reach, a point follows the spread class around
+it. A point on a training sample (``e_1 = 0``) still takes its value.
 
 ``[.]`` clamps each sample's first-order value to the range of ``phi`` over that
 sample's stencil (itself and its graph neighbours, over which its gradient was fitted):
@@ -36,11 +50,15 @@ import numpy as np
 
 from .._threads import in_blocks
 
-__all__ = ["EXTENSION_POWERS", "NeighborExtension"]
+__all__ = ["EXTENSION_POWERS", "LOCAL_SCALE_RANK", "NeighborExtension"]
 
 #: The powers ``power="auto"`` chooses from; on equal leave-one-out accuracy the
 #: earlier one is kept.
 EXTENSION_POWERS = (0.0, 2.0, 4.0, 8.0, 16.0, 32.0)
+
+#: The local scale of a point is its distance to its ``LOCAL_SCALE_RANK``-th nearest
+#: sample (the 7 of Zelnik-Manor and Perona's self-tuning spectral clustering).
+LOCAL_SCALE_RANK = 7
 _CHUNK = 8192
 
 
@@ -120,6 +138,7 @@ class NeighborExtension:
         around = self._phi_u[cloud.neighbors]  # (n_u, q, r)
         self._lo = np.minimum(self._phi_u, around.min(axis=1))
         self._hi = np.maximum(self._phi_u, around.max(axis=1))
+        self._scale = cloud.distances[:, min(LOCAL_SCALE_RANK, cloud.distances.shape[1]) - 1]
         self._loo = None
         if power == "auto":
             if labels is None:
@@ -234,10 +253,11 @@ class NeighborExtension:
         """Per chunk of ``X``: ``(slice, vals, taper, log_ratio)``.
 
         ``vals[b, q]`` is the first-order extension of ``phi`` from the ``q``-th nearest
-        training sample of ``X[b]``, at distance ``d_q``, clamped to the range of ``phi``
-        over that sample's stencil; ``taper = 1 - (d_q / d_{k+1})^2``
+        training sample of ``X[b]``, at distance ``e_q``, clamped to the range of ``phi``
+        over that sample's stencil; ``taper = 1 - (e_q / e_{k+1})^2``
         measures it against the next neighbour's distance (a weight that reaches 0 where a
-        neighbour leaves the ``k`` nearest) and ``log_ratio = log(d_q / d_1)``.
+        neighbour leaves the ``k`` nearest) and ``log_ratio = log(d_q / d_1)``, of the
+        locally scaled distances (module docstring).
 
         With ``rows``, ``X`` holds those training samples and each sample's own point is
         left out. Those leave-one-out estimates read the neighbours from the graph (the
@@ -257,6 +277,14 @@ class NeighborExtension:
                 ind, dist = ind[:, own:], dist[:, own:]
             yield (c, *self._from_neighbors(X[c], ind, dist, k, nxt))
 
+    def _locally_scaled(self, ind, dist):
+        """The locally scaled distances (module docstring) of the neighbours ``ind`` at
+        Euclidean distances ``dist`` (increasing). The query's scale is its
+        :data:`LOCAL_SCALE_RANK`-th distance (or its last, if fewer neighbours are given).
+        """
+        own = dist[:, min(LOCAL_SCALE_RANK, dist.shape[1]) - 1]
+        return dist / np.sqrt(np.maximum(own[:, None] * self._scale[ind], np.finfo(np.float64).tiny))
+
     def _from_neighbors(self, X, ind, dist, k, nxt):
         """``(vals, taper, log_ratio)`` of :meth:`_terms` from the neighbours ``ind`` of ``X``
         at distances ``dist`` (the ``k`` averaged, then the next one if ``nxt``).
@@ -267,8 +295,11 @@ class NeighborExtension:
             taper = np.clip(1.0 - t * t, 0.0, 1.0) + 1e-12  # all k tied with the next: even
         else:
             taper = np.ones((ind.shape[0], k))
+        d = self._locally_scaled(ind, dist)[:, :k]
+        near = d.min(axis=1, keepdims=True)
+        guard = 1e-12 * np.maximum(d.max(axis=1, keepdims=True), np.finfo(np.float64).tiny)
         # for p > 0, a point on a training sample (d_1 = 0) takes that sample's value
-        log_ratio = np.log(np.maximum(dist[:, :k], 1e-12 * far) / np.maximum(dist[:, :1], 1e-12 * far))
+        log_ratio = np.log(np.maximum(d, guard) / np.maximum(near, guard))
         ind = ind[:, :k]
         if self._ambient is not None:
             c, g = self._ambient
