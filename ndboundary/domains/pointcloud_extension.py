@@ -13,16 +13,18 @@ the samples' extensions).
 
 The ratios are of locally scaled distances: the ``k + 1`` nearest training points are
 found by the Euclidean distance (which the taper uses, so that the extension stays
-continuous), and ``d_j = e_j / sqrt(s_x s_j)``, ``d_1`` the smallest of them, with
-``s_j`` the distance from training point ``j`` to its :data:`LOCAL_SCALE_RANK`-th
-nearest other sample and ``s_x`` the distance from ``x`` to its
-:data:`LOCAL_SCALE_RANK`-th nearest training sample (the self-tuning scale of
-Zelnik-Manor and Perona, 2004). Where the classes have different densities, a point far
-from the data would otherwise follow the dense class, whose samples are the nearest to
-everything around them (they are hubs; Schnitzer et al., JMLR 2012, show that this
-scaling removes them). Scaled, a neighbour counts by how near ``x`` is in units of both
-their spreads: beyond a tight cluster's reach, a point follows the spread class around
-it. A point on a training sample (``e_1 = 0``) still takes its value.
+continuous), and ``d_j = e_j / s_j``, ``d_1`` the smallest of them, with ``s_j`` the
+distance from training point ``j`` to its :data:`LOCAL_SCALE_RANK`-th nearest other
+sample (the self-tuning scale of Zelnik-Manor and Perona, 2004): how many of its own
+spreads away ``x`` lies. Where the classes have different densities, a point far from
+the data would otherwise follow the dense class, whose samples are the nearest to
+everything around them (they are hubs; Schnitzer et al., JMLR 2012, remove them by
+such scales). A sample of a tight class, whose first-order model was fitted within a
+small reach, counts less the more of its spreads ``x`` lies away: beyond a tight
+cluster's reach, a point follows the spread class around it. (The symmetric scaling
+``e_j / sqrt(s_x s_j)`` ranks the neighbours of ``x`` alike but weighs them by
+``sqrt(s_j)`` only, which keeps more of the hubs' weight.) A point on a training
+sample (``e_1 = 0``) still takes its value.
 
 ``[.]`` clamps each sample's first-order value to the range of ``phi`` over that
 sample's stencil (itself and its graph neighbours, over which its gradient was fitted):
@@ -278,12 +280,10 @@ class NeighborExtension:
             yield (c, *self._from_neighbors(X[c], ind, dist, k, nxt))
 
     def _locally_scaled(self, ind, dist):
-        """The locally scaled distances (module docstring) of the neighbours ``ind`` at
-        Euclidean distances ``dist`` (increasing). The query's scale is its
-        :data:`LOCAL_SCALE_RANK`-th distance (or its last, if fewer neighbours are given).
+        """The distances ``dist`` to the neighbours ``ind`` in units of each neighbour's
+        local scale (module docstring).
         """
-        own = dist[:, min(LOCAL_SCALE_RANK, dist.shape[1]) - 1]
-        return dist / np.sqrt(np.maximum(own[:, None] * self._scale[ind], np.finfo(np.float64).tiny))
+        return dist / np.maximum(self._scale[ind], np.finfo(np.float64).tiny)
 
     def _from_neighbors(self, X, ind, dist, k, nxt):
         """``(vals, taper, log_ratio)`` of :meth:`_terms` from the neighbours ``ind`` of ``X``
