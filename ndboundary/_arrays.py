@@ -31,6 +31,7 @@ __all__ = [
     "row_groups",
     "shared_facet_adjacency",
     "sort_rows",
+    "unique_values",
     "used_vertices",
 ]
 
@@ -222,6 +223,30 @@ def expand_ranges(starts, lengths):
     first = np.zeros(lengths.size, dtype=np.int64)
     np.cumsum(lengths[:-1], out=first[1:])
     return np.repeat(starts - first, lengths) + np.arange(total)
+
+
+def unique_values(a):
+    """The distinct values of ``a`` (any shape), increasing: ``np.unique(a)`` by one sort.
+
+    numpy 2.3 and later find the distinct integers of ``np.unique`` through a hash table
+    and then sort them; on mostly distinct keys (the edges of a graph, say) that took 16
+    to 18 times a sort on this project's machines (0.9 s against 0.05 s for 800 000
+    keys).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._arrays import unique_values
+    >>> unique_values(np.array([[5, 1], [1, 3]])).tolist()
+    [1, 3, 5]
+    """
+    s = np.sort(np.asarray(a).ravel())
+    if s.size == 0:
+        return s
+    keep = np.empty(s.size, dtype=bool)
+    keep[0] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]
 
 
 def used_vertices(cells, n_vertices):

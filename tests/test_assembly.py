@@ -16,6 +16,7 @@ from ndboundary._arrays import (
     mixed_facets,
     pair_groups,
     shared_facet_adjacency,
+    unique_values,
 )
 from ndboundary.domains.simplex_geometry import large_simplex_geometry, small_simplex_geometry
 
@@ -51,6 +52,15 @@ def testpair_groups_sorts_pairs_and_marks_the_distinct_ones(rng, n):
 def test_group_rows_of_nothing():
     ids, n = group_rows(np.zeros((0, 2), dtype=np.int64))
     assert ids.shape == (0,) and n == 0
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 5000])
+@pytest.mark.parametrize("high", [2, 10**12])
+def test_unique_values_are_numpys(rng, n, high):
+    a = rng.integers(-high, high, size=(n, 3))
+    out = unique_values(a)
+    np.testing.assert_array_equal(out, np.unique(a))
+    assert out.dtype == a.dtype
 
 
 def test_counting_sort_is_a_stable_argsort(rng):

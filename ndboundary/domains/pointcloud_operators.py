@@ -42,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .._arrays import used_vertices
+from .._arrays import unique_values, used_vertices
 from .._compiled_mesh import stencil_stiffness
 from ..fields import normalize_rows
 from .base import Domain
@@ -102,7 +102,7 @@ class StencilDomain(Domain):
 
     def mean_edge_length(self) -> float:
         """Mean distance from a point to its neighbours (bridges excluded): the scale ``h``."""
-        return float(self.distances[np.unique(self._rows)].mean())
+        return float(self.distances[unique_values(self._rows)].mean())
 
     def element_centroids(self) -> np.ndarray:
         """The points of the point elements, then the bridges' midpoints, shape (n_elements, n_features)."""
@@ -221,7 +221,7 @@ class StencilDomain(Domain):
         i = np.concatenate([i, self.bridges[:, 0]])
         j = np.concatenate([j, self.bridges[:, 1]])
         V = self.n_vertices
-        key = np.unique(np.minimum(i, j) * V + np.maximum(i, j))
+        key = unique_values(np.minimum(i, j) * V + np.maximum(i, j))
         return np.stack([key // V, key % V], axis=1)
 
     def smoothing_operator(self):

@@ -17,7 +17,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .._arrays import first_of_groups, group_rows, sort_rows
+from .._arrays import first_of_groups, group_rows, sort_rows, unique_values
 from .._kernels import kernel
 from . import common
 from .common import flat_rows
@@ -224,7 +224,7 @@ def _weld_hedra(new, faces, cells):
     keep = _solids_kept(new, f_flat, f_sizes, c_flat, c_sizes)
     cells = [c for c, k in zip(cells, keep, strict=True) if k]
     faces = [new[r] for r in np.split(f_flat, f_start[1:-1])]
-    used = np.unique(np.asarray(flat_rows(cells)[0]))
+    used = unique_values(flat_rows(cells)[0])
     faces = [faces[f] for f in used]
     renumber = np.full(len(f_sizes), -1, dtype=np.int64)
     if faces:  # faces that became the same vertex set are one face

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from .._arrays import used_vertices
 from .band import can_cut, element_rings
 
 __all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary"]
@@ -97,7 +98,7 @@ def vertex_boundary(domain, region1):
     """
     e = domain.edges
     cut = e[region1[e[:, 0]] != region1[e[:, 1]]]
-    sources = np.unique(cut)
+    sources = used_vertices(cut, domain.n_vertices)[0]
     m = cut.shape[0]
     S = sp.csr_matrix((np.full(2 * m, 0.5), (np.repeat(np.arange(m), 2), cut.ravel())), shape=(m, domain.n_vertices))
     return Boundary(sources, S, 0.5 * (domain.points[cut[:, 0]] + domain.points[cut[:, 1]]), cut)
