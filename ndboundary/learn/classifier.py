@@ -79,7 +79,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         than that of a plain average over fewer neighbours.
     extension_power : float or "auto", default="auto"
         Power ``p`` of the factor ``(d_1 / d_j)^p`` of the extension weights (kNN graph
-        only, see the module docstring): 0 leaves the fading weights alone (smoothest),
+        only; ``d_j`` is the distance to neighbour ``j`` in units of its own local scale,
+        :mod:`ndboundary.domains.pointcloud_extension`): 0 leaves the fading weights alone (smoothest),
         large values follow the nearest sample (sharpest; in high dimension the
         distances to the neighbours differ little, so sharp needs large powers).
         ``"auto"`` picks the power among :data:`EXTENSION_POWERS` whose extension best
