@@ -157,3 +157,34 @@ def test_voxel_grid_operators_equal_the_general_hexahedra(spacing, origin, direc
         np.linalg.norm(np.cross(*(grid.points[a[:, 1:]] - grid.points[a[:, :1]]).transpose(1, 0, 2)), axis=1).sum(),
         np.linalg.norm(np.cross(*(grid.points[b[:, 1:]] - grid.points[b[:, :1]]).transpose(1, 0, 2)), axis=1).sum(),
     )
+
+
+def _ball(n, radius):
+    x = np.indices((n, n, n)).reshape(3, -1).T - (n - 1) / 2 - 0.2
+    return (np.linalg.norm(x, axis=1) < radius * n).reshape(n, n, n)
+
+
+def test_a_grid_whose_band_would_hold_most_of_it_is_relaxed_whole_without_a_band(monkeypatch):
+    # the first band holds under 70 % of this grid and the one its scale widens it to
+    # more: the grid's scale hint sends it to the whole domain without padding a band
+    from ndboundary import Relaxer
+
+    mask = _ball(40, 0.2)
+    whole = relax_image(mask, band=None)
+
+    def padded_band(*args, **kwargs):
+        raise AssertionError("a band was padded to read its scale")
+
+    monkeypatch.setattr(Relaxer, "_lam_scale", padded_band)
+    auto = relax_image(mask)
+    assert "band" not in auto.params
+    np.testing.assert_array_equal(auto.phi, whole.phi)
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.6, 0.6, 1.5)])
+def test_grid_scale_hint_is_close_to_the_padded_scale(spacing):
+    from ndboundary.pipeline.integration import grid_scale_hint
+
+    result = relax_image(_ball(24, 0.3), spacing=spacing, band=None)
+    hint = grid_scale_hint(result.domain, result.params["h"])
+    assert abs(hint / result.params["lam_scale"] - 1) < 0.1

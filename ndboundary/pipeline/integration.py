@@ -94,6 +94,30 @@ def boundary_weight_scale(work, h, sources):
     return _lam_scale(work, work.K * h ** (2 - k), work.mass / h**k, np.asarray(sources))
 
 
+def grid_scale_hint(domain, h):
+    """An estimate of :func:`boundary_weight_scale` on an image grid, without padding or
+    assembling it: the scale at the centre vertex of a 3 x 3 (x 3) grid of the same spacing
+    and axes (every vertex inside a grid has that stiffness row; padding changes a few of
+    zeta's rows, and their median little: on voxel balls of spacing 1:1:1 and 0.6:0.6:1.5
+    the padded scale was 4 % and 6 % below it). None for other domains.
+
+    Examples
+    --------
+    >>> from ndboundary import ImageGrid
+    >>> from ndboundary.pipeline.integration import grid_scale_hint
+    >>> round(grid_scale_hint(ImageGrid((50, 50, 50)), 1.0), 3), grid_scale_hint(ImageGrid((4, 4, 40)), 1.0) <= 1.0
+    (0.426, True)
+    """
+    from ..domains.image import ImageGrid
+
+    if not isinstance(domain, ImageGrid):
+        return None
+    dim = len(domain.shape)
+    small = ImageGrid((3,) * dim, spacing=domain.spacing, direction=domain.direction)
+    centre = int(np.ravel_multi_index((1,) * dim, (4,) * dim))
+    return boundary_weight_scale(small, h, np.array([centre]))
+
+
 def _lam_scale(work, Kh, mh, sources):
     """:func:`boundary_weight_scale` from the scaled stiffness ``Kh`` and mass ``mh``."""
     reference = work.lam_reference()

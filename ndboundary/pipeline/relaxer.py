@@ -33,7 +33,7 @@ from .boundary import Boundary, element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
 from .heat import diffuse
-from .integration import boundary_weight_scale, integrate, integration_system
+from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
 from .result import DeferredFill, RegionsResult, RelaxResult
@@ -291,6 +291,13 @@ class Relaxer:
             mask, dist = band_of(width)
             if mask.mean() > AUTO_BAND_MAX_SHARE:
                 return boundary
+            hint = grid_scale_hint(domain, h) if scale is None else None
+            if hint is not None and band_width(p, domain, hint) > width:
+                # an image grid's scale is known closely without a padding: when the band
+                # it widens to holds most of the domain, relax the whole domain (the exact
+                # solve the band stands for) instead of padding a band only to read its scale
+                if band_of(band_width(p, domain, hint))[0].mean() > AUTO_BAND_MAX_SHARE:
+                    return boundary
             band = relaxer_of(mask)
             if scale is None:
                 # read on the band's padding, which its relaxation then uses: the band holds
