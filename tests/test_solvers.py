@@ -755,3 +755,59 @@ def test_gradient_integration_rejects_an_unknown_method(system):
     K, mass, S, lam, mu, rhs, exact = system
     with pytest.raises(ValueError, match="method must be"):
         solvers.solve_gradient_integration(K, S, lam, rhs, method="lu")
+
+
+def test_strong_pattern_matches_its_definition(rng):
+    n = 60
+    A = sp.random(n, n, density=0.15, random_state=0, format="csr")
+    A = (A + A.T + sp.diags(rng.uniform(1.0, 2.0, n))).tocsr()
+    A.data *= rng.choice([-1.0, 1.0], A.data.size)  # signs do not matter, magnitudes do
+    indptr, indices = amg_hierarchy.strong_pattern(A, 0.3)
+    dense = A.toarray()
+    largest = np.abs(dense - np.diag(np.diag(dense))).max(axis=1)
+    want = (np.abs(dense) >= 0.3 * np.minimum.outer(largest, largest)) & (A.toarray() != 0)
+    np.fill_diagonal(want, np.diag(dense) != 0)
+    got = sp.csr_matrix((np.ones(indices.size), indices, indptr), shape=A.shape).toarray() != 0
+    assert np.array_equal(got, want) and (got == got.T).all()
+
+
+def _stretched_voxels(theta):
+    """The first aggregates of ``K + M`` on voxels 1 x 1 x 6, with each vertex's slice."""
+    from ndboundary import ImageGrid
+
+    grid = ImageGrid((10, 10, 6), spacing=(1.0, 1.0, 6.0))
+    A = (grid.K + sp.diags(grid.mass)).tocsr()
+    slice_of = np.unravel_index(np.arange(grid.n_vertices), (11, 11, 7))[2]
+    return A, amg_hierarchy.energy_hierarchy(A, theta=theta)[0].aggregates, slice_of
+
+
+def test_aggregates_over_strong_couplings_stay_within_the_slices_of_stretched_voxels():
+    A, agg, slice_of = _stretched_voxels(amg.AMG_STRENGTH)
+    spans = [np.unique(slice_of[agg == a]).size for a in range(agg.max() + 1)]
+    assert max(spans) == 1
+    _, agg0, _ = _stretched_voxels(0.0)  # every coupling: aggregates cross the slices
+    assert max(np.unique(slice_of[agg0 == a]).size for a in range(agg0.max() + 1)) > 1
+    # the same aggregates as pyamg's standard aggregation of the strong pattern
+    _skip_unless_available("amg")
+    from pyamg.aggregation.aggregate import standard_aggregation
+
+    indptr, indices = amg_hierarchy.strong_pattern(A, amg.AMG_STRENGTH)
+    C = sp.csr_matrix((np.ones(indices.size), indices, indptr), shape=A.shape)
+    AggOp = sp.csr_matrix(standard_aggregation(C)[0])
+    ref = np.full(A.shape[0], -1)
+    ref[np.repeat(np.arange(A.shape[0]), np.diff(AggOp.indptr))] = AggOp.indices
+    assert np.array_equal(agg, ref)
+
+
+def test_strong_aggregation_cuts_the_integration_iterations_on_thick_slices(monkeypatch):
+    from ndboundary import relax_image
+
+    i, j, k = np.indices((40, 40, 10))
+    x = np.stack([(i - 19.3) * 0.6, (j - 19.6) * 0.6, (k - 4.4) * 4.0], axis=-1)
+    mask = np.linalg.norm(x, axis=-1) < 9.0
+    strong = relax_image(mask, spacing=(0.6, 0.6, 4.0))
+    monkeypatch.setattr(amg, "AMG_STRENGTH", 0.0)
+    every = relax_image(mask, spacing=(0.6, 0.6, 4.0))
+    assert strong.solver["integration"].method == "pcg-amg"
+    assert strong.solver["integration"].iterations < 0.5 * every.solver["integration"].iterations
+    np.testing.assert_allclose(strong.phi, every.phi, atol=1e-4)

@@ -1,12 +1,16 @@
 """The levels of the smoothed-aggregation AMG on meshes, built by compiled passes
 (numba): :func:`energy_hierarchy`.
 
-They are pyamg's levels for the settings of :func:`~ndboundary.solvers.amg.amg_preconditioner`
-on meshes (energy-minimised prolongators): the same aggregates, the same prolongators and
-coarse operators up to rounding. pyamg builds them in BSR format with 1x1 blocks and new
-sparse matrices at every step of the energy minimisation; these passes update the
-prolongator in place on its sparsity pattern and form each coarse operator without the
-intermediate product, in about a third of pyamg's time on tetrahedral band systems.
+With ``theta = 0`` they are pyamg's levels for the settings of
+:func:`~ndboundary.solvers.amg.amg_preconditioner` on meshes (energy-minimised
+prolongators): the same aggregates, the same prolongators and coarse operators up to
+rounding. A positive ``theta`` aggregates over the strong couplings only
+(:func:`strong_pattern`), as pyamg's standard aggregation of that pattern would.
+
+pyamg builds the levels in BSR format with 1x1 blocks and new sparse matrices at every
+step of the energy minimisation; these passes update the prolongator in place on its
+sparsity pattern and form each coarse operator without the intermediate product, in
+about a third of pyamg's time on tetrahedral band systems.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import scipy.sparse as sp
 
 from .._kernels import kernel
 
-__all__ = ["ENERGY_TOL", "Level", "energy_hierarchy"]
+__all__ = ["ENERGY_TOL", "Level", "energy_hierarchy", "strong_pattern"]
 
 #: An energy minimisation stops early at this squared preconditioned residual (pyamg's default).
 ENERGY_TOL = 1e-8
@@ -341,14 +345,50 @@ def _signed(a):
     return a.view(np.int32) if a.dtype == np.uint32 else a
 
 
-def energy_hierarchy(A, *, maxiter=2, max_coarse=500, max_levels=10):
+def strong_pattern(A, theta):
+    """The strong couplings of the CSR matrix ``A``, the pattern the aggregation reads: its
+    diagonal and every entry with ``|a_ij| >= theta * min(m_i, m_j)``, ``m_i`` the largest
+    magnitude off the diagonal of row ``i``. ``(indptr, indices)``, rows in ``A``'s order.
+
+    The test is symmetric (a coupling strong for either row is kept for both) and free of
+    each row's scale. On a grid of stretched cells the couplings across the long side are
+    weak: aggregates then stay within the short sides, as the error that Gauss-Seidel
+    leaves smooth only along them requires.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.sparse as sp
+    >>> from ndboundary.solvers.amg_hierarchy import strong_pattern
+    >>> A = sp.csr_matrix(np.array([[4.0, -2.0, -0.01], [-2.0, 4.0, -2.0], [-0.01, -2.0, 4.0]]))
+    >>> indptr, indices = strong_pattern(A, 0.1)
+    >>> indptr.tolist(), indices.tolist()  # the weak 0-2 coupling is dropped
+    ([0, 2, 5, 7], [0, 1, 0, 1, 2, 1, 2])
+    """
+    n = A.shape[0]
+    rows = np.repeat(np.arange(n), np.diff(A.indptr))
+    magnitude = np.abs(A.data)
+    off = A.indices != rows
+    largest = np.zeros(n)
+    filled = np.flatnonzero(np.diff(A.indptr) > 0)
+    if filled.size:
+        largest[filled] = np.maximum.reduceat(np.where(off, magnitude, 0.0), A.indptr[filled])
+    keep = ~off | (magnitude >= theta * np.minimum(largest[rows], largest[A.indices]))
+    indptr = np.zeros(n + 1, dtype=A.indptr.dtype)
+    np.cumsum(np.bincount(rows[keep], minlength=n), out=indptr[1:])
+    return indptr, A.indices[keep]
+
+
+def energy_hierarchy(A, *, maxiter=2, max_coarse=500, max_levels=10, theta=0.0):
     """The levels of smoothed-aggregation AMG for ``A`` with energy-minimised
     prolongators: those of pyamg's ``smoothed_aggregation_solver(A, symmetry="symmetric",
     strength="symmetric", aggregate="standard", smooth=("energy", {"maxiter": maxiter}),
     improve_candidates=None, max_coarse=max_coarse, max_levels=max_levels)``.
 
-    Coarsening goes on while a level has more than ``max_coarse`` rows, up to
-    ``max_levels`` levels. Each coarse operator ``(R A) P`` is formed as scipy's sparse
+    With ``theta > 0`` each level is aggregated over its :func:`strong_pattern` instead
+    of its whole pattern (pyamg's ``strength="symmetric"`` with ``theta = 0`` keeps every
+    coupling): the rest is unchanged. Coarsening goes on while a level has more than
+    ``max_coarse`` rows, up to ``max_levels`` levels. Each coarse operator ``(R A) P`` is formed as scipy's sparse
     products form it in pyamg (:func:`_galerkin`), so its rows list their columns in the
     order of pyamg's: the order its aggregation reads them in.
 
@@ -359,6 +399,9 @@ def energy_hierarchy(A, *, maxiter=2, max_coarse=500, max_levels=10):
     maxiter : int, default=2
         Iterations of the energy minimisation of each prolongator.
     max_coarse, max_levels : int
+    theta : float, default=0.0
+        The strength threshold of the aggregation (:func:`strong_pattern`); 0 aggregates
+        over every coupling, as pyamg's levels for these settings.
 
     Returns
     -------
@@ -383,7 +426,8 @@ def energy_hierarchy(A, *, maxiter=2, max_coarse=500, max_levels=10):
     levels = []
     while A.shape[0] > max_coarse and len(levels) < max_levels - 1:
         n = A.shape[0]
-        agg, count = _aggregate(_unsigned(A.indptr), _unsigned(A.indices))
+        pattern = strong_pattern(A, theta) if theta > 0 else (A.indptr, A.indices)
+        agg, count = _aggregate(_unsigned(pattern[0]), _unsigned(pattern[1]))
         count = max(count, 1)  # no aggregate at all: one empty column, as in pyamg
         if not A.has_canonical_format:
             # aggregated in the order of its product, the operator is then sorted, as
