@@ -163,7 +163,8 @@ def test_amg_hierarchy_is_csr_and_smoothing_follows_row_density(case, monkeypatc
     if dense:
         assert built["kwargs"]["smooth"] == "jacobi" and "compiled" not in built
     else:
-        assert built["compiled"] == {"maxiter": 2, "max_coarse": 500} and "kwargs" not in built
+        assert built["compiled"] == {"maxiter": 2, "max_coarse": 500, "theta": amg.AMG_STRENGTH}
+        assert "kwargs" not in built
     levels = built["levels"]
     assert len(levels) >= 2
     for level in levels:
@@ -252,10 +253,15 @@ def test_compiled_v_cycle_is_spd_and_equals_pyamgs():
         L = np.linalg.cholesky(A.toarray())
         spectrum = np.linalg.eigvalsh(L.T @ M @ L)
     assert spectrum.min() > 0.1 and spectrum.max() < 1 + 1e-10
-    # the cycle over pyamg's own hierarchy
+    # the cycle over pyamg's own hierarchy, aggregated as pyamg's standard aggregation of
+    # the strong couplings aggregates them
+    from pyamg.aggregation.aggregate import standard_aggregation
+
+    indptr, indices = amg_hierarchy.strong_pattern(A, amg.AMG_STRENGTH)
+    AggOp = standard_aggregation(sp.csr_matrix((np.ones(indices.size), indices, indptr), shape=A.shape))[0]
     ml = pyamg.smoothed_aggregation_solver(
-        A, symmetry="symmetric", strength="symmetric", smooth=("energy", {"maxiter": 2}),
-        improve_candidates=None, max_coarse=500,
+        A, symmetry="symmetric", strength="symmetric", aggregate=("predefined", {"AggOp": sp.csr_matrix(AggOp)}),
+        smooth=("energy", {"maxiter": 2}), improve_candidates=None, max_coarse=500,
     )  # fmt: skip
     assert len(ml.levels) >= 2
     for level in ml.levels[:-1]:
