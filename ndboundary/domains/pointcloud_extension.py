@@ -6,10 +6,9 @@ points nearest to ``x``, with tangent gradients and frames ``T_j`` and weights
 ``w_j = (1 - e_j^2 / e_{k+1}^2) (d_1 / d_j)^p``, ``e_j`` the distance to the ``j``-th
 nearest, ``e_{k+1}`` to the next one and ``d_j`` the locally scaled distance below: a
 neighbour's weight fades to 0 before it leaves the set, so the extension is continuous
-in ``x``. On no more than ``k`` samples
-it uses all but the farthest, so that there is always a next one to fade against
-(without it every weight would be 1, and the extension at any point the mean of all
-the samples' extensions).
+in ``x``. On no more than ``k`` samples it uses all but the farthest, so that there is
+always a next one to fade against (without it every weight would be 1, and the extension
+at any point the mean of all the samples' extensions).
 
 The ratios are of locally scaled distances: the ``k + 1`` nearest training points are
 found by the Euclidean distance (which the taper uses, so that the extension stays

@@ -351,9 +351,10 @@ def strong_pattern(A, theta):
     magnitude off the diagonal of row ``i``. ``(indptr, indices)``, rows in ``A``'s order.
 
     The test is symmetric (a coupling strong for either row is kept for both) and free of
-    each row's scale. On a grid of stretched cells the couplings across the long side are
-    weak: aggregates then stay within the short sides, as the error that Gauss-Seidel
-    leaves smooth only along them requires.
+    each row's scale. On a grid of stretched cells the couplings along the long side are
+    weak, and Gauss-Seidel smooths the error along the short sides only: aggregates over
+    the strong couplings stay across the short sides, where the coarse level can represent
+    that error.
 
     Examples
     --------
