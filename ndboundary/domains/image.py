@@ -154,6 +154,6 @@ class VoxelGrid(ImageGrid, PolyhedralMesh):
         fi, fo, ci, co, signs = voxel_faces(self.shape, o, strides)
         if self.direction is not None and np.linalg.det(self.direction) < 0:
             signs = -signs  # a reflection turns every face
-        geometry = box_geometry(points, fi, o, strides, self.spacing, self.direction, signs)
+        geometry = box_geometry(self.shape, points, fi, o, strides, self.spacing, self.direction, signs)
         self._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)
         self.__dict__["_face_ids"] = np.arange(fo.size - 1)  # every face is listed once

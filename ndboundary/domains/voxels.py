@@ -66,10 +66,21 @@ def voxel_faces(shape, lowest, strides):
     return fi, 4 * np.arange(fi.size // 4 + 1), ci, 6 * np.arange(lowest.size + 1), signs
 
 
-def box_geometry(points, fi, lowest, strides, spacing, direction, signs):
-    """The :class:`~.polyhedral_reuse.Geometry` of the voxels (see :func:`voxel_faces`)."""
-    corners = points[fi].reshape(-1, 4, 3)
-    face_areas = np.cross(corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0])
+def box_geometry(shape, points, fi, lowest, strides, spacing, direction, signs):
+    """The :class:`~.polyhedral_reuse.Geometry` of the voxels (see :func:`voxel_faces`).
+
+    Every face of one axis is the same rectangle: its area vector and the offset from its
+    first corner to its centre are computed once per axis, not from the corners of each.
+    """
+    axes = np.eye(3) if direction is None else np.asarray(direction)
+    steps = axes * np.asarray(spacing, dtype=np.float64)  # column a: one voxel along axis a
+    per_axis, counts = [], []
+    for a in range(3):
+        b, c = (a + 1) % 3, (a + 2) % 3
+        per_axis.append((np.cross(steps[:, b], steps[:, c]), 0.5 * (steps[:, b] + steps[:, c])))
+        counts.append(int(np.prod([n + (k == a) for k, n in enumerate(shape)])))
+    face_areas = np.repeat(np.array([area for area, _ in per_axis]), counts, axis=0)
+    centres = points[fi[::4]] + np.repeat(np.array([half for _, half in per_axis]), counts, axis=0)
     bits = np.array(list(product((0, 1), repeat=3)))  # increasing corner ids: axis 0 slowest
     grads = (2 * bits - 1) / (4.0 * np.asarray(spacing))
     if direction is not None:
@@ -78,7 +89,7 @@ def box_geometry(points, fi, lowest, strides, spacing, direction, signs):
     cells = np.repeat(np.arange(n), 8)
     vertices = (lowest[:, None] + bits @ np.asarray(strides)).ravel()
     return Geometry(
-        corners.mean(axis=1),
+        centres,
         np.repeat(face_areas / 4.0, 4, axis=0),
         face_areas,
         signs,
