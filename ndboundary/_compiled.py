@@ -104,7 +104,7 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 
     ``W`` is a CSR matrix with sorted indices, ``X`` an (n, d) array (not modified). Every sweep reads the
     previous sweep's rows only (Jacobi order), so the result does not depend on the row
-    order, and blocks of rows are swept on several threads (:func:`_row_blocks`) with the
+    order, and blocks of rows are swept on several threads (:func:`row_blocks`) with the
     same result; zero rows stay zero. Summing and renormalising a row in one loop reads the
     field once per sweep instead of the four passes of a sparse product and a
     renormalisation.
@@ -131,7 +131,7 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
         def one(A, B, rows):
             sweep(indptr, indices, data, A, B, *rows)
 
-    bounds = _row_blocks(indptr)
+    bounds = row_blocks(indptr)
     blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
     with ThreadPoolExecutor(len(blocks)) as pool:
         for _ in range(passes):
@@ -145,7 +145,7 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 MIN_ROWS_PER_THREAD = 20_000
 
 
-def _row_blocks(indptr, min_rows=None):
+def row_blocks(indptr, min_rows=None):
     """Row bounds of one block per thread (one block for fewer than ``2 min_rows`` rows,
     :data:`MIN_ROWS_PER_THREAD` by default), with about equal numbers of entries.
     """

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-from ._compiled import _row_blocks, insert_sorted
+from ._compiled import insert_sorted, row_blocks
 from ._kernels import kernel
 
 __all__ = [
@@ -603,7 +603,7 @@ def stencil_stiffness(stencils, coef, weight, n_vertices):
     order, indptr = _entries_by_vertex(stencils.ravel(), V)
     cells, slots = np.divmod(order, stencils.shape[1])
     rows = np.zeros(V + 1, dtype=np.int64)
-    bounds = _row_blocks(indptr, STENCIL_ROWS_PER_THREAD)
+    bounds = row_blocks(indptr, STENCIL_ROWS_PER_THREAD)
     _threaded(_stencil_counts, bounds, indptr, cells, stencils, rows)
     np.cumsum(rows, out=rows)
     cols, data = np.empty(int(rows[-1]), dtype=np.int64), np.empty(int(rows[-1]))

@@ -170,6 +170,6 @@ def test_smoothing_in_blocks_on_threads_is_the_same_bit_for_bit(monkeypatch, wei
     one = _compiled.smooth_rows_compiled(W, X, 7, plus_identity=True)
     monkeypatch.setattr(_compiled, "MIN_ROWS_PER_THREAD", 50)
     monkeypatch.setattr(_compiled, "available_threads", lambda: 5)
-    assert len(_compiled._row_blocks(W.indptr)) == 6
+    assert len(_compiled.row_blocks(W.indptr)) == 6
     np.testing.assert_array_equal(_compiled.smooth_rows_compiled(W, X, 7, plus_identity=True), one)
     np.testing.assert_allclose(np.linalg.norm(one, axis=1), 1.0)

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..domains.image import ImageGrid
 from ..solvers import solve_gradient_integration, solve_integration
 
 __all__ = ["IntegrationSystem", "boundary_weight_scale", "integrate", "integration_system"]
@@ -108,8 +109,6 @@ def grid_scale_hint(domain, h):
     >>> round(grid_scale_hint(ImageGrid((50, 50, 50)), 1.0), 3), grid_scale_hint(ImageGrid((4, 4, 40)), 1.0) <= 1.0
     (0.426, True)
     """
-    from ..domains.image import ImageGrid
-
     if not isinstance(domain, ImageGrid):
         return None
     dim = len(domain.shape)

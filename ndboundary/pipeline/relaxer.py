@@ -292,12 +292,12 @@ class Relaxer:
             if mask.mean() > AUTO_BAND_MAX_SHARE:
                 return boundary
             hint = grid_scale_hint(domain, h) if scale is None else None
-            if hint is not None and band_width(p, domain, hint) > width:
-                # an image grid's scale is known closely without a padding: when the band
-                # it widens to holds most of the domain, relax the whole domain (the exact
-                # solve the band stands for) instead of padding a band only to read its scale
-                if band_of(band_width(p, domain, hint))[0].mean() > AUTO_BAND_MAX_SHARE:
-                    return boundary
+            likely = width if hint is None else band_width(p, domain, hint)
+            # an image grid's scale is known closely without a padding: when the band it
+            # widens to holds most of the domain, relax the whole domain (the exact solve
+            # the band stands for) instead of padding a band only to read its scale
+            if likely > width and band_of(likely)[0].mean() > AUTO_BAND_MAX_SHARE:
+                return boundary
             band = relaxer_of(mask)
             if scale is None:
                 # read on the band's padding, which its relaxation then uses: the band holds
