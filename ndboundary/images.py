@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .domains.image import ImageGrid
+from ._validation import check_labels
+from .domains.image import GridBand, ImageGrid, grid_direction, grid_geometry
 from .pipeline import relax
+from .pipeline.band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_width
+from .pipeline.grid_band import grid_mean_edge_length, image_band
+from .pipeline.integration import grid_scale_hint
+from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
+from .pipeline.relaxer import Relaxer
 
 __all__ = ["relax_image"]
 
@@ -37,9 +43,17 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     Returns
     -------
     RelaxResult or RegionsResult
-        On the :class:`~ndboundary.ImageGrid` of the image (``result.domain``): its
-        ``level_set()``, ``interfaces()``, ``region_boundary(r)`` and
-        ``region_measures()`` are in physical coordinates.
+        Its ``level_set()``, ``interfaces()``, ``region_boundary(r)`` and
+        ``region_measures()`` are in physical coordinates. ``result.domain`` (which
+        ``phi`` lives on) is the image's :class:`~ndboundary.ImageGrid`, or, when the
+        band of ``band`` holds a small part of a large image, that band
+        (:class:`~ndboundary.domains.image.GridBand`; ``result.domain.pixels`` names its
+        pixels): the whole grid is then never built, and the cost follows the boundaries.
+        The band is found on the image's index grid, as the whole grid's would be
+        (:mod:`ndboundary.pipeline.grid_band`); with ``band="auto"`` its width is set by
+        :func:`~ndboundary.pipeline.integration.grid_scale_hint`, the grid's own
+        boundary weight, instead of one measured on a first band. The regions' measures
+        count the pixels outside the band whole.
 
     Raises
     ------
@@ -63,16 +77,69 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     labels = np.asarray(labels)
     if labels.ndim not in (2, 3):
         raise ValueError(f"labels must be a 2-D image or a 3-D volume, got shape {labels.shape}")
-    grid = ImageGrid(
-        labels.shape,
-        spacing=1.0 if spacing is None else spacing,
-        origin=0.0 if origin is None else origin,
-        direction=direction,
-    )
-    result = relax(grid, labels.reshape(-1), on="elements", **params)
+    geometry = grid_geometry(labels.shape, 1.0 if spacing is None else spacing, 0.0 if origin is None else origin)
+    direction = grid_direction(direction, labels.ndim)
+    flat = labels.reshape(-1)
+    classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
+    band = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
+    if band is None:
+        grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
+        result = relax(grid, flat, on="elements", **params)
+    else:
+        pixels, h, width = band
+        domain = GridBand(labels.shape, pixels, spacing=geometry[1], origin=geometry[2], direction=direction)
+        rest = np.ones(flat.size, dtype=bool)
+        rest[pixels] = False
+        counts = np.bincount(codes[rest].astype(np.intp), minlength=classes.size)
+        domain.outside = dict(zip(classes.tolist(), (counts * float(np.prod(geometry[1]))).tolist(), strict=True))
+        # two labels: the band is the relaxation's; more: each region's band lies within it
+        inner = None if classes.size == 2 else params.get("band", "auto")
+        result = Relaxer(domain, _keep=False, _h=h).relax(flat[pixels], on="elements", **{**params, "band": inner})
+        result.params.update(band=width, band_vertices=int(domain.n_vertices))
     if background is not None:
         where = np.flatnonzero(result.classes == background)
         if where.size != 1:
             raise ValueError(f"background {background!r} is not one of the labels {result.classes.tolist()}")
         result.params["background"] = int(where[0])
     return result
+
+
+def _band_pixels(codes, geometry, direction, params):
+    """``(pixels, h, width)`` of the band to relax the image on, or None for the whole grid.
+
+    A number ``band`` cuts the band of that width whenever it leaves pixels out. ``"auto"``
+    cuts the band of :func:`~ndboundary.pipeline.band.band_width` for the grid's boundary
+    weight, on grids of :data:`~ndboundary.pipeline.band.AUTO_BAND_MIN_VERTICES` corners or
+    more, when it holds at most :data:`~ndboundary.pipeline.band.AUTO_BAND_MAX_SHARE` of the
+    pixels (the whole grid costs no more beyond, and its solve is exact).
+    """
+    shape, spacing, _ = geometry
+    band = params.get("band", "auto")
+    p = check_params(
+        on="elements",
+        lam=params.get("lam", DEFAULT_LAM),
+        smoothing=params.get("smoothing", DEFAULT_SMOOTHING),
+        mu=params.get("mu", DEFAULT_MU),
+        t=params.get("t"),
+        form=params.get("form", "mass"),
+        rtol=params.get("rtol", DEFAULT_RTOL),
+        solver=params.get("solver", "auto"),
+        band=band,
+    )
+    if p["band"] is None:
+        return None
+    h = grid_mean_edge_length(shape, spacing)
+    if p["band"] == "auto":
+        if np.prod([n + 1 for n in shape]) < AUTO_BAND_MIN_VERTICES:
+            return None
+        proto = ImageGrid((1,) * len(shape), spacing=spacing, direction=direction)  # a pixel of the grid
+        width = band_width(p, proto, grid_scale_hint(proto, h))
+        if width is None:
+            return None
+    else:
+        width = p["band"]
+    pixels = image_band(codes, spacing, h, width)
+    share = pixels.size / codes.size
+    if share == 1.0 or (p["band"] == "auto" and share > AUTO_BAND_MAX_SHARE):
+        return None
+    return pixels, h, width

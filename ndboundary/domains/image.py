@@ -17,12 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._arrays import unique_values
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
-from .voxels import box_geometry, voxel_faces
+from .voxels import CORNER_BITS, box_geometry, voxel_faces
 
-__all__ = ["ImageGrid", "PixelGrid", "VoxelGrid"]
+__all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
 
 
 def grid_geometry(shape, spacing, origin):
@@ -62,14 +63,17 @@ def grid_direction(direction, dim):
     return d
 
 
-def grid_points(shape, spacing, origin, direction=None):
-    """The pixels' corners (C order over ``shape + 1``) and each pixel's lowest corner."""
-    corners = [spacing[a] * (np.arange(n + 1) - 0.5) for a, n in enumerate(shape)]
-    points = np.stack(np.meshgrid(*corners, indexing="ij"), axis=-1).reshape(-1, len(shape))
-    points = (points if direction is None else points @ direction.T) + np.asarray(origin)
-    strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
-    index = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, len(shape))
-    return points, index @ strides, strides
+def corner_points(shape, spacing, origin, direction=None, corners=None):
+    """The positions of the pixels' corners ``corners`` (indices in C order over ``shape + 1``;
+    all of them by default), half a spacing below and above the pixel centres.
+    """
+    ticks = [spacing[a] * (np.arange(n + 1) - 0.5) for a, n in enumerate(shape)]
+    if corners is None:
+        points = np.stack(np.meshgrid(*ticks, indexing="ij"), axis=-1).reshape(-1, len(shape))
+    else:
+        index = np.unravel_index(corners, tuple(n + 1 for n in shape))
+        points = np.stack([t[i] for t, i in zip(ticks, index, strict=True)], axis=1)
+    return (points if direction is None else points @ direction.T) + np.asarray(origin)
 
 
 class ImageGrid:
@@ -131,9 +135,8 @@ class PixelGrid(ImageGrid, PolygonMesh):
         if len(self.shape) != 2:
             raise ValueError(f"a PixelGrid is 2-D, got shape {self.shape}")
         self.direction = grid_direction(direction, 2)
-        points, o, (s0, s1) = grid_points(self.shape, self.spacing, self.origin, self.direction)
-        if self.direction is not None and np.linalg.det(self.direction) < 0:
-            s0, s1 = s1, s0  # a reflection: keep the quads counter-clockwise
+        points = corner_points(self.shape, self.spacing, self.origin, self.direction)
+        (s0, s1), o = _pixel_strides(self), _lowest_corners(self.shape, np.arange(int(np.prod(self.shape))))
         quads = np.stack([o, o + s0, o + s0 + s1, o + s1], axis=1)  # counter-clockwise in (x0, x1)
         PolygonMesh.__init__(self, points, quads, **kwargs)
 
@@ -146,14 +149,127 @@ class VoxelGrid(ImageGrid, PolyhedralMesh):
         if len(self.shape) != 3:
             raise ValueError(f"a VoxelGrid is 3-D, got shape {self.shape}")
         self.direction = grid_direction(direction, 3)
-        points, o, strides = grid_points(self.shape, self.spacing, self.origin, self.direction)
-        laplacian = kwargs.pop("laplacian", "consistent")
-        stabilization = check_laplacian_options(laplacian, kwargs.pop("stabilization", 4.0))
-        if kwargs:
-            raise TypeError(f"VoxelGrid got unexpected keyword arguments {sorted(kwargs)}")
-        fi, fo, ci, co, signs = voxel_faces(self.shape, o, strides)
-        if self.direction is not None and np.linalg.det(self.direction) < 0:
-            signs = -signs  # a reflection turns every face
-        geometry = box_geometry(self.shape, points, fi, o, strides, self.spacing, self.direction, signs)
-        self._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)
-        self.__dict__["_face_ids"] = np.arange(fo.size - 1)  # every face is listed once
+        _init_voxels(self, None, kwargs)
+        self.__dict__["_face_ids"] = np.arange(self.n_faces)  # every face is listed once
+
+
+class GridBand:
+    """Some of the pixels or voxels of an image, as a domain of their own: the band of a
+    label image around its boundaries, built without the whole grid.
+
+    A :class:`PixelBand` (2-D, a :class:`~ndboundary.PolygonMesh` of quadrilaterals) or a
+    :class:`VoxelBand` (3-D, a :class:`~ndboundary.PolyhedralMesh` of hexahedra) holds the
+    ``pixels`` of the grid ``ImageGrid(shape, spacing=, origin=, direction=)``, in that
+    order, over the corners they hold (increasing in the grid's C order), with the same
+    geometry, operators and subdomains as the whole grid's (its
+    :meth:`~ndboundary.Domain.subdomain` of the same pixels). :func:`~ndboundary.relax_image`
+    relaxes a large image on it, so that its cost follows the boundaries, not the image.
+
+    Attributes
+    ----------
+    shape, spacing, origin : tuple
+        The whole grid's.
+    direction : ndarray or None
+    pixels : ndarray of int64
+        The pixels (voxels) held, as indices into the whole grid (C order), increasing.
+    corners : ndarray of int64
+        The vertices' indices among the whole grid's corners (C order over ``shape + 1``).
+    outside : dict
+        Each label of the pixels left out, with their total area (volume): what
+        :meth:`measures_outside` adds to a relaxed region's measure. Empty until set.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.image import GridBand
+    >>> band = GridBand((4, 4, 4), np.arange(16, 32), spacing=0.5)  # the second layer of voxels
+    >>> band.n_elements, band.n_vertices, float(band.A.sum())
+    (16, 50, 2.0)
+    """
+
+    def __new__(cls, shape, pixels, **kwargs):
+        """A :class:`PixelBand` or :class:`VoxelBand`, by the number of axes of ``shape``."""
+        if cls is GridBand:
+            cls = PixelBand if len(tuple(shape)) == 2 else VoxelBand
+        return object.__new__(cls)
+
+    def _set_grid(self, shape, pixels, spacing, origin, direction):
+        self.shape, self.spacing, self.origin = grid_geometry(shape, spacing, origin)
+        self.direction = grid_direction(direction, len(self.shape))
+        pixels = np.asarray(pixels)
+        if pixels.ndim != 1 or pixels.size == 0 or not np.issubdtype(pixels.dtype, np.integer):
+            raise ValueError(f"pixels must be a non-empty 1-D array of pixel indices, got shape {pixels.shape}")
+        size = int(np.prod(self.shape))
+        if pixels[0] < 0 or pixels[-1] >= size or np.any(np.diff(pixels) <= 0):
+            raise ValueError(f"pixels must be increasing indices in [0, {size}) of the grid {self.shape}")
+        self.pixels = pixels.astype(np.int64)
+        self.outside = {}
+
+    def measures_outside(self, classes):
+        """The area (volume) of each of ``classes`` among the pixels left out, shape ``(len(classes),)``."""
+        return np.array([self.outside.get(c, 0.0) for c in np.asarray(classes).tolist()], dtype=np.float64)
+
+    def __repr__(self):
+        return f"{type(self).__name__}(shape={self.shape}, n_pixels={self.pixels.size}, spacing={self.spacing})"
+
+
+class PixelBand(GridBand, PolygonMesh):
+    """Some pixels of a 2-D image (see :class:`GridBand`)."""
+
+    def __init__(self, shape, pixels, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
+        self._set_grid(shape, pixels, spacing, origin, direction)
+        if len(self.shape) != 2:
+            raise ValueError(f"a PixelBand is 2-D, got shape {self.shape}")
+        (s0, s1), o = _pixel_strides(self), _lowest_corners(self.shape, self.pixels)
+        quads = np.stack([o, o + s0, o + s0 + s1, o + s1], axis=1)
+        self.corners = unique_values(quads.ravel())
+        points = corner_points(self.shape, self.spacing, self.origin, self.direction, self.corners)
+        PolygonMesh.__init__(self, points, np.searchsorted(self.corners, quads), **kwargs)
+
+
+class VoxelBand(GridBand, PolyhedralMesh):
+    """Some voxels of a 3-D volume (see :class:`GridBand`)."""
+
+    def __init__(self, shape, pixels, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
+        self._set_grid(shape, pixels, spacing, origin, direction)
+        if len(self.shape) != 3:
+            raise ValueError(f"a VoxelBand is 3-D, got shape {self.shape}")
+        _init_voxels(self, self.pixels, kwargs)
+
+
+def _lowest_corners(shape, pixels):
+    """The lowest corner of each pixel, as an index among the grid's corners."""
+    return np.ravel_multi_index(np.unravel_index(pixels, shape), tuple(n + 1 for n in shape))
+
+
+def _pixel_strides(grid):
+    """The corners' strides along the two axes, swapped for a reflection (the quads stay
+    counter-clockwise in the grid's axes).
+    """
+    s0, s1 = grid.shape[1] + 1, 1
+    if grid.direction is not None and np.linalg.det(grid.direction) < 0:
+        s0, s1 = s1, s0
+    return s0, s1
+
+
+def _init_voxels(mesh, voxels, kwargs):
+    """Build the hexahedra of the ``voxels`` of ``mesh``'s grid (all of them for None)."""
+    laplacian = kwargs.pop("laplacian", "consistent")
+    stabilization = check_laplacian_options(laplacian, kwargs.pop("stabilization", 4.0))
+    if kwargs:
+        raise TypeError(f"{type(mesh).__name__} got unexpected keyword arguments {sorted(kwargs)}")
+    shape = mesh.shape
+    strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
+    fi, fo, ci, co, signs, counts = voxel_faces(shape, strides, voxels)
+    lowest = _lowest_corners(shape, np.arange(int(np.prod(shape))) if voxels is None else voxels)
+    cell_vertices = lowest[:, None] + CORNER_BITS @ strides
+    if voxels is None:
+        points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction)
+    else:
+        mesh.corners = unique_values(cell_vertices.ravel())
+        points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
+        fi, cell_vertices = np.searchsorted(mesh.corners, fi), np.searchsorted(mesh.corners, cell_vertices)
+    if mesh.direction is not None and np.linalg.det(mesh.direction) < 0:
+        signs = -signs  # a reflection turns every face
+    geometry = box_geometry(points, fi, counts, cell_vertices, mesh.spacing, mesh.direction, signs)
+    mesh._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..domains.image import ImageGrid
+from ..domains.image import GridBand, ImageGrid
 from ..solvers import solve_gradient_integration, solve_integration
 
 __all__ = ["IntegrationSystem", "boundary_weight_scale", "integrate", "integration_system"]
@@ -96,7 +96,7 @@ def boundary_weight_scale(work, h, sources):
 
 
 def grid_scale_hint(domain, h):
-    """An estimate of :func:`boundary_weight_scale` on an image grid, without padding or
+    """An estimate of :func:`boundary_weight_scale` on an image grid (or its band), without padding or
     assembling it: the scale at the centre vertex of a 3 x 3 (x 3) grid of the same spacing
     and axes (every vertex inside a grid has that stiffness row; padding changes a few of
     zeta's rows, and their median little: on voxel balls of spacing 1:1:1 and 0.6:0.6:1.5
@@ -109,7 +109,7 @@ def grid_scale_hint(domain, h):
     >>> round(grid_scale_hint(ImageGrid((50, 50, 50)), 1.0), 3), grid_scale_hint(ImageGrid((4, 4, 40)), 1.0) <= 1.0
     (0.426, True)
     """
-    if not isinstance(domain, ImageGrid):
+    if not isinstance(domain, (ImageGrid, GridBand)):
         return None
     dim = len(domain.shape)
     small = ImageGrid((3,) * dim, spacing=domain.spacing, direction=domain.direction)

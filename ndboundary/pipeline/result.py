@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..domains.image import GridBand
 from ..levelset import LevelSet, marching_simplices
 from ..partition import partition
 from .band import can_cut, extend_outside
@@ -100,9 +101,15 @@ class _RegionMethods:
         return self._cut()[0].region_boundary(r)
 
     def region_measures(self):
-        """Area / volume of every relaxed region, shape (n_regions,): they sum to the domain's."""
+        """Area / volume of every relaxed region, shape (n_regions,): they sum to the domain's
+        (on the band of an image, :class:`~ndboundary.domains.image.GridBand`, to the whole
+        image's: the pixels outside the band count whole).
+        """
         cut, whole = self._cut()
-        return cut.region_measures() + whole
+        measures = cut.region_measures() + whole
+        if isinstance(self.domain, GridBand):
+            measures = measures + self.domain.measures_outside(self.classes)
+        return measures
 
 
 @dataclass

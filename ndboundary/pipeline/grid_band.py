@@ -1,0 +1,137 @@
+"""The band of a label image, found on its index grid: :func:`image_band`.
+
+On a pixel or voxel grid the band of :mod:`ndboundary.pipeline.band` needs no mesh: zeta
+is made of the faces between pixels of different labels, and the graph distance along
+the grid's edges is a weighted L1 distance, which separates over the axes (two sweeps
+per axis, each a minimum with the neighbour's distance plus one step). The band, cut as
+a :class:`~ndboundary.domains.image.GridBand`, is then relaxed as the band of the whole
+grid would be, without the whole grid ever being built: the cost of a large image
+follows its boundaries, and its memory the band.
+"""
+
+from __future__ import annotations
+
+from itertools import product
+
+import numpy as np
+
+__all__ = ["corner_distances", "grid_mean_edge_length", "image_band", "zeta_corners"]
+
+
+def zeta_corners(codes):
+    """The corners of the faces between pixels of different labels: zeta's vertices.
+
+    Parameters
+    ----------
+    codes : ndarray of shape ``shape``
+        Each pixel's label (any type that compares).
+
+    Returns
+    -------
+    ndarray of bool of shape ``shape + 1``
+        Over the grid's corners (C order, as :class:`~ndboundary.ImageGrid` numbers them).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.grid_band import zeta_corners
+    >>> zeta_corners(np.array([[0, 1], [0, 1]])).astype(int).tolist()  # the middle column
+    [[0, 1, 0], [0, 1, 0], [0, 1, 0]]
+    """
+    shape, dim = codes.shape, codes.ndim
+    hot = np.zeros(tuple(n + 1 for n in shape), dtype=bool)
+    for a in range(dim):
+        # the face between pixels i and i + 1 along a
+        differs = codes[(slice(None),) * a + (slice(1, None),)] != codes[(slice(None),) * a + (slice(None, -1),)]
+        for offsets in product((0, 1), repeat=dim - 1):
+            # its corners: plane i + 1 along a, pixel j and j + 1 along the other axes
+            steps = iter(offsets)
+            where = tuple(slice(1, n) if b == a else slice(o := next(steps), o + n) for b, n in enumerate(shape))
+            hot[where] |= differs
+    return hot
+
+
+def corner_distances(sources, steps, limit):
+    """The graph distance of every corner from the ``sources`` along the grid's edges.
+
+    Parameters
+    ----------
+    sources : ndarray of bool
+        Over the corners (any number of axes).
+    steps : sequence of float
+        The length of an edge along each axis (in the unit the distances are wanted in).
+    limit : float
+        Distances above it are set to ``inf`` (as the band's Dijkstra stops there).
+
+    Returns
+    -------
+    ndarray of float64, the shape of ``sources``
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.grid_band import corner_distances
+    >>> hot = np.zeros((3, 4), dtype=bool); hot[0, 0] = True
+    >>> corner_distances(hot, (1.0, 0.5), 2.0).tolist()
+    [[0.0, 0.5, 1.0, 1.5], [1.0, 1.5, 2.0, inf], [2.0, inf, inf, inf]]
+    """
+    d = np.where(sources, 0.0, np.inf)
+    for a, step in enumerate(steps):
+        v = np.moveaxis(d, a, 0)  # a view: the sweeps write into d
+        for i in range(1, v.shape[0]):
+            np.minimum(v[i], v[i - 1] + step, out=v[i])
+        for i in range(v.shape[0] - 2, -1, -1):
+            np.minimum(v[i], v[i + 1] + step, out=v[i])
+    d[d > limit] = np.inf
+    return d
+
+
+def grid_mean_edge_length(shape, spacing):
+    """The mean length of a grid's edges (as :meth:`~ndboundary.Domain.mean_edge_length`
+    measures it on the whole grid), from its shape.
+
+    Examples
+    --------
+    >>> from ndboundary.pipeline.grid_band import grid_mean_edge_length
+    >>> grid_mean_edge_length((1, 1), (1.0, 3.0))  # two edges of each length
+    2.0
+    """
+    counts = [n * np.prod([m + 1 for b, m in enumerate(shape) if b != a]) for a, n in enumerate(shape)]
+    return float(np.dot(counts, spacing) / np.sum(counts))
+
+
+def image_band(codes, spacing, h, width):
+    """The pixels of a label image within the band of half-width ``width`` around zeta.
+
+    The pixels holding a corner within graph distance ``width * h`` of zeta's corners
+    along the grid's edges: the elements :func:`~ndboundary.pipeline.band.band_elements`
+    selects on the whole grid.
+
+    Parameters
+    ----------
+    codes : ndarray
+        The image's labels (any type that compares).
+    spacing : sequence of float
+        The distance between pixel centres along each axis.
+    h : float
+        The unit of ``width``: the whole grid's mean edge length.
+    width : float
+
+    Returns
+    -------
+    ndarray of int64
+        The band's pixels, as increasing indices in C order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.grid_band import image_band
+    >>> codes = (np.arange(10) >= 5).astype(int).reshape(1, 10)  # one row: 0 0 0 0 0 1 1 1 1 1
+    >>> image_band(codes, (1.0, 1.0), 1.0, 1.0).tolist()  # pixels touching corners 4 to 6
+    [3, 4, 5, 6]
+    """
+    near = corner_distances(zeta_corners(codes), [s / h for s in spacing], width) <= width
+    inside = np.zeros(codes.shape, dtype=bool)
+    for corner in product((0, 1), repeat=codes.ndim):
+        inside |= near[tuple(slice(c, c + n) for c, n in zip(corner, codes.shape, strict=True))]
+    return np.flatnonzero(inside)
