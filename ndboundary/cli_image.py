@@ -35,16 +35,35 @@ def is_image(path):
     return str(path).lower().endswith(IMAGE_READ_SUFFIXES)
 
 
-def voxel_values(result):
-    """Phi of a two-region relaxation at the pixel centres, shape ``grid.shape``: the mean
-    of each pixel's corners (phi is linear along the grid's edges).
+def voxel_values(result, labels):
+    """Phi of a two-region relaxation of the image ``labels`` at the pixel centres, shape
+    ``labels.shape``: the mean of each pixel's corners (phi is linear along the grid's edges).
+
+    On the band of a large image (:class:`~ndboundary.domains.image.GridBand`), the pixels
+    outside it get their region's side of 1/2, ``1/2 -/+ c`` with ``c`` one more than the
+    largest ``|phi - 1/2|`` on the band: the level set ``phi = 1/2`` is the band's, and the
+    whole grid's phi is never built.
     """
-    grid = result.domain
-    phi = result.phi.reshape(tuple(n + 1 for n in grid.shape))
-    out = np.zeros(grid.shape)
-    for corner in np.ndindex(*(2,) * len(grid.shape)):
-        out += phi[tuple(slice(c, c + n) for c, n in zip(corner, grid.shape, strict=True))]
-    return out / 2 ** len(grid.shape)
+    from .domains.image import GridBand
+
+    domain = result.domain
+    corners = tuple(n + 1 for n in domain.shape)
+    phi = result.phi
+    if isinstance(domain, GridBand):
+        c = float(np.abs(phi - 0.5).max()) + 1.0
+        out = np.where(labels == result.classes[1], 0.5 + c, 0.5 - c).reshape(-1)
+        full = np.zeros(int(np.prod(corners)))
+        full[domain.corners] = phi
+        phi = full
+    phi = phi.reshape(corners)
+    mean = np.zeros(domain.shape)
+    for corner in np.ndindex(*(2,) * len(domain.shape)):
+        mean += phi[tuple(slice(c, c + n) for c, n in zip(corner, domain.shape, strict=True))]
+    mean /= 2 ** len(domain.shape)
+    if not isinstance(domain, GridBand):
+        return mean
+    out[domain.pixels] = mean.reshape(-1)[domain.pixels]
+    return out.reshape(domain.shape)
 
 
 def cmd_relax_image(args):
@@ -110,7 +129,7 @@ def cmd_relax_image(args):
     with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
         rest = iter(temporary)
         if args.output:
-            io.write_image(next(rest), voxel_values(res).astype(np.float32), spacing=image.spacing,
+            io.write_image(next(rest), voxel_values(res, labels).astype(np.float32), spacing=image.spacing,
                            origin=image.origin, direction=image.direction, overwrite=True)  # fmt: skip
         if args.boundary:
             if classes.size == 2:

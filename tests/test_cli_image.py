@@ -55,6 +55,22 @@ def test_two_label_image_phi_at_the_pixel_centres(tmp_path, capsys):
     assert curve.n_elements > 0
 
 
+def test_phi_of_a_large_image_relaxed_on_its_band_covers_every_pixel(tmp_path, capsys):
+    """A small disc on a large image is relaxed on its band: phi is written for every pixel,
+    the band's own values there, and outside it its side of 1/2."""
+    i, j = np.indices((300, 200))
+    disc = ((i - 150.3) ** 2 + (j - 99.6) ** 2 < 15.0**2).astype(np.uint8)
+    np.save(tmp_path / "disc.npy", disc)
+    for band, name in (("auto", "phi.npy"), ("none", "whole.npy")):
+        code, out, err = _run(capsys, tmp_path / "disc.npy", "-o", tmp_path / name, "--band", band)
+        assert code == 0, err
+    phi, whole = np.load(tmp_path / "phi.npy"), np.load(tmp_path / "whole.npy")
+    assert phi.shape == disc.shape and np.isfinite(phi).all()
+    np.testing.assert_array_equal(phi > 0.5, whole > 0.5)
+    r = np.hypot(i - 150.3, j - 99.6)
+    assert (phi[r > 60] < -1.0).all()  # outside the band: below every value of the band
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

@@ -188,3 +188,82 @@ def test_grid_scale_hint_is_close_to_the_padded_scale(spacing):
     result = relax_image(_ball(24, 0.3), spacing=spacing, band=None)
     hint = grid_scale_hint(result.domain, result.params["h"])
     assert abs(hint / result.params["lam_scale"] - 1) < 0.1
+
+
+def _voronoi(shape, n_sites, spacing, seed=0):
+    """Labels of the nearest of ``n_sites`` random sites, by pixel centre."""
+    x = np.indices(shape).reshape(len(shape), -1).T * np.asarray(spacing)
+    sites = np.random.default_rng(seed).uniform(0, 1, (n_sites, len(shape))) * np.max(x, axis=0)
+    return np.argmin(((x[:, None, :] - sites[None]) ** 2).sum(axis=-1), axis=1).reshape(shape)
+
+
+@pytest.mark.parametrize(
+    ("labels", "spacing"),
+    [(_ball(30, 0.2), (1.0, 0.5, 2.0)), (_voronoi((50, 60), 2, (1.5, 1.0)), (1.5, 1.0))],
+    ids=["ball", "halves-2d"],
+)
+def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spacing):
+    """relax_image cuts the band on the image's index grid: the same pixels, operators and
+    phi as the band the whole grid's relaxation cuts, and the measures of the whole image."""
+    from ndboundary import relax
+    from ndboundary.domains.image import GridBand
+
+    result = relax_image(labels, spacing=spacing, band=4.0)
+    band = result.domain
+    assert isinstance(band, GridBand) and band.pixels.size < labels.size
+    grid = ImageGrid(labels.shape, spacing=spacing)
+    whole = relax(grid, labels.ravel(), on="elements", band=4.0)
+    mask = np.zeros(labels.size, dtype=bool)
+    mask[band.pixels] = True
+    sub, corners = grid.subdomain(mask)
+    np.testing.assert_array_equal(band.corners, corners)
+    assert abs(band.K - sub.K).max() == 0 and np.array_equal(band.mass, sub.mass)
+    np.testing.assert_allclose(result.phi, whole.phi[corners], atol=1e-12)
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-12)
+    assert result.region_measures().sum() == pytest.approx(grid.A.sum(), rel=1e-12)
+    assert result.params["band_vertices"] == band.n_vertices
+
+
+def test_many_regions_of_an_image_band_partition_the_whole_image():
+    from ndboundary import relax
+
+    labels = _voronoi((26, 28, 30), 5, (1.0, 1.0, 1.0))
+    result = relax_image(labels, band=4.0)
+    whole = relax(ImageGrid(labels.shape), labels.ravel(), on="elements", band=4.0)
+    assert result.domain.n_elements < labels.size
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-10)
+    a, b = result.interfaces(), whole.interfaces()
+    np.testing.assert_allclose(np.sort(a.points, axis=0), np.sort(b.points, axis=0), atol=1e-10)
+    assert len(a.junctions()) == len(b.junctions()) > 0
+    for r in range(5):
+        assert result.region_boundary(r).measure() == pytest.approx(whole.region_boundary(r).measure(), rel=1e-10)
+
+
+def test_a_large_image_with_a_small_boundary_is_relaxed_on_its_band_by_default():
+    """band="auto": the band of the grid's scale hint, cut when it holds under 70 % of the
+    pixels; the relaxed disc is as faithful as on the whole grid, and its measures count
+    the pixels outside the band."""
+    from ndboundary.domains.image import GridBand
+
+    i, j = np.indices((300, 300))
+    disc = (i - 150.3) ** 2 + (j - 149.6) ** 2 < 20.0**2
+    result = relax_image(disc)
+    assert isinstance(result.domain, GridBand) and result.domain.pixels.size < 0.2 * disc.size
+    curve = result.level_set()
+    d = np.abs(np.linalg.norm(curve.points - [150.3, 149.6], axis=1) - 20.0)
+    assert curve.is_closed() and curve.n_components() == 1 and d.mean() < 0.1
+    np.testing.assert_allclose(result.region_measures(), [disc.size - np.pi * 400, np.pi * 400], rtol=0.01)
+    whole = relax_image(disc, band=None)
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("pixels", "match"),
+    [(np.array([3, 2]), "increasing"), (np.array([0, 64]), r"increasing indices in \[0, 64\)"),
+     (np.array([], dtype=int), "non-empty"), (np.array([0.5]), "pixel indices")],
+)  # fmt: skip
+def test_grid_band_refuses_bad_pixels(pixels, match):
+    from ndboundary.domains.image import GridBand
+
+    with pytest.raises(ValueError, match=match):
+        GridBand((4, 4, 4), pixels)
