@@ -13,7 +13,16 @@ from .pipeline.integration import grid_scale_hint
 from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
 from .pipeline.relaxer import Relaxer
 
-__all__ = ["relax_image"]
+__all__ = ["REACH_SCALE", "relax_image"]
+
+#: The boundary weight's scale (:func:`~ndboundary.pipeline.integration.boundary_weight_scale`)
+#: of the meshes on which the quads' and hexahedra's ``band_reach`` was measured, by number
+#: of axes (``quads-80`` and ``hex-40`` of ``benchmarks/band.py``, the width forced): an
+#: image's band widens only for a scale below the one its reach already holds. On voxel
+#: balls of 64^3 and 96^3, the band of 12 h lay within 0.009 h of the whole grid's level
+#: set on average and 0.027 h at most (targets 0.01 h and 0.05 h), at half the cost of the
+#: 22.8 h that the grid's own scale (0.43) widens it to for other meshes.
+REACH_SCALE = {2: 0.94, 3: 0.48}
 
 
 def relax_image(labels, *, spacing=None, origin=None, direction=None, background=None, **params):
@@ -50,9 +59,11 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         (:class:`~ndboundary.domains.image.GridBand`; ``result.domain.pixels`` names its
         pixels): the whole grid is then never built, and the cost follows the boundaries.
         The band is found on the image's index grid, as the whole grid's would be
-        (:mod:`ndboundary.pipeline.grid_band`); with ``band="auto"`` its width is set by
-        :func:`~ndboundary.pipeline.integration.grid_scale_hint`, the grid's own
-        boundary weight, instead of one measured on a first band. The regions' measures
+        (:mod:`ndboundary.pipeline.grid_band`); with ``band="auto"`` it is the domain's
+        ``band_reach`` (12 h), widened for a weaker boundary term, fewer smoothing
+        passes, or a grid whose boundary weight
+        (:func:`~ndboundary.pipeline.integration.grid_scale_hint`) is below that of the
+        meshes the reach was measured on (:data:`REACH_SCALE`). The regions' measures
         count the pixels outside the band whole.
 
     Raises
@@ -109,9 +120,10 @@ def _band_pixels(codes, geometry, direction, params):
 
     A number ``band`` cuts the band of that width whenever it leaves pixels out. ``"auto"``
     cuts the band of :func:`~ndboundary.pipeline.band.band_width` for the grid's boundary
-    weight, on grids of :data:`~ndboundary.pipeline.band.AUTO_BAND_MIN_VERTICES` corners or
-    more, when it holds at most :data:`~ndboundary.pipeline.band.AUTO_BAND_MAX_SHARE` of the
-    pixels (the whole grid costs no more beyond, and its solve is exact).
+    weight relative to :data:`REACH_SCALE`, on grids of
+    :data:`~ndboundary.pipeline.band.AUTO_BAND_MIN_VERTICES` corners or more, when it holds
+    at most :data:`~ndboundary.pipeline.band.AUTO_BAND_MAX_SHARE` of the pixels (the whole
+    grid costs no more beyond, and its solve is exact).
     """
     shape, spacing, _ = geometry
     band = params.get("band", "auto")
@@ -133,7 +145,7 @@ def _band_pixels(codes, geometry, direction, params):
         if np.prod([n + 1 for n in shape]) < AUTO_BAND_MIN_VERTICES:
             return None
         proto = ImageGrid((1,) * len(shape), spacing=spacing, direction=direction)  # a pixel of the grid
-        width = band_width(p, proto, grid_scale_hint(proto, h))
+        width = band_width(p, proto, grid_scale_hint(proto, h) / REACH_SCALE[len(shape)])
         if width is None:
             return None
     else:

@@ -165,18 +165,20 @@ def _ball(n, radius):
 
 
 def test_a_grid_whose_band_would_hold_most_of_it_is_relaxed_whole_without_a_band(monkeypatch):
-    # the first band holds under 70 % of this grid and the one its scale widens it to
-    # more: the grid's scale hint sends it to the whole domain without padding a band
-    from ndboundary import Relaxer
+    # relaxed on the whole ImageGrid: the first band holds under 70 % of this grid and the
+    # one its scale widens it to more; the grid's scale hint sends it to the whole domain
+    # without padding a band
+    from ndboundary import Relaxer, relax
 
     mask = _ball(40, 0.2)
-    whole = relax_image(mask, band=None)
+    grid = ImageGrid(mask.shape)
+    whole = relax(grid, mask.ravel(), on="elements", band=None)
 
     def padded_band(*args, **kwargs):
         raise AssertionError("a band was padded to read its scale")
 
     monkeypatch.setattr(Relaxer, "_lam_scale", padded_band)
-    auto = relax_image(mask)
+    auto = relax(grid, mask.ravel(), on="elements")
     assert "band" not in auto.params
     np.testing.assert_array_equal(auto.phi, whole.phi)
 
