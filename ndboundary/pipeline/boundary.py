@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import functools
 
 import numpy as np
 import scipy.sparse as sp
@@ -13,7 +13,6 @@ from .band import can_cut, element_rings
 __all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary"]
 
 
-@dataclass
 class Boundary:
     """The jagged boundary zeta between the two regions.
 
@@ -30,7 +29,8 @@ class Boundary:
         For vertex labels, the edges whose ends differ.
     facets : ndarray of int of shape (n_facets, k) or None
         For element labels, the facets between elements of different labels: the
-        jagged boundary as a complex over the domain's vertices.
+        jagged boundary as a complex over the domain's vertices. The relaxation needs
+        only the vertices: the facets are sought when first read (given as a callable).
 
     Examples
     --------
@@ -43,19 +43,27 @@ class Boundary:
     (True, (20, 121), (20, 2), (20, 2))
     """
 
-    sources: np.ndarray
-    S: sp.csr_matrix
-    points: np.ndarray
-    edges: np.ndarray | None = None
-    facets: np.ndarray | None = None
+    def __init__(self, sources, S, points, edges=None, facets=None):
+        self.sources, self.S, self.points, self.edges = sources, S, points, edges
+        self._facets = facets
+
+    @property
+    def facets(self):
+        """The facets between the labels (sought once, when first read)."""
+        if callable(self._facets):
+            self._facets = self._facets()
+        return self._facets
+
+    def __repr__(self):
+        return f"Boundary(n_sources={self.sources.size}, n_points={self.points.shape[0]})"
 
 
 def element_boundary(domain, region1):
     """Zeta for element labels: the vertices shared by elements of both labels.
 
-    The facets between the labels are sought among the elements that touch zeta's
-    vertices only (every such facet lies there), so that beyond the linear passes of the
-    incidence the cost follows zeta.
+    The facets between the labels, which the relaxation does not need, are sought when
+    first read, among the elements that touch zeta's vertices only (every such facet lies
+    there), so that beyond the linear passes of the incidence the cost follows zeta.
 
     Examples
     --------
@@ -70,7 +78,8 @@ def element_boundary(domain, region1):
     S = sp.csr_matrix(
         (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
     )
-    return Boundary(sources, S, domain.points[sources], facets=_interface_facets(domain, region1, sources))
+    facets = functools.partial(_interface_facets, domain, region1, sources)
+    return Boundary(sources, S, domain.points[sources], facets=facets)
 
 
 def _interface_facets(domain, region1, sources):
