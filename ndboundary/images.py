@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import sys
+import time
+
 import numpy as np
 
 from ._validation import check_labels
@@ -59,7 +62,8 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         (:class:`~ndboundary.domains.image.GridBand`; ``result.domain.pixels`` names its
         pixels): the whole grid is then never built, and the cost follows the boundaries.
         The band is found on the image's index grid, as the whole grid's would be
-        (:mod:`ndboundary.pipeline.grid_band`); with ``band="auto"`` it is the domain's
+        (:mod:`ndboundary.pipeline.grid_band`; ``result.timings["image band"]``: finding
+        it and building its mesh); with ``band="auto"`` it is the domain's
         ``band_reach`` (12 h), widened for a weaker boundary term, fewer smoothing
         passes, or a grid whose boundary weight
         (:func:`~ndboundary.pipeline.integration.grid_scale_hint`) is below that of the
@@ -91,6 +95,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     geometry = grid_geometry(labels.shape, 1.0 if spacing is None else spacing, 0.0 if origin is None else origin)
     direction = grid_direction(direction, labels.ndim)
     flat = labels.reshape(-1)
+    start = time.perf_counter()
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
     band = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
     if band is None:
@@ -103,10 +108,14 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         rest[pixels] = False
         counts = np.bincount(codes[rest].astype(np.intp), minlength=classes.size)
         domain.outside = dict(zip(classes.tolist(), (counts * float(np.prod(geometry[1]))).tolist(), strict=True))
+        locate = time.perf_counter() - start
+        if params.get("verbose"):
+            print(f"[ndboundary] {'image band':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
         # two labels: the band is the relaxation's; more: each region's band lies within it
         inner = None if classes.size == 2 else params.get("band", "auto")
         result = Relaxer(domain, _keep=False, _h=h).relax(flat[pixels], on="elements", **{**params, "band": inner})
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
+        result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}
     if background is not None:
         where = np.flatnonzero(result.classes == background)
         if where.size != 1:
