@@ -1,8 +1,9 @@
 """Voxel volumes: the time and peak memory of ``relax_image`` on a ball, end to end.
 
 Each run is a fresh process: the label volume (a ball of radius 0.32 n, its centre off the
-grid's symmetry, as ``images.py``'s ``ball64``), one ``relax_image`` with the defaults and
-its ``level_set()``; then, in the same process on the same volume, VTK's
+grid's symmetry, as ``images.py``'s ``ball64``; with ``--regions K`` the Voronoi partition
+of K random sites instead), one ``relax_image`` with the defaults and its ``level_set()``
+(for a partition, every region's boundary); then, in the same process on the same volume, VTK's
 ``vtkSurfaceNets3D`` (when the ``[bench]`` extra is installed), the peer whose ratio is
 printed. Prints every run, then the medians.
 
@@ -18,6 +19,7 @@ Usage::
     python benchmarks/images_speed.py 64            # three runs at 64^3
     python benchmarks/images_speed.py 96 --repeats 1
     python benchmarks/images_speed.py 64 --against ../release
+    python benchmarks/images_speed.py 128 --regions 16 --repeats 1
 """
 
 from __future__ import annotations
@@ -39,16 +41,31 @@ ONE_RUN = """
 import json, resource, time
 import numpy as np
 from ndboundary import relax_image
-n = {n}
+n, regions = {n}, {regions}
 x = np.indices((n, n, n)).reshape(3, -1).T - (n - 1) / 2 - np.array([0.17, -0.23, 0.31]) * n / 64
-mask = (np.linalg.norm(x, axis=1) < 0.32 * n).reshape(n, n, n)
+if regions:  # the Voronoi partition of random sites, by voxel centre
+    sites = np.random.default_rng(0).uniform(-n / 2, n / 2, (regions, 3))
+    mask = np.empty(n ** 3, dtype=np.int32)
+    for rows in np.array_split(np.arange(n ** 3), n):
+        mask[rows] = np.argmin(((x[rows, None, :] - sites[None]) ** 2).sum(axis=-1), axis=1)
+    mask = mask.reshape(n, n, n)
+else:
+    mask = (np.linalg.norm(x, axis=1) < 0.32 * n).reshape(n, n, n)
+del x
 t0 = time.perf_counter()
 result = relax_image(mask)
 t1 = time.perf_counter()
-surface = result.level_set()
+if regions:  # regions meet the image's border: their boundaries are open there
+    area = sum(result.region_boundary(r).measure() for r in range(regions))
+    closed = None
+else:
+    surface = result.level_set()
+    area, closed = surface.measure(), bool(surface.is_closed())
 t2 = time.perf_counter()
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
 try:  # the peer, on the same volume in the same process (the [bench] extra)
+    if regions:
+        raise ImportError("the peer runs on the ball")
     import sys
     sys.path.insert(0, {bench!r})
     from images_truths import surface_nets
@@ -59,13 +76,15 @@ try:  # the peer, on the same volume in the same process (the [bench] extra)
 except ImportError:
     peer_s = float("nan")
 print(json.dumps({{"relax_s": t1 - t0, "level_set_s": t2 - t1, "total_s": t2 - t0, "peak_gb": peak,
-                   "closed": bool(surface.is_closed()), "area": surface.measure(), "surface_nets_s": peer_s}}))
+                   "closed": closed, "area": area, "surface_nets_s": peer_s}}))
 """
 
 
-def one_run(n, source=None):
+def one_run(n, regions=0, source=None):
     """One fresh process's figures, with ndboundary from ``source`` if given."""
-    code = (FROM_SOURCE.format(source=str(source)) if source else "") + ONE_RUN.format(n=n, bench=str(HERE))
+    code = (FROM_SOURCE.format(source=str(source)) if source else "") + ONE_RUN.format(
+        n=n, regions=regions, bench=str(HERE)
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -84,18 +103,21 @@ def main():
     parser.add_argument("n", type=int, nargs="?", default=64, help="voxels a side (default 64)")
     parser.add_argument("--repeats", type=int, default=3, help="fresh processes (default 3)")
     parser.add_argument("--against", type=Path, help="another source tree, run alternately with this one")
+    parser.add_argument("--regions", type=int, default=0, help="a Voronoi partition of this many regions instead")
     args = parser.parse_args()
+    case = f"voronoi of {args.regions}" if args.regions else "ball"
     trees = ([("against", args.against.resolve())] if args.against else []) + [("this", None)]
     runs = {name: [] for name, _ in trees}
     for _ in range(args.repeats):
         for name, source in trees:
-            runs[name].append(one_run(args.n, source))
+            runs[name].append(one_run(args.n, args.regions, source))
             fields = (f"{k} {v:.6g}" if isinstance(v, float) else f"{k} {v}" for k, v in runs[name][-1].items())
-            print(f"{name} tree, ball {args.n}^3: " + ", ".join(fields), flush=True)
+            print(f"{name} tree, {case} {args.n}^3: " + ", ".join(fields), flush=True)
     med = {name: medians(r) for name, r in runs.items()}
     peer = med["this"]["surface_nets_s"]
-    print(f"this tree: {med['this']['total_s']:.2f} s, vtkSurfaceNets3D {peer:.3f} s in the same processes "
-          f"(ratio {med['this']['total_s'] / peer:.1f}x)")
+    if not args.regions:
+        print(f"this tree: {med['this']['total_s']:.2f} s, vtkSurfaceNets3D {peer:.3f} s in the same processes "
+              f"(ratio {med['this']['total_s'] / peer:.1f}x)")
     if args.against:
         ratio = {k: med["this"][k] / med["against"][k] for k in ("relax_s", "total_s", "peak_gb")}
         print("this tree / the other: " + ", ".join(f"{k} {v:.2f}" for k, v in ratio.items()))

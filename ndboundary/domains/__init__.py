@@ -7,7 +7,8 @@ module                     domain
 :mod:`.simplicial`         :class:`SimplicialComplex`: simplices of any dimension
 :mod:`.polygon`            :class:`PolygonMesh`: quads and general polygons
 :mod:`.polyhedral`         :class:`PolyhedralMesh`: hexahedra and general polyhedra
-:mod:`.image`              :class:`ImageGrid`: the pixels or voxels of a label image
+:mod:`.image`              :class:`ImageGrid`: the pixels or voxels of a label image;
+                           :class:`GridBand`: some of them (a large image's band)
 :mod:`.pointcloud`         :class:`PointCloud`: a kNN graph over data points
 :mod:`.delaunay`           :class:`DelaunayComplex`: Delaunay simplices over data
 =========================  ===================================================
@@ -16,7 +17,7 @@ module                     domain
 from .base import Domain, MeshQualityWarning
 from .simplex_geometry import kuhn_grid_stiffness
 from .delaunay import DelaunayComplex, delaunay_complex
-from .image import ImageGrid, PixelGrid, VoxelGrid
+from .image import GridBand, ImageGrid, PixelBand, PixelGrid, VoxelBand, VoxelGrid
 from .pointcloud import PointCloud
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
@@ -25,13 +26,16 @@ from .simplicial import SimplicialComplex
 __all__ = [
     "DelaunayComplex",
     "Domain",
+    "GridBand",
     "ImageGrid",
     "MeshQualityWarning",
+    "PixelBand",
     "PixelGrid",
     "PointCloud",
     "PolygonMesh",
     "PolyhedralMesh",
     "SimplicialComplex",
+    "VoxelBand",
     "VoxelGrid",
     "delaunay_complex",
     "kuhn_grid_stiffness",
