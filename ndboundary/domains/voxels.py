@@ -59,7 +59,7 @@ def voxel_faces(shape, strides, voxels=None):
 
     >>> fi, fo, ci, co, signs, counts = voxel_faces((1, 1, 3), (8, 4, 1), voxels=np.array([0, 1]))
     >>> counts, ci.reshape(2, 6)[:, 4:].tolist()
-    ([2, 2, 3], [[8, 9], [9, 10]])
+    ([4, 4, 3], [[8, 9], [9, 10]])
     """
     n = np.asarray(shape)
     if voxels is None:
