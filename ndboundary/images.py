@@ -111,8 +111,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         locate = time.perf_counter() - start
         if params.get("verbose"):
             print(f"[ndboundary] {'image band':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
-        # two labels: the band is the relaxation's; more: each region's band lies within it
-        inner = None if classes.size == 2 else params.get("band", "auto")
+        # two labels: the band is the relaxation's; more: each region's band of the same
+        # width lies within it
+        inner = None if classes.size == 2 else width
         result = Relaxer(domain, _keep=False, _h=h).relax(flat[pixels], on="elements", **{**params, "band": inner})
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
         result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}

@@ -158,12 +158,13 @@ class GridBand:
     label image around its boundaries, built without the whole grid.
 
     A :class:`PixelBand` (2-D, a :class:`~ndboundary.PolygonMesh` of quadrilaterals) or a
-    :class:`VoxelBand` (3-D, a :class:`~ndboundary.PolyhedralMesh` of hexahedra) holds the
-    ``pixels`` of the grid ``ImageGrid(shape, spacing=, origin=, direction=)``, in that
-    order, over the corners they hold (increasing in the grid's C order), with the same
-    geometry, operators and subdomains as the whole grid's (its
-    :meth:`~ndboundary.Domain.subdomain` of the same pixels). :func:`~ndboundary.relax_image`
-    relaxes a large image on it, so that its cost follows the boundaries, not the image.
+    :class:`VoxelBand` (3-D, a :class:`~ndboundary.PolyhedralMesh` of hexahedra) has the
+    ``pixels`` of the grid ``ImageGrid(shape, spacing=, origin=, direction=)`` as its
+    elements, in that order, and the corners they hold as its vertices, in the grid's C
+    order: the mesh, geometry and operators of the whole grid's
+    :meth:`~ndboundary.Domain.subdomain` of the same pixels, built from their indices.
+    :func:`~ndboundary.relax_image` relaxes a large image on it, so that its cost follows
+    the boundaries, not the image.
 
     Attributes
     ----------
