@@ -310,9 +310,11 @@ def ragged_next(offsets):
     sizes = np.diff(offsets)
     if sizes.size and sizes.min() == sizes.max():
         m = int(sizes[0])
-        index = np.arange(offsets[-1]).reshape(-1, m)
-        owner = np.arange(sizes.size).repeat(m)
-        return owner, np.roll(index, -1, axis=1).ravel(), np.roll(index, 1, axis=1).ravel()
+        nxt = np.arange(1, offsets[-1] + 1).reshape(-1, m)
+        nxt[:, -1] -= m
+        prv = np.arange(-1, offsets[-1] - 1).reshape(-1, m)
+        prv[:, 0] += m
+        return np.arange(sizes.size).repeat(m), nxt.ravel(), prv.ravel()
     owner = np.repeat(np.arange(sizes.size), sizes)
     pos = np.arange(offsets[-1]) - offsets[owner]
     nxt = offsets[owner] + (pos + 1) % sizes[owner]

@@ -98,13 +98,17 @@ def _cell_stiffness_shared(Ge, A, Xc, stabilization):
     if n < 64:
         return _cell_stiffness(Ge, A, Xc, stabilization), np.arange(n)
     key = np.ascontiguousarray(np.concatenate([Ge.reshape(n, -1), A[:, None]], axis=1))
-    rows = key.view(np.dtype((np.void, key.dtype.itemsize * key.shape[1]))).ravel()
-    _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
-    if 4 * first.size > n:
-        return _cell_stiffness(Ge, A, Xc, stabilization), np.arange(n)
-    which = inverse.ravel()
+    if (key == key[0]).all():  # one shape only (a voxel grid): no need to sort the keys
+        first, which = np.zeros(1, dtype=np.intp), np.zeros(n, dtype=np.intp)
+    else:
+        rows = key.view(np.dtype((np.void, key.dtype.itemsize * key.shape[1]))).ravel()
+        _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+        if 4 * first.size > n:
+            return _cell_stiffness(Ge, A, Xc, stabilization), np.arange(n)
+        which = inverse.ravel()
     size = np.abs(Xc).max(axis=(1, 2))
-    own = np.flatnonzero(np.abs(Xc - Xc[first][which]).max(axis=(1, 2)) > 1e-9 * size)
+    reference = Xc[first[0]] if first.size == 1 else Xc[first][which]  # each cell's representative
+    own = np.flatnonzero(np.abs(Xc - reference).max(axis=(1, 2)) > 1e-9 * size)
     Ke = _cell_stiffness(Ge[first], A[first], Xc[first], stabilization)
     if own.size:
         which[own] = first.size + np.arange(own.size)
