@@ -13,6 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .._compiled import ThreadedMatvec
 from .cholesky import factorize_spd
 from .common import SolveInfo, cg, one_blas_thread, relres, warn_unconverged
 
@@ -70,7 +71,8 @@ def solve_heat(mass, K, t, b, *, rtol=1e-10, maxiter=2000):
     # M + t K applied as mass x + t (K x): the sum of the two matrices is never formed
     # (on a neighbour graph's stiffness, hundreds of entries a row, forming it cost as
     # much as a tenth of the iterations)
-    A = spla.LinearOperator(K.shape, matvec=lambda x: mass * x + t * (K @ x), dtype=np.float64)
+    Kx = ThreadedMatvec(K)
+    A = spla.LinearOperator(K.shape, matvec=lambda x: mass * x + t * Kx(x), dtype=np.float64)
     dinv = 1.0 / (mass + t * K.diagonal())
     P = spla.LinearOperator(K.shape, matvec=lambda r: dinv * r, dtype=np.float64)
     t1 = time.perf_counter()

@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .._compiled import ThreadedMatvec
 from .amg import AMG_DENSE_ROWS, amg_preconditioner, light_vertex_jacobi
 from .cache import cached, orderings_of
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
@@ -349,11 +350,11 @@ def _q_operator(system):
     """
     K, mass, S, lam, mu, _rhs = system
     minv = 1.0 / mass
-    St = S.T.tocsr()
+    St, Kmul = S.T.tocsr(), ThreadedMatvec(K)
 
     def qmul(x):
-        Kx = K @ x
-        return K @ (minv * Kx) + mu * Kx + lam * (St @ (S @ x))
+        Kx = Kmul(x)
+        return Kmul(minv * Kx) + mu * Kx + lam * (St @ (S @ x))
 
     n = K.shape[0]
     return spla.LinearOperator((n, n), matvec=qmul, dtype=np.float64)
@@ -461,8 +462,8 @@ def solve_gradient_integration(K, S, lam, rhs, *, rtol=1e-10, maxiter=1000, meth
         # neighbour graphs: K x + lam S^T (S x), the sum never formed (hundreds of entries
         # a row: forming it cost as much as a tenth of the iterations)
         name = "pcg-jacobi"
-        St = S.T.tocsr()
-        A = spla.LinearOperator((n, n), matvec=lambda x: K @ x + lam * (St @ (S @ x)), dtype=np.float64)
+        St, Kx = S.T.tocsr(), ThreadedMatvec(K)
+        A = spla.LinearOperator((n, n), matvec=lambda x: Kx(x) + lam * (St @ (S @ x)), dtype=np.float64)
         diag = K.diagonal() + lam * np.asarray(S.multiply(S).sum(axis=0)).ravel()
         P = sp.diags(1.0 / np.where(diag > 0, diag, 1.0))  # an empty row (no stencil, no pin) stays as it is
     t1 = time.perf_counter()
