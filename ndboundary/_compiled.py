@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._kernels import kernel
-from ._threads import available_threads
+from ._threads import available_threads, shared_pool
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -377,6 +377,5 @@ class ThreadedMatvec:
         x = np.ascontiguousarray(x, dtype=np.float64)
         y = np.empty(self.K.shape[0])
         K = self.K
-        with ThreadPoolExecutor(len(self.blocks)) as pool:
-            list(pool.map(lambda rows: _csr_rows(K.indptr, K.indices, self.data, x, y, *rows), self.blocks))
+        list(shared_pool().map(lambda rows: _csr_rows(K.indptr, K.indices, self.data, x, y, *rows), self.blocks))
         return y

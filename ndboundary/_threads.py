@@ -8,7 +8,7 @@ import os
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["available_threads", "in_blocks"]
+__all__ = ["available_threads", "in_blocks", "shared_pool"]
 
 
 def available_threads():
@@ -32,6 +32,26 @@ def available_threads():
     if limit.strip().isdigit() and int(limit) > 0:
         return max(1, min(cores, int(limit)))
     return max(1, cores)
+
+
+_SHARED = {}
+
+
+def shared_pool():
+    """One pool of :func:`available_threads` threads for the whole process, started when
+    first asked for: for work split a few ways many times over (a product per iteration of a
+    solver), where starting threads each time would cost a sizeable part of the work.
+
+    Examples
+    --------
+    >>> shared_pool() is shared_pool()
+    True
+    """
+    threads = available_threads()
+    pool = _SHARED.get(threads)
+    if pool is None:
+        pool = _SHARED[threads] = ThreadPoolExecutor(threads, thread_name_prefix="ndboundary")
+    return pool
 
 
 def in_blocks(n, size, compute):
