@@ -817,3 +817,23 @@ def test_strong_aggregation_cuts_the_integration_iterations_on_thick_slices(monk
     assert strong.solver["integration"].method == "pcg-amg"
     assert strong.solver["integration"].iterations < 0.5 * every.solver["integration"].iterations
     np.testing.assert_allclose(strong.phi, every.phi, atol=1e-4)
+
+
+def test_products_on_several_threads_change_no_bit_of_the_relaxation(monkeypatch):
+    """The solvers multiply by the stiffness on several threads in blocks of rows, each row
+    summed in scipy's order: the relaxation is the same to the last bit as on one thread."""
+    from ndboundary import PointCloud, _compiled, relax
+    from ndboundary._threads import available_threads
+
+    if available_threads() < 2:
+        pytest.skip("one core: every product runs on one thread")
+    X = np.random.default_rng(0).normal(size=(1500, 6))
+    labels = X[:, 0] + 0.5 * X[:, 1] ** 2 > 0.3
+    cloud = PointCloud(X)
+    assert len(_compiled.ThreadedMatvec(cloud.K, min_entries=1000).blocks) > 1
+    monkeypatch.setattr(_compiled, "MIN_ENTRIES_PER_THREAD", 1000)
+    threaded = relax(cloud, labels, on="vertices", band=None)
+    monkeypatch.setattr(_compiled, "MIN_ENTRIES_PER_THREAD", 10**12)
+    single = relax(cloud, labels, on="vertices", band=None)
+    np.testing.assert_array_equal(threaded.phi, single.phi)
+    np.testing.assert_array_equal(threaded.u, single.u)
