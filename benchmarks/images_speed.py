@@ -55,13 +55,14 @@ del x
 t0 = time.perf_counter()
 result = relax_image(mask)
 t1 = time.perf_counter()
-if regions:  # regions meet the image's border: their boundaries are open there
-    area = sum(result.region_boundary(r).measure() for r in range(regions))
-    closed = None
+if regions:
+    surfaces = [result.region_boundary(r) for r in range(regions)]
 else:
-    surface = result.level_set()
-    area, closed = surface.measure(), bool(surface.is_closed())
+    surfaces = [result.level_set()]
 t2 = time.perf_counter()
+area = sum(s.measure() for s in surfaces)
+# regions meet the image's border: their boundaries are open there
+closed = None if regions else bool(surfaces[0].is_closed())
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
 try:  # the peer, on the same volume in the same process (the [bench] extra)
     if regions:

@@ -340,6 +340,11 @@ def _csr_rows(indptr, indices, data, x, y, start, stop):  # pragma: no cover - c
 
 #: entries below which one thread multiplies a matrix by a vector
 MIN_ENTRIES_PER_THREAD = 1_000_000
+#: mean entries a row below which one thread multiplies a matrix by a vector: on the short
+#: rows of a mesh's stiffness scipy's loop is the faster (a voxel band's 14.5 M entries, 26 a
+#: row: 9.3 ms on one thread, 12.9 ms on two), on a neighbour graph's long rows the threads
+#: (11.3 M entries, 564 a row: 15.6 ms on one, 10.0 ms on two)
+MIN_ENTRIES_PER_ROW = 100
 
 
 class ThreadedMatvec:
@@ -347,19 +352,20 @@ class ThreadedMatvec:
     (:func:`row_blocks`); the same bits as scipy's product, whose row sums run in the
     same order.
 
-    Conjugate gradients on a neighbour graph's stiffness (hundreds of entries a row) or on
-    a large band spend most of their time in this product, which scipy computes on one
-    thread. One block (scipy itself) for matrices under :data:`MIN_ENTRIES_PER_THREAD`
-    entries a thread, or without 32-bit indices.
+    Conjugate gradients on a neighbour graph's stiffness (hundreds of entries a row) spend
+    most of their time in this product, which scipy computes on one thread. One block
+    (scipy itself) for matrices under :data:`MIN_ENTRIES_PER_THREAD` entries a thread or
+    :data:`MIN_ENTRIES_PER_ROW` entries a row, or without 32-bit indices.
 
     Examples
     --------
     >>> import numpy as np, scipy.sparse as sp
-    >>> from ndboundary._compiled import ThreadedMatvec
-    >>> K = sp.random(50, 50, density=0.2, format="csr", random_state=0)
-    >>> x = np.arange(50.0)
-    >>> bool(np.array_equal(ThreadedMatvec(K, min_entries=10)(x), K @ x))
-    True
+    >>> from ndboundary._compiled import ThreadedMatvec, available_threads
+    >>> K = sp.random(400, 400, density=0.5, format="csr", random_state=0)  # 200 entries a row
+    >>> x = np.arange(400.0)
+    >>> product = ThreadedMatvec(K, min_entries=1000)
+    >>> len(product.blocks) > 1 or available_threads() == 1, bool(np.array_equal(product(x), K @ x))
+    (True, True)
     """
 
     def __init__(self, K, min_entries=None):
@@ -368,7 +374,8 @@ class ThreadedMatvec:
         per_thread = MIN_ENTRIES_PER_THREAD if min_entries is None else min_entries
         bounds = row_blocks(self.K.indptr, min_rows=max(1, int(per_thread * n / max(nnz, 1))))
         fits = self.K.indptr.dtype == np.int32 and self.K.indices.dtype == np.int32
-        self.blocks = list(zip(bounds[:-1], bounds[1:], strict=True)) if fits else [(0, n)]
+        long_rows = nnz >= MIN_ENTRIES_PER_ROW * n
+        self.blocks = list(zip(bounds[:-1], bounds[1:], strict=True)) if fits and long_rows else [(0, n)]
         self.data = self.K.data.astype(np.float64, copy=False)
 
     def __call__(self, x):

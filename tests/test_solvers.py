@@ -830,8 +830,9 @@ def test_products_on_several_threads_change_no_bit_of_the_relaxation(monkeypatch
     X = np.random.default_rng(0).normal(size=(1500, 6))
     labels = X[:, 0] + 0.5 * X[:, 1] ** 2 > 0.3
     cloud = PointCloud(X)
-    assert len(_compiled.ThreadedMatvec(cloud.K, min_entries=1000).blocks) > 1
+    monkeypatch.setattr(_compiled, "MIN_ENTRIES_PER_ROW", 1)
     monkeypatch.setattr(_compiled, "MIN_ENTRIES_PER_THREAD", 1000)
+    assert len(_compiled.ThreadedMatvec(cloud.K).blocks) > 1
     threaded = relax(cloud, labels, on="vertices", band=None)
     monkeypatch.setattr(_compiled, "MIN_ENTRIES_PER_THREAD", 10**12)
     single = relax(cloud, labels, on="vertices", band=None)
