@@ -248,7 +248,7 @@ def test_many_regions_of_an_image_band_partition_the_whole_image():
 
 
 def test_a_large_image_with_a_small_boundary_is_relaxed_on_its_band_by_default():
-    """band="auto": the band of the grid's scale hint, cut when it holds under 70 % of the
+    """band="auto": the band of the pixels' reach, cut when it holds under 70 % of the
     pixels; the relaxed disc is as faithful as on the whole grid, and its measures count
     the pixels outside the band."""
     from ndboundary.domains.image import GridBand
