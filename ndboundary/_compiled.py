@@ -4,7 +4,6 @@ of simplicial complexes.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 
 import numba
@@ -133,11 +132,10 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 
     bounds = row_blocks(indptr)
     blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
-    with ThreadPoolExecutor(len(blocks)) as pool:
-        for _ in range(passes):
-            # every row reads the previous sweep's rows only: the blocks are independent
-            list(pool.map(partial(one, A, B), blocks))
-            A, B = B, A
+    for _ in range(passes):
+        # every row reads the previous sweep's rows only: the blocks are independent
+        list(shared_pool().map(partial(one, A, B), blocks))
+        A, B = B, A
     return A[:, :d].copy() if d == 2 else A
 
 
@@ -383,6 +381,6 @@ class ThreadedMatvec:
             return self.K @ x
         x = np.ascontiguousarray(x, dtype=np.float64)
         y = np.empty(self.K.shape[0])
-        K = self.K
-        list(shared_pool().map(lambda rows: _csr_rows(K.indptr, K.indices, self.data, x, y, *rows), self.blocks))
+        rows = partial(_csr_rows, self.K.indptr, self.K.indices, self.data, x, y)
+        list(shared_pool().map(lambda block: rows(*block), self.blocks))
         return y
