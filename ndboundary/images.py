@@ -28,7 +28,7 @@ __all__ = ["REACH_SCALE", "relax_image"]
 REACH_SCALE = {2: 0.94, 3: 0.48}
 
 
-def relax_image(labels, *, spacing=None, origin=None, direction=None, background=None, **params):
+def relax_image(labels, *, spacing=None, origin=None, direction=None, background=None, pad=False, **params):
     """Relax the staircase boundaries of a 2-D label image or 3-D label volume.
 
     Parameters
@@ -49,6 +49,14 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         region) but whose own boundary is not wanted: recorded as
         ``result.params["background"]`` (its index among ``result.classes``) for the
         writers and the command line, which then leave it out.
+    pad : bool, default=False
+        Whether to split the pixels all of whose corners lie on the staircase into
+        pyramids (:func:`~ndboundary.relax`'s padding). By default they keep their shape
+        and take their neighbours' field
+        (:func:`~ndboundary.pipeline.field.fill_flat`): on a grid they are few and
+        scattered, the relaxed boundaries are the same to within a hundredth of a pixel
+        (``benchmarks/images.py``), and splitting them would turn the grid's uniform
+        voxels into a general polyhedral mesh that is rebuilt whole.
     **params
         Passed to :func:`~ndboundary.relax` (``lam``, ``smoothing``, ``band``, ...).
 
@@ -100,7 +108,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     band = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
     if band is None:
         grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
-        result = relax(grid, flat, on="elements", **params)
+        result = relax(grid, flat, on="elements", pad=pad, **params)
     else:
         pixels, h, width = band
         domain = GridBand(labels.shape, pixels, spacing=geometry[1], origin=geometry[2], direction=direction)
@@ -114,7 +122,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         # two labels: the band is the relaxation's; more: each region's band of the same
         # width lies within it
         inner = None if classes.size == 2 else width
-        result = Relaxer(domain, _keep=False, _h=h).relax(flat[pixels], on="elements", **{**params, "band": inner})
+        result = Relaxer(domain, _keep=False, _h=h).relax(
+            flat[pixels], on="elements", pad=pad, **{**params, "band": inner}
+        )
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
         result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}
     if background is not None:

@@ -220,7 +220,7 @@ def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spac
     band = result.domain
     assert isinstance(band, GridBand) and band.pixels.size < labels.size
     grid = ImageGrid(labels.shape, spacing=spacing, direction=direction)
-    whole = relax(grid, labels.ravel(), on="elements", band=4.3)
+    whole = relax(grid, labels.ravel(), on="elements", band=4.3, pad=False)
     assert result.params["band_vertices"] == whole.params["band_vertices"] == band.n_vertices
     mask = np.zeros(labels.size, dtype=bool)
     mask[band.pixels] = True
@@ -237,7 +237,7 @@ def test_many_regions_of_an_image_band_partition_the_whole_image():
 
     labels = _voronoi((26, 28, 30), 5, (1.0, 1.0, 1.0))
     result = relax_image(labels, band=4.0)
-    whole = relax(ImageGrid(labels.shape), labels.ravel(), on="elements", band=4.0)
+    whole = relax(ImageGrid(labels.shape), labels.ravel(), on="elements", band=4.0, pad=False)
     assert result.domain.n_elements < labels.size
     np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-10)
     a, b = result.interfaces(), whole.interfaces()
@@ -275,3 +275,16 @@ def test_grid_band_refuses_bad_pixels(pixels, match):
 
     with pytest.raises(ValueError, match=match):
         GridBand((4, 4, 4), pixels)
+
+
+def test_voxels_with_every_corner_on_the_staircase_take_their_neighbours_field():
+    """relax_image leaves the flat voxels whole (pad=False): the level set stays where the
+    pyramids of a padding would put it, to a few thousandths of a voxel."""
+    from ndboundary.metrics import level_set_distance
+
+    mask = _ball(32, 0.3)
+    kept, split = relax_image(mask), relax_image(mask, pad=True)
+    assert kept.params["pad"] is False and kept.field.shape[0] == mask.size < split.field.shape[0]
+    assert np.allclose(np.linalg.norm(kept.field, axis=1), 1.0)
+    d = level_set_distance(kept.level_set(), split.level_set())
+    assert d.mean() < 0.005 and d.max() < 0.03

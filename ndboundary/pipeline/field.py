@@ -5,7 +5,8 @@ Far from zeta the heat falls below the iterative solver's accuracy (absolute, no
 relative); there the direction comes from the graph distance to zeta instead, which
 points the same way and is exact in any range. For vertex labels, the elements whose
 vertices disagree (they straddle zeta) take the gradient of the region-1 indicator,
-which points from region 0 to region 1.
+which points from region 0 to region 1. Elements all of whose vertices receive heat, when
+padding did not split them, take the mean field of their neighbours.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from ..fields import normalize_rows
 
-__all__ = ["HEAT_FLOOR", "graph_distance", "initial_field"]
+__all__ = ["HEAT_FLOOR", "fill_flat", "graph_distance", "initial_field"]
 
 #: Where the heat is below this fraction of its maximum (or 100 times the solver's
 #: ``rtol``, if larger), its gradient is at the level of the solver's error: the field
@@ -100,4 +101,44 @@ def initial_field(domain, padded, region1, sources, u, rtol):
         ind = np.zeros(work.n_vertices)
         ind[:V] = region1
         X[padded.straddle] = normalize_rows(work.gradient(ind)[padded.straddle])
+    if padded.flat.any():
+        X = fill_flat(work, X, padded.flat)
+    return X
+
+
+def fill_flat(domain, X, flat):
+    """``X`` with each ``flat`` element's vector replaced by the normalised mean of its
+    neighbours' (not modified).
+
+    The heat is (nearly) equal at every vertex of an element all of whose vertices lie on
+    zeta, so its gradient there has no direction to follow. Unless padding split such
+    elements, they take their neighbours' direction, in Jacobi order: an element whose
+    neighbours are all flat waits for them, and one that no defined field reaches keeps a
+    zero vector.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.field import fill_flat
+    >>> mesh = kuhn_grid(4, 2)
+    >>> X = np.tile([1.0, 0.0], (mesh.n_elements, 1))
+    >>> flat = np.zeros(mesh.n_elements, dtype=bool)
+    >>> flat[[0, 1, 2]] = True
+    >>> X[flat] = [0.0, 1.0]
+    >>> fill_flat(mesh, X, flat)[:3].tolist()
+    [[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]]
+    """
+    X = X.copy()
+    todo = np.flatnonzero(flat)
+    X[todo] = 0.0
+    adjacency = domain.adjacency
+    while todo.size:
+        mean = adjacency[todo] @ X
+        norm = np.linalg.norm(mean, axis=1)
+        done = norm > 0.0
+        if not done.any():
+            break
+        X[todo[done]] = mean[done] / norm[done, None]
+        todo = todo[~done]
     return X

@@ -34,6 +34,9 @@ class Padded:
         Elements of region 1 (for vertex labels: holding a region-1 vertex).
     straddle : ndarray of bool of shape (work.n_elements,)
         For vertex labels, the elements whose vertices disagree (they cross zeta).
+    flat : ndarray of bool of shape (work.n_elements,)
+        The elements all of whose vertices receive heat that were left whole (padding
+        disabled): their field is their neighbours' (:func:`~ndboundary.pipeline.field.initial_field`).
     S : sparse matrix of shape (n_rows, work.n_vertices)
         The constraint rows of the integration: zeta's points, and one row per vertex of
         a domain component that zeta does not reach.
@@ -57,6 +60,7 @@ class Padded:
     parent: np.ndarray
     elem_region1: np.ndarray
     straddle: np.ndarray
+    flat: np.ndarray
     S: sp.csr_matrix
     targets: np.ndarray
 
@@ -72,7 +76,8 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     boundary : Boundary
     on : {"elements", "vertices"}
     enabled : bool, default=True
-        False leaves the domain as it is (the flat elements keep a zero gradient).
+        False leaves the domain as it is: the flat elements take their neighbours' field
+        (:attr:`Padded.flat`).
 
     Returns
     -------
@@ -104,6 +109,7 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     else:
         work, parent = domain, np.arange(domain.n_elements)
     split = np.flatnonzero(flat) if work is not domain else np.zeros(0, dtype=np.int64)
+    left = flat[parent] if work is domain else np.zeros(work.n_elements, dtype=bool)
     if on == "elements":
         elem_region1 = region1[parent]
         vert_region1 = domain.vertices_of(region1)
@@ -113,4 +119,4 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
         vert_region1 = region1
     S, targets = pinned_rows(domain, boundary.S, vert_region1)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()
-    return Padded(work, split, parent, elem_region1, straddle, S, targets)
+    return Padded(work, split, parent, elem_region1, straddle, left, S, targets)
