@@ -288,3 +288,26 @@ def test_voxels_with_every_corner_on_the_staircase_take_their_neighbours_field()
     assert np.allclose(np.linalg.norm(kept.field, axis=1), 1.0)
     d = level_set_distance(kept.level_set(), split.level_set())
     assert d.mean() < 0.005 and d.max() < 0.03
+
+
+@pytest.mark.parametrize("shape", [(9, 10, 11), (12, 13)])
+def test_a_grid_bands_components_edges_and_operators_are_its_meshs(shape):
+    """The band's vertex components come from its pixels on the index grid: the same
+    partition as the mesh's edges give, with pixels that touch at a corner joined. Its
+    voxels' edges, stiffness and gradient, built from the one box they all are, are
+    those of the general hexahedra, to the bit."""
+    from ndboundary import Domain, PolyhedralMesh
+    from ndboundary.domains.image import GridBand
+
+    rng = np.random.default_rng(1)
+    pixels = np.flatnonzero(rng.uniform(size=int(np.prod(shape))) < 0.12)
+    band = GridBand(shape, pixels, spacing=0.7)
+    n, comp = band.vertex_components
+    n_edges, comp_edges = Domain.vertex_components.func(band)
+    assert n == n_edges > 3
+    assert np.unique(np.stack([comp, comp_edges]), axis=1).shape[1] == n  # one to one
+    if len(shape) == 3:
+        np.testing.assert_array_equal(band.edges, PolyhedralMesh.build_edges(band))
+        for name, build in (("K", "stiffness"), ("G", "gradient"), ("adjacency", "adjacency")):
+            general = getattr(PolyhedralMesh, f"build_{build}")(band).tocsr()
+            assert abs(getattr(band, name) - general).max() == 0, name

@@ -15,13 +15,16 @@ computation per cell, and the band and the padding cut from it keep that geometr
 
 from __future__ import annotations
 
-import numpy as np
+from functools import cached_property
 
-from .._arrays import unique_values
+import numpy as np
+from scipy import ndimage
+
+from .._arrays import shared_facet_adjacency, unique_values
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
-from .voxels import CORNER_BITS, box_geometry, voxel_faces
+from .voxels import CORNER_BITS, box_geometry, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
 
 __all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
 
@@ -141,7 +144,31 @@ class PixelGrid(ImageGrid, PolygonMesh):
         PolygonMesh.__init__(self, points, quads, **kwargs)
 
 
-class VoxelGrid(ImageGrid, PolyhedralMesh):
+class _Voxels(PolyhedralMesh):
+    """Hexahedra that are the voxels of a grid: their stiffness and gradient are built
+    from the one box they all are (:func:`~ndboundary.domains.voxels.voxel_stiffness`).
+    """
+
+    def build_stiffness(self):
+        """The stiffness (see :class:`~ndboundary.PolyhedralMesh`), from one voxel's matrix."""
+        if self.laplacian != "consistent":
+            return super().build_stiffness()
+        return voxel_stiffness(self)
+
+    def build_gradient(self):
+        """The gradient operator (see :class:`~ndboundary.PolyhedralMesh`), in CSR form directly."""
+        return voxel_gradient(self)
+
+    def build_edges(self):
+        """The unique edges, ``i < j``, from the voxels' corners without a sort."""
+        return voxel_edges(self)
+
+    def build_adjacency(self):
+        """Voxels sharing a face: each face is listed once, and every voxel has six."""
+        return shared_facet_adjacency(self.cell_faces, np.repeat(np.arange(self.n_elements), 6), self.n_elements)
+
+
+class VoxelGrid(ImageGrid, _Voxels):
     """The voxels of a 3-D volume (see :class:`ImageGrid`)."""
 
     def __init__(self, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
@@ -150,7 +177,6 @@ class VoxelGrid(ImageGrid, PolyhedralMesh):
             raise ValueError(f"a VoxelGrid is 3-D, got shape {self.shape}")
         self.direction = grid_direction(direction, 3)
         _init_voxels(self, None, kwargs)
-        self.__dict__["_face_ids"] = np.arange(self.n_faces)  # every face is listed once
 
 
 class GridBand:
@@ -206,6 +232,22 @@ class GridBand:
         self.pixels = pixels.astype(np.int64)
         self.outside = {}
 
+    @cached_property
+    def vertex_components(self):
+        """Connected components of the vertices: ``(n_components, labels)``.
+
+        Pixels that share a corner share a vertex, so the components are those of the
+        pixels on the index grid with diagonal neighbours (:func:`scipy.ndimage.label`),
+        found without the mesh's edges.
+        """
+        mask = np.zeros(int(np.prod(self.shape)), dtype=bool)
+        mask[self.pixels] = True
+        labels, n = ndimage.label(mask.reshape(self.shape), structure=np.ones((3,) * len(self.shape), dtype=bool))
+        element, vertex = self._element_vertex_pairs()
+        comp = np.empty(self.n_vertices, dtype=np.int32)
+        comp[vertex] = labels.reshape(-1)[self.pixels][element] - 1
+        return int(n), comp
+
     def measures_outside(self, classes):
         """The area (volume) of each of ``classes`` among the pixels left out, shape ``(len(classes),)``."""
         return np.array([self.outside.get(c, 0.0) for c in np.asarray(classes).tolist()], dtype=np.float64)
@@ -227,8 +269,11 @@ class PixelBand(GridBand, PolygonMesh):
         points = corner_points(self.shape, self.spacing, self.origin, self.direction, self.corners)
         PolygonMesh.__init__(self, points, np.searchsorted(self.corners, quads), **kwargs)
 
+    def _element_vertex_pairs(self):
+        return self._corners[0], self.indices
 
-class VoxelBand(GridBand, PolyhedralMesh):
+
+class VoxelBand(GridBand, _Voxels):
     """Some voxels of a 3-D volume (see :class:`GridBand`)."""
 
     def __init__(self, shape, pixels, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
@@ -236,6 +281,9 @@ class VoxelBand(GridBand, PolyhedralMesh):
         if len(self.shape) != 3:
             raise ValueError(f"a VoxelBand is 3-D, got shape {self.shape}")
         _init_voxels(self, self.pixels, kwargs)
+
+    def _element_vertex_pairs(self):
+        return self.cell_vertices
 
 
 def _lowest_corners(shape, pixels):
@@ -274,3 +322,4 @@ def _init_voxels(mesh, voxels, kwargs):
         signs = -signs  # a reflection turns every face
     geometry = box_geometry(points, fi, counts, cell_vertices, mesh.spacing, mesh.direction, signs)
     mesh._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)
+    mesh.__dict__["_face_ids"] = np.arange(mesh.n_faces)  # every face is listed once

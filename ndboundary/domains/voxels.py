@@ -13,11 +13,14 @@ from __future__ import annotations
 from itertools import product
 
 import numpy as np
+import scipy.sparse as sp
 
 from .._arrays import unique_values
+from .._compiled_mesh import assemble_cell_blocks
+from .cell_operators import _cell_stiffness
 from .polyhedral_reuse import Geometry
 
-__all__ = ["CORNER_BITS", "box_geometry", "voxel_faces"]
+__all__ = ["CORNER_BITS", "box_geometry", "voxel_edges", "voxel_faces", "voxel_gradient", "voxel_stiffness"]
 
 #: A voxel's 8 corners as 0/1 offsets along the axes, in increasing corner index (axis 0
 #: slowest, as the grid's C order).
@@ -118,3 +121,65 @@ def box_geometry(points, fi, axis_counts, cell_vertices, spacing, direction, sig
         (np.repeat(np.arange(n), 8), cell_vertices.ravel()),
         np.tile(grads, (n, 1)),
     )
+
+
+def _corners_of(mesh):
+    """Every voxel's 8 vertices, shape (n_elements, 8), in :data:`CORNER_BITS` order (the
+    order of ``mesh.cell_vertices``, whose gradient coefficients are the same for every voxel).
+    """
+    return mesh.cell_vertices[1].reshape(mesh.n_elements, 8)
+
+
+def voxel_stiffness(mesh):
+    """The stiffness of a voxel mesh: one voxel's matrix, added into the rows of every
+    voxel's corners (:func:`~ndboundary._compiled_mesh.assemble_cell_blocks`).
+
+    Every voxel is the same box, so the matrix that
+    :func:`~ndboundary.domains.cell_operators.local_stiffness` would find shared by all of
+    them is computed from the first alone, without gathering every voxel's coefficients.
+    """
+    corners = _corners_of(mesh)
+    grads = mesh._pair_grads[:8][None]
+    X = mesh.points[corners[0]][None]
+    block = _cell_stiffness(grads, mesh._volumes[:1], X - X.mean(axis=1, keepdims=True), mesh.stabilization)
+    n = mesh.n_elements
+    return assemble_cell_blocks(
+        8 * np.arange(n + 1, dtype=np.int64), corners.reshape(-1), block.ravel(), np.zeros(n, dtype=np.int64),
+        mesh.n_vertices,
+    )  # fmt: skip
+
+
+def voxel_gradient(mesh):
+    """The gradient operator of a voxel mesh, shape (3 n_elements, n_vertices), built in
+    CSR form: row ``3 e + a`` holds voxel ``e``'s 8 corners with the coefficients along
+    axis ``a`` that every voxel shares.
+    """
+    corners = _corners_of(mesh)
+    n = mesh.n_elements
+    idx = np.int32 if max(mesh.n_vertices, 24 * n) < np.iinfo(np.int32).max else np.int64
+    indices = np.broadcast_to(corners.astype(idx)[:, None, :], (n, 3, 8)).reshape(-1)
+    data = np.broadcast_to(mesh._pair_grads[:8].T[None], (n, 3, 8)).reshape(-1)
+    indptr = 8 * np.arange(3 * n + 1, dtype=idx)
+    return sp.csr_matrix((data, indices, indptr), shape=(3 * n, mesh.n_vertices))
+
+
+#: A voxel's edges as pairs of its corners (:data:`CORNER_BITS` order), along axis 2,
+#: then 1, then 0: for one lowest corner, the order of the other end's index.
+VOXEL_EDGES = (((0, 1), (2, 3), (4, 5), (6, 7)), ((0, 2), (1, 3), (4, 6), (5, 7)), ((0, 4), (1, 5), (2, 6), (3, 7)))
+
+
+def voxel_edges(mesh):
+    """The unique edges ``(i, j)``, ``i < j``, of a voxel mesh, in lexicographic order
+    (as :meth:`~ndboundary.PolyhedralMesh.build_edges` gives them), shape (n_edges, 2).
+
+    An edge is named by its lower end and its axis, so marking the names in a table of
+    three slots per vertex lists each once, in order, without a sort.
+    """
+    corners = _corners_of(mesh)
+    V = mesh.n_vertices
+    other = np.full(3 * V, -1, dtype=np.int64)
+    for k, pairs in enumerate(VOXEL_EDGES):
+        for i, j in pairs:
+            other[3 * corners[:, i] + k] = corners[:, j]
+    slots = np.flatnonzero(other >= 0)
+    return np.stack([slots // 3, other[slots]], axis=1)
