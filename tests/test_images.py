@@ -224,7 +224,9 @@ def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spac
     assert result.params["band_vertices"] == whole.params["band_vertices"] == band.n_vertices
     mask = np.zeros(labels.size, dtype=bool)
     mask[band.pixels] = True
-    sub, corners = grid.subdomain(mask)
+    from ndboundary import PolygonMesh, PolyhedralMesh
+
+    sub, corners = (PolyhedralMesh if labels.ndim == 3 else PolygonMesh).subdomain(grid, mask)  # a general cut
     np.testing.assert_array_equal(band.corners, corners)
     assert abs(band.K - sub.K).max() == 0 and np.array_equal(band.mass, sub.mass)
     np.testing.assert_allclose(result.phi, whole.phi[corners], atol=1e-12)
@@ -311,3 +313,28 @@ def test_a_grid_bands_components_edges_and_operators_are_its_meshs(shape):
         for name, build in (("K", "stiffness"), ("G", "gradient"), ("adjacency", "adjacency")):
             general = getattr(PolyhedralMesh, f"build_{build}")(band).tocsr()
             assert abs(getattr(band, name) - general).max() == 0, name
+
+
+@pytest.mark.parametrize("shape", [(14, 15, 16), (30, 31)])
+def test_a_grid_cut_to_some_pixels_is_the_general_cut(shape):
+    """subdomain() of an image grid or of its band is a GridBand of those pixels, built from
+    their indices: the mesh, operators and vertex map of the general mesh's cut."""
+    from ndboundary import PolygonMesh, PolyhedralMesh
+    from ndboundary.domains.image import GridBand
+
+    general = PolyhedralMesh if len(shape) == 3 else PolygonMesh
+    rng = np.random.default_rng(2)
+    grid = ImageGrid(shape, spacing=(0.5, 1.0, 2.0)[: len(shape)], direction=-np.eye(len(shape)))
+    band, _ = grid.subdomain(rng.uniform(size=grid.n_elements) < 0.6)
+    mask = rng.uniform(size=band.n_elements) < 0.5
+    for mesh, m in ((grid, rng.uniform(size=grid.n_elements) < 0.3), (band, mask)):
+        cut, vertices = mesh.subdomain(m)
+        ref, ref_vertices = general.subdomain(mesh, m)
+        assert isinstance(cut, GridBand) and cut.usual_degree == mesh.usual_degree
+        np.testing.assert_array_equal(vertices, ref_vertices)
+        np.testing.assert_array_equal(cut.points, ref.points)
+        np.testing.assert_array_equal(cut.mass, ref.mass)
+        for name in ("K", "G", "adjacency"):
+            assert abs(getattr(cut, name) - getattr(ref, name)).max() == 0, name
+    with pytest.raises(ValueError, match="one value per pixel"):
+        band.subdomain(mask[:-1])

@@ -20,11 +20,11 @@ from functools import cached_property
 import numpy as np
 from scipy import ndimage
 
-from .._arrays import shared_facet_adjacency, unique_values
+from .._arrays import ragged_next, shared_facet_adjacency, unique_values
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
-from .voxels import CORNER_BITS, box_geometry, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
+from .voxels import CORNER_BITS, box_constants, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
 
 __all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
 
@@ -129,6 +129,10 @@ class ImageGrid:
     def __repr__(self):
         return f"{type(self).__name__}(shape={self.shape}, spacing={self.spacing}, origin={self.origin})"
 
+    def subdomain(self, mask):
+        """The pixels selected by ``mask`` as a :class:`GridBand` (see :meth:`Domain.subdomain`)."""
+        return _grid_subdomain(self, mask)
+
 
 class PixelGrid(ImageGrid, PolygonMesh):
     """The pixels of a 2-D image (see :class:`ImageGrid`)."""
@@ -147,7 +151,55 @@ class PixelGrid(ImageGrid, PolygonMesh):
 class _Voxels(PolyhedralMesh):
     """Hexahedra that are the voxels of a grid: their stiffness and gradient are built
     from the one box they all are (:func:`~ndboundary.domains.voxels.voxel_stiffness`).
+
+    The faces' geometry, which a general polyhedral mesh computes when it is built, is
+    found when first read: every face of one axis is the same rectangle, so the relaxation,
+    which reads none of it, neither computes nor stores an array of it per face.
     """
+
+    @cached_property
+    def box(self):
+        """What every voxel shares (:func:`~ndboundary.domains.voxels.box_constants`)."""
+        return box_constants(self.spacing, self.direction)
+
+    @cached_property
+    def _face_axes(self):
+        """Every face's axis."""
+        return np.repeat(np.arange(3), self._axis_counts)
+
+    @cached_property
+    def face_areas(self):
+        """Every face's area vector, shape (n_faces, 3)."""
+        return self.box[0][self._face_axes]
+
+    @cached_property
+    def face_centres(self):
+        """Every face's centre, shape (n_faces, 3)."""
+        return self.points[self.face_indices[::4]] + self.box[1][self._face_axes]
+
+    @cached_property
+    def fan_areas(self):
+        """The vector area of each face corner's fan triangle, a quarter of its face's."""
+        return np.repeat(self.face_areas / 4.0, 4, axis=0)
+
+    @cached_property
+    def _face_corners(self):
+        return ragged_next(self.face_offsets)
+
+    @property
+    def face_owner(self):
+        """Every face corner's face."""
+        return self._face_corners[0]
+
+    @property
+    def face_next(self):
+        """Every face corner's next corner in its face."""
+        return self._face_corners[1]
+
+    @cached_property
+    def _pair_grads(self):
+        """The Green-Gauss coefficient of every (voxel, corner) pair, the box's for all."""
+        return np.tile(self.box[2], (self.n_elements, 1))
 
     def build_stiffness(self):
         """The stiffness (see :class:`~ndboundary.PolyhedralMesh`), from one voxel's matrix."""
@@ -248,6 +300,12 @@ class GridBand:
         comp[vertex] = labels.reshape(-1)[self.pixels][element] - 1
         return int(n), comp
 
+    def subdomain(self, mask):
+        """The pixels selected by ``mask`` as a :class:`GridBand` of their own (see
+        :meth:`Domain.subdomain`): the mesh a general cut gives, built from their indices.
+        """
+        return _grid_subdomain(self, mask)
+
     def measures_outside(self, classes):
         """The area (volume) of each of ``classes`` among the pixels left out, shape ``(len(classes),)``."""
         return np.array([self.outside.get(c, 0.0) for c in np.asarray(classes).tolist()], dtype=np.float64)
@@ -286,6 +344,26 @@ class VoxelBand(GridBand, _Voxels):
         return self.cell_vertices
 
 
+def _grid_subdomain(mesh, mask):
+    """``(band, vertices)``: the :class:`GridBand` of the pixels of ``mesh`` (an
+    :class:`ImageGrid` or a :class:`GridBand`) that ``mask`` selects, and the mesh's
+    vertex of each of its vertices. It keeps its parent's :attr:`~Domain.usual_degree`,
+    as every band does.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (mesh.n_elements,):
+        raise ValueError(f"mask must hold one value per pixel ({mesh.n_elements}), got shape {mask.shape}")
+    chosen = np.flatnonzero(mask)
+    parent = getattr(mesh, "pixels", None)
+    band = GridBand(
+        mesh.shape, chosen if parent is None else parent[chosen], spacing=mesh.spacing, origin=mesh.origin,
+        direction=mesh.direction, laplacian=mesh.laplacian, stabilization=mesh.stabilization,
+    )  # fmt: skip
+    band.usual_degree = mesh.usual_degree
+    corners = getattr(mesh, "corners", None)
+    return band, (band.corners if corners is None else np.searchsorted(corners, band.corners))
+
+
 def _lowest_corners(shape, pixels):
     """The lowest corner of each pixel, as an index among the grid's corners."""
     return np.ravel_multi_index(np.unravel_index(pixels, shape), tuple(n + 1 for n in shape))
@@ -320,6 +398,9 @@ def _init_voxels(mesh, voxels, kwargs):
         fi, cell_vertices = np.searchsorted(mesh.corners, fi), np.searchsorted(mesh.corners, cell_vertices)
     if mesh.direction is not None and np.linalg.det(mesh.direction) < 0:
         signs = -signs  # a reflection turns every face
-    geometry = box_geometry(points, fi, counts, cell_vertices, mesh.spacing, mesh.direction, signs)
-    mesh._init_known(points, fi, fo, ci, co, laplacian, stabilization, geometry)
+    mesh.stabilization, mesh.laplacian, mesh.points = stabilization, laplacian, points
+    mesh.face_indices, mesh.face_offsets, mesh.cell_faces, mesh.cell_offsets = fi, fo, ci, co
+    mesh.cell_face_signs, mesh._axis_counts = signs, counts
+    mesh._volumes = np.full(cell_vertices.shape[0], float(np.prod(mesh.spacing)))
+    mesh.__dict__["cell_vertices"] = (np.repeat(np.arange(cell_vertices.shape[0]), 8), cell_vertices.ravel())
     mesh.__dict__["_face_ids"] = np.arange(mesh.n_faces)  # every face is listed once

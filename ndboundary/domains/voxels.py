@@ -18,9 +18,8 @@ import scipy.sparse as sp
 from .._arrays import unique_values
 from .._compiled_mesh import assemble_cell_blocks
 from .cell_operators import _cell_stiffness
-from .polyhedral_reuse import Geometry
 
-__all__ = ["CORNER_BITS", "box_geometry", "voxel_edges", "voxel_faces", "voxel_gradient", "voxel_stiffness"]
+__all__ = ["CORNER_BITS", "box_constants", "voxel_edges", "voxel_faces", "voxel_gradient", "voxel_stiffness"]
 
 #: A voxel's 8 corners as 0/1 offsets along the axes, in increasing corner index (axis 0
 #: slowest, as the grid's C order).
@@ -92,40 +91,38 @@ def voxel_faces(shape, strides, voxels=None):
     return fi, 4 * np.arange(fi.size // 4 + 1), ci, 6 * np.arange(index.shape[0] + 1), signs, counts
 
 
-def box_geometry(points, fi, axis_counts, cell_vertices, spacing, direction, signs):
-    """The :class:`~.polyhedral_reuse.Geometry` of voxels (see :func:`voxel_faces`).
+def box_constants(spacing, direction):
+    """What every voxel of a grid shares: ``(face_areas, half_diagonals, grads)``.
 
-    ``cell_vertices`` holds every voxel's 8 corners (indices into ``points``), increasing
-    along axis 2, then 1, then 0 from its lowest corner. Every face of one axis is the
-    same rectangle: its area vector and the offset from its first corner to its centre
-    are computed once per axis, not from the corners of each.
+    ``face_areas[a]`` is the area vector of a face across axis ``a``, seen from its
+    positive side; ``half_diagonals[a]`` the offset from its first corner to its centre;
+    ``grads`` of shape (8, 3) the Green-Gauss coefficient of each corner
+    (:data:`CORNER_BITS` order). Each face and voxel takes these, not a computation of its
+    own: every face of one axis is the same rectangle, every voxel the same box.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.voxels import box_constants
+    >>> areas, halves, grads = box_constants((1.0, 2.0, 4.0), None)
+    >>> areas.diagonal().tolist(), grads[7].tolist()
+    ([8.0, 4.0, 2.0], [0.25, 0.125, 0.0625])
     """
     axes = np.eye(3) if direction is None else np.asarray(direction)
     steps = axes * np.asarray(spacing, dtype=np.float64)  # column a: one voxel along axis a
-    per_axis = []
+    areas, halves = np.zeros((3, 3)), np.zeros((3, 3))
     for a in range(3):
         b, c = (a + 1) % 3, (a + 2) % 3
-        per_axis.append((np.cross(steps[:, b], steps[:, c]), 0.5 * (steps[:, b] + steps[:, c])))
-    face_areas = np.repeat(np.array([area for area, _ in per_axis]), axis_counts, axis=0)
-    centres = points[fi[::4]] + np.repeat(np.array([half for _, half in per_axis]), axis_counts, axis=0)
+        areas[a], halves[a] = np.cross(steps[:, b], steps[:, c]), 0.5 * (steps[:, b] + steps[:, c])
     grads = (2 * CORNER_BITS - 1) / (4.0 * np.asarray(spacing))
     if direction is not None:
-        grads = grads @ direction.T
-    n = cell_vertices.shape[0]
-    return Geometry(
-        centres,
-        np.repeat(face_areas / 4.0, 4, axis=0),
-        face_areas,
-        signs,
-        np.full(n, float(np.prod(spacing))),
-        (np.repeat(np.arange(n), 8), cell_vertices.ravel()),
-        np.tile(grads, (n, 1)),
-    )
+        grads = grads @ np.asarray(direction).T
+    return areas, halves, grads
 
 
 def _corners_of(mesh):
     """Every voxel's 8 vertices, shape (n_elements, 8), in :data:`CORNER_BITS` order (the
-    order of ``mesh.cell_vertices``, whose gradient coefficients are the same for every voxel).
+    order of ``mesh.cell_vertices``), whose coefficients are ``mesh.box`` (:func:`box_constants`).
     """
     return mesh.cell_vertices[1].reshape(mesh.n_elements, 8)
 
@@ -139,7 +136,7 @@ def voxel_stiffness(mesh):
     them is computed from the first alone, without gathering every voxel's coefficients.
     """
     corners = _corners_of(mesh)
-    grads = mesh._pair_grads[:8][None]
+    grads = mesh.box[2][None]
     X = mesh.points[corners[0]][None]
     block = _cell_stiffness(grads, mesh._volumes[:1], X - X.mean(axis=1, keepdims=True), mesh.stabilization)
     n = mesh.n_elements
@@ -158,7 +155,7 @@ def voxel_gradient(mesh):
     n = mesh.n_elements
     idx = np.int32 if max(mesh.n_vertices, 24 * n) < np.iinfo(np.int32).max else np.int64
     indices = np.broadcast_to(corners.astype(idx)[:, None, :], (n, 3, 8)).reshape(-1)
-    data = np.broadcast_to(mesh._pair_grads[:8].T[None], (n, 3, 8)).reshape(-1)
+    data = np.broadcast_to(mesh.box[2].T[None], (n, 3, 8)).reshape(-1)
     indptr = 8 * np.arange(3 * n + 1, dtype=idx)
     return sp.csr_matrix((data, indices, indptr), shape=(3 * n, mesh.n_vertices))
 
