@@ -106,8 +106,12 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     start = time.perf_counter()
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
     band = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
-    if band is None:
+    if band is None or band[0] is None:
         grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
+        if band is not None and classes.size > 2:
+            # each region on its band of the image's width: the grid's boundary weight is
+            # known, no region need read it on a band of its own first
+            params = {**params, "band": band[2]}
         result = relax(grid, flat, on="elements", pad=pad, **params)
     else:
         pixels, h, width = band
@@ -136,7 +140,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
 
 
 def _band_pixels(codes, geometry, direction, params):
-    """``(pixels, h, width)`` of the band to relax the image on, or None for the whole grid.
+    """``(pixels, h, width)`` of the band to relax the image on; ``pixels`` is None when
+    the band of ``width`` holds (nearly) the whole grid, and the result None for the whole
+    grid without a band (``band=None``) or for a small grid.
 
     A number ``band`` cuts the band of that width whenever it leaves pixels out. ``"auto"``
     cuts the band of :func:`~ndboundary.pipeline.band.band_width` for the grid's boundary
@@ -173,5 +179,5 @@ def _band_pixels(codes, geometry, direction, params):
     pixels = image_band(codes, spacing, h, width)
     share = pixels.size / codes.size
     if share == 1.0 or (p["band"] == "auto" and share > AUTO_BAND_MAX_SHARE):
-        return None
+        return None, h, width
     return pixels, h, width

@@ -338,3 +338,15 @@ def test_a_grid_cut_to_some_pixels_is_the_general_cut(shape):
             assert abs(getattr(cut, name) - getattr(ref, name)).max() == 0, name
     with pytest.raises(ValueError, match="one value per pixel"):
         band.subdomain(mask[:-1])
+
+
+def test_many_regions_on_the_whole_grid_take_the_images_band_width():
+    """An image whose band holds the whole grid is relaxed on it, and each region on its own
+    band of the image's width (the grid's boundary weight is known), as when the image is
+    cut to its band; the regions keep their volumes."""
+    labels = np.repeat(np.repeat(np.repeat([0, 1, 2], [13, 13, 14])[:, None, None], 40, axis=1), 40, axis=2)
+    result = relax_image(labels)
+    assert isinstance(result.domain, ImageGrid)
+    width = relax_image(labels == 0).params["band"]
+    assert result.regions[0].params["band"] == result.regions[2].params["band"] == width
+    np.testing.assert_allclose(result.region_measures(), [13 * 1600, 13 * 1600, 14 * 1600], rtol=1e-3)
