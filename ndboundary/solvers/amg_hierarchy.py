@@ -336,6 +336,31 @@ def _galerkin(Rp, Rj, Rx, indptr, indices, data, Pp, Pj, Px, count):  # pragma: 
     return Cp, Cj[:nnz].copy(), Cx[:nnz].copy()
 
 
+@kernel("UniTuple(u4[::1], 2)(u4[::1], u4[::1], f8[::1], f8)")
+@numba.njit(cache=True, nogil=True)
+def _strong(indptr, indices, data, theta):  # pragma: no cover - compiled
+    """The rows of :func:`strong_pattern`, in two passes over ``A``'s entries."""
+    n = indptr.size - 1
+    largest = np.zeros(n)
+    for i in range(n):
+        m = 0.0
+        for p in range(indptr[i], indptr[i + 1]):
+            if indices[p] != i and abs(data[p]) > m:
+                m = abs(data[p])
+        largest[i] = m
+    out_ptr = np.zeros(n + 1, dtype=indptr.dtype)
+    out_idx = np.empty(indices.size, dtype=indices.dtype)
+    k = 0
+    for i in range(n):
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            if j == i or abs(data[p]) >= theta * min(largest[i], largest[j]):
+                out_idx[k] = j
+                k += 1
+        out_ptr[i + 1] = k
+    return out_ptr, out_idx[:k].copy()
+
+
 def _unsigned(a):
     """32-bit indices as unsigned: the compiled loops skip the checks for negative ones."""
     return a.view(np.uint32) if a.dtype == np.int32 else a
@@ -366,18 +391,8 @@ def strong_pattern(A, theta):
     >>> indptr.tolist(), indices.tolist()  # the weak 0-2 coupling is dropped
     ([0, 2, 5, 7], [0, 1, 0, 1, 2, 1, 2])
     """
-    n = A.shape[0]
-    rows = np.repeat(np.arange(n), np.diff(A.indptr))
-    magnitude = np.abs(A.data)
-    off = A.indices != rows
-    largest = np.zeros(n)
-    filled = np.flatnonzero(np.diff(A.indptr) > 0)
-    if filled.size:
-        largest[filled] = np.maximum.reduceat(np.where(off, magnitude, 0.0), A.indptr[filled])
-    keep = ~off | (magnitude >= theta * np.minimum(largest[rows], largest[A.indices]))
-    indptr = np.zeros(n + 1, dtype=A.indptr.dtype)
-    np.cumsum(np.bincount(rows[keep], minlength=n), out=indptr[1:])
-    return indptr, A.indices[keep]
+    indptr, indices = _strong(_unsigned(A.indptr), _unsigned(A.indices), A.data, float(theta))
+    return _signed(indptr), _signed(indices)
 
 
 def energy_hierarchy(A, *, maxiter=2, max_coarse=500, max_levels=10, theta=0.0):
