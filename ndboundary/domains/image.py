@@ -24,7 +24,7 @@ from .._arrays import ragged_next, shared_facet_adjacency, unique_values
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
-from .voxels import CORNER_BITS, box_constants, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
+from .voxels import CORNER_BITS, box_constants, dense_ranks, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
 
 __all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
 
@@ -393,9 +393,8 @@ def _init_voxels(mesh, voxels, kwargs):
     if voxels is None:
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction)
     else:
-        mesh.corners = unique_values(cell_vertices.ravel())
+        mesh.corners, (cell_vertices, fi) = dense_ranks(int(np.prod([n + 1 for n in shape])), cell_vertices, fi)
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
-        fi, cell_vertices = np.searchsorted(mesh.corners, fi), np.searchsorted(mesh.corners, cell_vertices)
     if mesh.direction is not None and np.linalg.det(mesh.direction) < 0:
         signs = -signs  # a reflection turns every face
     mesh.stabilization, mesh.laplacian, mesh.points = stabilization, laplacian, points
