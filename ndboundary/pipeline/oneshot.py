@@ -63,7 +63,9 @@ def relax(
         form, but kinked at the points of a sparse zeta
         (:mod:`ndboundary.pipeline.integration`).
     pad : bool, default=True
-        Split the elements all of whose vertices receive heat (paper section 4).
+        Split the elements all of whose vertices receive heat (paper section 4). False
+        leaves them whole: they take the mean field of their neighbours
+        (:func:`~ndboundary.pipeline.field.fill_flat`).
     rtol : float, default=1e-7
         Relative residual the linear solves must reach
         (:data:`~ndboundary.pipeline.params.DEFAULT_RTOL`: the level set moves by less
