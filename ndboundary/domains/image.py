@@ -7,10 +7,10 @@ convention, so that what is relaxed lies where the scanner put it. The grid's ve
 are the pixels' corners, half a spacing from the centres. Pixels are quadrilaterals of a
 :class:`~ndboundary.PolygonMesh`, voxels hexahedra of a
 :class:`~ndboundary.PolyhedralMesh`: every operator, padding and band of those meshes
-serves the grids unchanged, with anisotropic spacing. A voxel grid's faces and geometry
-come from its structure (:mod:`~ndboundary.domains.voxels`) instead of a search and a
-computation per cell, and the band and the padding cut from it keep that geometry
-(:mod:`~ndboundary.domains.polyhedral_reuse`).
+serves the grids unchanged, with anisotropic spacing. A voxel grid's faces, operators and
+geometry come from its structure (:mod:`~ndboundary.domains.voxels`) instead of a search
+and a computation per cell; the faces' geometry is found only when read. Cut to some of
+its pixels (a band), a grid stays a grid: a :class:`GridBand`, built from their indices.
 """
 
 from __future__ import annotations
