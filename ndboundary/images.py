@@ -105,16 +105,15 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     flat = labels.reshape(-1)
     start = time.perf_counter()
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
-    band = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
-    if band is None or band[0] is None:
+    pixels, h, width = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
+    if pixels is None:
         grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
-        if band is not None and classes.size > 2:
+        if width is not None and classes.size > 2:
             # each region on its band of the image's width: the grid's boundary weight is
             # known, no region need read it on a band of its own first
-            params = {**params, "band": band[2]}
+            params = {**params, "band": width}
         result = relax(grid, flat, on="elements", pad=pad, **params)
     else:
-        pixels, h, width = band
         domain = GridBand(labels.shape, pixels, spacing=geometry[1], origin=geometry[2], direction=direction)
         rest = np.ones(flat.size, dtype=bool)
         rest[pixels] = False
@@ -140,9 +139,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
 
 
 def _band_pixels(codes, geometry, direction, params):
-    """``(pixels, h, width)`` of the band to relax the image on; ``pixels`` is None when
-    the band of ``width`` holds (nearly) the whole grid, and the result None for the whole
-    grid without a band (``band=None``) or for a small grid.
+    """``(pixels, h, width)`` of the band to relax the image on. ``pixels`` is None for the
+    whole grid: when the band of ``width`` holds (nearly) all of it, or when there is no
+    band (``band=None``, or a small grid: ``width`` None too).
 
     A number ``band`` cuts the band of that width whenever it leaves pixels out. ``"auto"``
     cuts the band of :func:`~ndboundary.pipeline.band.band_width` for the grid's boundary
@@ -164,16 +163,16 @@ def _band_pixels(codes, geometry, direction, params):
         solver=params.get("solver", "auto"),
         band=band,
     )
-    if p["band"] is None:
-        return None
     h = grid_mean_edge_length(shape, spacing)
+    if p["band"] is None:
+        return None, h, None
     if p["band"] == "auto":
         if np.prod([n + 1 for n in shape]) < AUTO_BAND_MIN_VERTICES:
-            return None
+            return None, h, None
         proto = ImageGrid((1,) * len(shape), spacing=spacing, direction=direction)  # a pixel of the grid
         width = band_width(p, proto, grid_scale_hint(proto, h) / REACH_SCALE[len(shape)])
         if width is None:
-            return None
+            return None, h, None
     else:
         width = p["band"]
     pixels = image_band(codes, spacing, h, width)

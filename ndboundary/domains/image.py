@@ -20,11 +20,11 @@ from functools import cached_property
 import numpy as np
 from scipy import ndimage
 
-from .._arrays import ragged_next, shared_facet_adjacency, unique_values
+from .._arrays import ragged_next, shared_facet_adjacency, unique_values, used_vertices
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
-from .voxels import CORNER_BITS, box_constants, dense_ranks, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
+from .voxels import CORNER_BITS, box_constants, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
 
 __all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
 
@@ -393,7 +393,9 @@ def _init_voxels(mesh, voxels, kwargs):
     if voxels is None:
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction)
     else:
-        mesh.corners, (cell_vertices, fi) = dense_ranks(int(np.prod([n + 1 for n in shape])), cell_vertices, fi)
+        # the corners the voxels hold, numbered by a table over the grid's, without a sort
+        mesh.corners, remap = used_vertices(cell_vertices, int(np.prod([n + 1 for n in shape])))
+        cell_vertices, fi = remap[cell_vertices], remap[fi]
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
     if mesh.direction is not None and np.linalg.det(mesh.direction) < 0:
         signs = -signs  # a reflection turns every face

@@ -15,14 +15,13 @@ from itertools import product
 import numpy as np
 import scipy.sparse as sp
 
-from .._arrays import unique_values
+from .._arrays import used_vertices
 from .._compiled_mesh import assemble_cell_blocks
 from .cell_operators import _cell_stiffness
 
 __all__ = [
     "CORNER_BITS",
     "box_constants",
-    "dense_ranks",
     "voxel_edges",
     "voxel_faces",
     "voxel_gradient",
@@ -32,41 +31,6 @@ __all__ = [
 #: A voxel's 8 corners as 0/1 offsets along the axes, in increasing corner index (axis 0
 #: slowest, as the grid's C order).
 CORNER_BITS = np.array(list(product((0, 1), repeat=3)))
-
-
-#: :func:`dense_ranks` uses a table over every possible key when there are at most this
-#: many possible keys per key given; a sort beyond.
-DENSE_RANKS_SPAN = 64
-
-
-def dense_ranks(size, *keys):
-    """The distinct values of the arrays ``keys`` (integers in ``[0, size)``), increasing,
-    and the rank of each entry among them: ``(unique, [ranks of keys[0], ...])``.
-
-    A table over the ``size`` possible values marks and then numbers them, with no sort:
-    the faces and corners of a band of voxels are named by their index in the whole grid,
-    whose size is a few times theirs.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ndboundary.domains.voxels import dense_ranks
-    >>> unique, (a, b) = dense_ranks(10, np.array([7, 2, 7]), np.array([[5, 2]]))
-    >>> unique.tolist(), a.tolist(), b.tolist()
-    ([2, 5, 7], [2, 0, 2], [[1, 0]])
-    """
-    n_keys = sum(k.size for k in keys)
-    if size > DENSE_RANKS_SPAN * max(n_keys, 1):
-        unique = unique_values(np.concatenate([k.ravel() for k in keys]))
-        return unique, [np.searchsorted(unique, k) for k in keys]
-    seen = np.zeros(size, dtype=bool)
-    for k in keys:
-        seen[k] = True
-    unique = np.flatnonzero(seen)
-    del seen
-    rank = np.empty(size, dtype=np.int64)
-    rank[unique] = np.arange(unique.size)
-    return unique, [rank[k] for k in keys]
 
 
 def voxel_faces(shape, strides, voxels=None):
@@ -121,7 +85,8 @@ def voxel_faces(shape, strides, voxels=None):
         if voxels is None:
             ids = np.arange(int(np.prod(fshape)))
         else:  # the faces the voxels hold, each once
-            ids, (low, high) = dense_ranks(int(np.prod(fshape)), low, high)
+            ids, remap = used_vertices(np.stack([low, high]), int(np.prod(fshape)))
+            low, high = remap[low], remap[high]
         p = np.stack(np.unravel_index(ids, tuple(fshape)), axis=1) @ np.asarray(strides)
         faces.append(np.stack([p, p + strides[b], p + strides[b] + strides[c], p + strides[c]], axis=1))
         cell_faces += [start + low, start + high]

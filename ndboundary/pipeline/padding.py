@@ -109,7 +109,7 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     else:
         work, parent = domain, np.arange(domain.n_elements)
     split = np.flatnonzero(flat) if work is not domain else np.zeros(0, dtype=np.int64)
-    left = flat[parent] if work is domain else np.zeros(work.n_elements, dtype=bool)
+    left = flat if work is domain else np.zeros(work.n_elements, dtype=bool)  # flat elements left whole
     if on == "elements":
         elem_region1 = region1[parent]
         vert_region1 = domain.vertices_of(region1)
