@@ -209,7 +209,7 @@ def _voronoi(shape, n_sites, spacing, seed=0):
 def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spacing, direction):
     """relax_image cuts the band on the image's index grid: the same pixels, operators and
     phi as the band the whole grid's relaxation cuts, and the measures of the whole image."""
-    from ndboundary import relax
+    from ndboundary import PolygonMesh, PolyhedralMesh, relax
     from ndboundary.domains.image import GridBand
 
     if direction == "reflection":  # (a rotation and) a reflection of the last axis
@@ -224,8 +224,6 @@ def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spac
     assert result.params["band_vertices"] == whole.params["band_vertices"] == band.n_vertices
     mask = np.zeros(labels.size, dtype=bool)
     mask[band.pixels] = True
-    from ndboundary import PolygonMesh, PolyhedralMesh
-
     sub, corners = (PolyhedralMesh if labels.ndim == 3 else PolygonMesh).subdomain(grid, mask)  # a general cut
     np.testing.assert_array_equal(band.corners, corners)
     assert abs(band.K - sub.K).max() == 0 and np.array_equal(band.mass, sub.mass)
