@@ -12,9 +12,10 @@ interfaces where three or more regions meet. Any dimension, any k <= dim.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from .levelset import LevelSet
-from .partition_clip import interface_facets, simplex_measures, sweep
+from .partition_clip import interface_facets, simplex_measures, sweep, sweep_sparse
 
 __all__ = ["Cells", "Interfaces", "Junctions", "Partition", "partition"]
 
@@ -36,8 +37,8 @@ class Cells:
     simplices : ndarray of int of shape (n_cells, k + 1)
         Oriented like the input simplex each cell lies in.
     regions : ndarray of int of shape (n_cells,)
-    values : ndarray of shape (n_points, L)
-        The functions interpolated at the points.
+    values : ndarray of shape (n_points, L) or None
+        The functions interpolated at the points (None for a partition of sparse values).
     parents : ndarray of int of shape (n_points, 2)
         The two points (earlier ids) each point was created between; an input vertex
         has its own id twice. This pair is the point's global key.
@@ -260,8 +261,14 @@ def partition(points, simplices, values) -> Partition:
     ----------
     points : array_like of shape (n_vertices, dim)
     simplices : array_like of int of shape (n_simplices, k + 1), 1 <= k <= dim
-    values : array_like of shape (n_vertices, L), L >= 2
-        Column r is the function of region r, linear on every simplex. Finite.
+    values : array_like or sparse matrix of shape (n_vertices, L), L >= 2
+        Column r is the function of region r, linear on every simplex. Finite. A sparse
+        matrix lists at each vertex only the regions that may win near it (its stored
+        entries, at least one per vertex): a region not stored at a vertex counts as
+        lower there than every stored value of the matrix, and the work of each region
+        follows the vertices that store it instead of the whole complex. With many
+        regions, each competing in a small part of the domain, that is what keeps the
+        partition's cost and memory proportional to the interfaces.
 
     Returns
     -------
@@ -291,7 +298,8 @@ def partition(points, simplices, values) -> Partition:
     """
     points = np.asarray(points, dtype=np.float64)
     simplices = np.asarray(simplices, dtype=np.int64)
-    values = np.asarray(values, dtype=np.float64)
+    sparse = sp.issparse(values)
+    values = sp.csr_matrix(values, dtype=np.float64) if sparse else np.asarray(values, dtype=np.float64)
     if points.ndim != 2 or simplices.ndim != 2 or values.ndim != 2:
         raise ValueError("points, simplices and values must be 2-D arrays")
     V, D = points.shape
@@ -300,11 +308,20 @@ def partition(points, simplices, values) -> Partition:
         raise ValueError(f"simplices must have between 2 and dim + 1 = {D + 1} vertices, got {k + 1}")
     if values.shape[0] != V or values.shape[1] < 2:
         raise ValueError(f"values must have shape ({V}, L) with L >= 2, got {values.shape}")
-    if not np.all(np.isfinite(values)):
+    if not np.all(np.isfinite(values.data if sparse else values)):
         raise ValueError("values contain NaN or infinite entries")
     if simplices.size and (simplices.min() < 0 or simplices.max() >= V):
         raise ValueError("simplices refer to vertices that do not exist")
-    X, S, regions, F, parents = sweep(points, simplices, values)
-    return Partition(
-        Cells(X, S, regions, F, parents), values.shape[1], lambda: float(simplex_measures(points, simplices).sum())
-    )
+    measure = lambda: float(simplex_measures(points, simplices).sum())  # noqa: E731
+    if not sparse:
+        X, S, regions, F, parents = sweep(points, simplices, values)
+        return Partition(Cells(X, S, regions, F, parents), values.shape[1], measure)
+    values.sum_duplicates()
+    empty = np.flatnonzero(np.diff(values.indptr) == 0)
+    if empty.size:
+        raise ValueError(f"values store no region at vertex {int(empty[0])}: every vertex needs one")
+    shifted = values.copy()  # at least 1, so that 0 is below every stored value
+    if shifted.nnz:
+        shifted.data = shifted.data - shifted.data.min() + 1.0
+    X, S, regions, parents = sweep_sparse(points, simplices, shifted)
+    return Partition(Cells(X, S, regions, None, parents), values.shape[1], measure)

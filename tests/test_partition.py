@@ -3,6 +3,7 @@ from math import factorial
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from ndboundary.datasets import icosphere, kuhn_grid
 from ndboundary.levelset import marching_simplices
@@ -273,6 +274,52 @@ def test_speed_250k_vertices():
     assert elapsed < 10
     assert m.sum() == pytest.approx(4.0, rel=1e-9)
     assert len(j) > 0 and len(faces) > 0
+
+
+@pytest.mark.parametrize("case", ["2d", "3d", "sphere"])
+def test_sparse_values_store_only_the_regions_that_can_win(case):
+    """Values stored where a region may win (within reach of the largest, one ring wide)
+    give the dense partition; stored everywhere, the same cells."""
+    rng = np.random.default_rng(5)
+    mesh, L = {"2d": (kuhn_grid(24, 2, jitter=0.25, random_state=2), 9),
+               "3d": (kuhn_grid(7, 3, jitter=0.2, random_state=2), 7), "sphere": (icosphere(3), 6)}[case]  # fmt: skip
+    P, S = mesh.points, mesh.simplices
+    values = -np.linalg.norm(P[:, None, :] - rng.uniform(-1, 1, (L, P.shape[1])), axis=-1)
+    values += 0.05 * rng.normal(size=values.shape)
+    dense = partition(P, S, values)
+    full = partition(P, S, sp.csr_matrix(values))
+    assert len(full.cells) == len(dense.cells) and full.cells.values is None
+    np.testing.assert_allclose(full.region_measures(), dense.region_measures(), rtol=0, atol=1e-12)
+    near = values >= values.max(axis=1, keepdims=True) - 0.3
+    keep = np.zeros_like(near)
+    for j in range(S.shape[1]):  # every vertex of a simplex where the region is near the largest
+        np.logical_or.at(keep, S[:, j], near[S].any(axis=1))
+    assert keep.mean() < 0.6
+    part = partition(P, S, sp.coo_matrix((values[keep], np.nonzero(keep)), shape=values.shape))
+    assert len(part.cells) < len(dense.cells)  # fewer cuts by regions that never win there
+    np.testing.assert_allclose(part.region_measures(), dense.region_measures(), rtol=0, atol=1e-12)
+    assert part.interfaces().measure() == pytest.approx(dense.interfaces().measure(), rel=1e-12)
+    lengths = []  # junction points in 2-D, curves in 3-D (split into other segments)
+    for p in (part, dense):
+        j = p.interfaces().junctions()
+        x = j.points[j.simplices]
+        lengths.append(len(j) if x.shape[1] == 1 else np.linalg.norm(x[:, 1] - x[:, 0], axis=1).sum())
+    assert lengths[0] == pytest.approx(lengths[1], rel=1e-9)
+    check_conforming(part, P, S)
+    if case == "sphere":
+        assert all(part.region_boundary(r).is_closed() for r in range(L) if part.region_measures()[r] > 0)
+
+
+def test_sparse_values_need_a_region_at_every_vertex():
+    points, simplices = [[0, 0], [1, 0], [0, 1]], [[0, 1, 2]]
+    values = sp.csr_matrix(([0.0, 1.0, 2.0], ([0, 1, 1], [0, 0, 1])), shape=(3, 2))
+    with pytest.raises(ValueError, match="no region at vertex 2"):
+        partition(points, simplices, values)
+    with pytest.raises(ValueError, match="NaN"):
+        partition(points, simplices, sp.csr_matrix([[0.0, 1.0], [np.nan, 1.0], [1.0, 0.0]]))
+    # a stored zero is a value, not an absent region
+    values = sp.csr_matrix((np.tile([-1.0, 0.0], 3), (np.repeat(np.arange(3), 2), np.tile([0, 1], 3))), shape=(3, 2))
+    assert values.nnz == 6 and partition(points, simplices, values).region_measures().tolist() == [0.0, 0.5]
 
 
 def test_validation():

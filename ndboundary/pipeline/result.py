@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..domains.image import GridBand
 from ..levelset import LevelSet, marching_simplices
@@ -31,6 +32,19 @@ class DeferredFill:
     def filled(self, domain):
         """Phi on every vertex of ``domain``."""
         return extend_outside(domain, self.elements, self.vertices, self.phi_band, self.side, self.distances, self.rate)
+
+    def stored(self):
+        """The vertices and values this region stores in a sparse partition
+        (:func:`~ndboundary.partition.partition`): phi on the band, and ``1/2 + c`` on its
+        side beyond it (as :meth:`bounded`). The other vertices leave it out: there it is
+        below every function that competes (see :meth:`bounded`), and the band reaches
+        more than a ring of elements past where it can win.
+        """
+        c = float(np.abs(self.phi_band - 0.5).max()) + 1.0
+        beyond = self.side.copy()
+        beyond[self.vertices] = False
+        deep = np.flatnonzero(beyond)
+        return np.concatenate([self.vertices, deep]), np.concatenate([self.phi_band, np.full(deep.size, 0.5 + c)])
 
     def bounded(self, n_vertices):
         """Phi on the band, and outside it ``1/2 +- c`` (``+`` on the region's side), with
@@ -60,8 +74,7 @@ class _RegionMethods:
         """
         cached = self.__dict__.get("_partition")
         if cached is None:
-            points, simplices, values = self.domain.level_set_complex(self.region_values())
-            cached = self.__dict__["_partition"] = partition(points, simplices, values)
+            cached = self.__dict__["_partition"] = partition(*_complex(self.domain, self.region_values()))
         return cached
 
     def _cut(self):
@@ -79,12 +92,12 @@ class _RegionMethods:
             return cached
         values = self.region_values()
         domain = self.domain
-        mixed, lowest = domain.mixed_elements(np.argmax(values, axis=1))
+        mixed, lowest = domain.mixed_elements(_argmax_rows(values))
         if not can_cut(domain) or mixed.all() or not mixed.any():
             cached = (self.partition(), np.zeros(values.shape[1]))
         else:
             sub, vertices = domain.subdomain(mixed)
-            cut = partition(*sub.level_set_complex(values[vertices]))
+            cut = partition(*_complex(sub, values[vertices]))
             whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
             cached = (cut, whole)
         self.__dict__["_cut_cache"] = cached
@@ -235,12 +248,64 @@ class RegionsResult(_RegionMethods):
         return cached
 
     def region_values(self):
-        """The region functions as the partition needs them: ``phi`` on each region's band,
-        and beyond it a bound that leaves the largest function unchanged
-        (:meth:`DeferredFill.bounded`), with no pass over the domain per region.
+        """The region functions as the partition needs them: ``phi`` where it is filled;
+        while the regions hold it on their bands only, a sparse matrix (n_vertices,
+        n_regions) that stores each region on its band and beyond it on its own side
+        (:meth:`DeferredFill.stored`), which the partition reads as the same largest
+        function with work and memory that follow the bands, not ``L`` times the domain.
         """
         if "_phi" in self.__dict__:
             return self.__dict__["_phi"]
-        V = self.domain.n_vertices
-        columns = [r.phi.bounded(V) if isinstance(r.phi, DeferredFill) else r.phi for r in self._regions]
-        return np.stack(columns, axis=1)
+        if not any(isinstance(r.phi, DeferredFill) for r in self._regions):
+            return self.phi
+        rows, cols, data = [], [], []
+        for j, res in enumerate(self._regions):
+            if isinstance(res.phi, DeferredFill):
+                vertices, values = res.phi.stored()
+            else:
+                vertices, values = np.arange(res.phi.size), res.phi
+            rows.append(vertices)
+            cols.append(np.full(vertices.size, j))
+            data.append(values)
+        shape = (self.domain.n_vertices, len(self._regions))
+        rows, cols, data = np.concatenate(rows), np.concatenate(cols), np.concatenate(data)
+        return sp.csr_matrix((data, (rows, cols)), shape=shape)
+
+
+def _argmax_rows(values):
+    """The column of each row's largest value, the smallest among equals, for a dense
+    array or a sparse matrix (its stored entries; every row stores one).
+    """
+    if not sp.issparse(values):
+        return np.argmax(values, axis=1)
+    values = sp.csr_matrix(values)
+    starts = values.indptr[:-1]
+    top = np.maximum.reduceat(values.data, starts)
+    counts = np.diff(values.indptr)
+    at_top = np.where(values.data == np.repeat(top, counts), values.indices, values.shape[1])
+    return np.minimum.reduceat(at_top, starts)
+
+
+def _complex(domain, values):
+    """``domain.level_set_complex(values)``, for sparse values too: a point the
+    refinement adds stores a region when each vertex it averages stores it (elsewhere the
+    region stays below the functions that compete there, as at those vertices).
+    """
+    if not sp.issparse(values):
+        return domain.level_set_complex(values)
+    points, simplices, R = domain._refinement
+    if R is None:
+        return points, simplices, values
+    R = sp.csr_matrix(R)
+    stored = sp.csr_matrix((np.ones(values.nnz), values.indices, values.indptr), shape=values.shape)
+    shift = 1.0 - values.data.min()  # every stored value above 0: none cancels in the averages
+    shifted = sp.csr_matrix((values.data + shift, values.indices, values.indptr), shape=values.shape)
+    mean = (R @ shifted).tocsr()
+    count = (abs(R).sign() @ stored).tocsr()
+    mean.sort_indices()
+    count.sort_indices()
+    rows = np.repeat(np.arange(count.shape[0]), np.diff(count.indptr))
+    keep = count.data == np.diff(R.indptr)[rows]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=count.shape[0]))])
+    out = sp.csr_matrix((mean.data[keep] - shift, mean.indices[keep], indptr), shape=mean.shape)
+    return points, simplices, out
