@@ -348,3 +348,23 @@ def test_many_regions_on_the_whole_grid_take_the_images_band_width():
     width = relax_image(labels == 0).params["band"]
     assert result.regions[0].params["band"] == result.regions[2].params["band"] == width
     np.testing.assert_allclose(result.region_measures(), [13 * 1600, 13 * 1600, 14 * 1600], rtol=1e-3)
+
+
+def test_many_regions_partition_their_bands_as_their_filled_functions():
+    """The partition reads each region on its band only, without the entries that cannot
+    win: it is the partition of the filled functions, and every region enclosed by the
+    frame has a closed boundary."""
+    from ndboundary.partition import partition
+
+    labels = np.pad(_voronoi((16, 18, 20), 5, (1.0, 1.0, 1.0)), 1, constant_values=7)
+    result = relax_image(labels, band=4.0)
+    values = result.region_values()
+    assert hasattr(values, "tocsr") and values.nnz < 0.8 * values.shape[0] * values.shape[1]
+    filled = partition(*result.domain.level_set_complex(result.phi))  # on the image's band
+    outside = result.domain.measures_outside(result.classes)  # the voxels beyond it, whole
+    np.testing.assert_allclose(result.region_measures(), filled.region_measures() + outside, rtol=1e-12)
+    assert result.interfaces().measure() == pytest.approx(filled.interfaces().measure(), rel=1e-12)
+    j, k = result.interfaces().junctions(), filled.interfaces().junctions()
+    length = [np.linalg.norm(np.diff(x.points[x.simplices], axis=1), axis=2).sum() for x in (j, k)]
+    assert length[0] == pytest.approx(length[1], rel=1e-9) and length[0] > 0
+    assert all(result.region_boundary(r).is_closed() for r in range(5))

@@ -97,7 +97,10 @@ class _RegionMethods:
             cached = (self.partition(), np.zeros(values.shape[1]))
         else:
             sub, vertices = domain.subdomain(mixed)
-            cut = partition(*_complex(sub, values[vertices]))
+            local = values[vertices]
+            if sp.issparse(local):
+                local = _within_reach(sub, local)
+            cut = partition(*_complex(sub, local))
             whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
             cached = (cut, whole)
         self.__dict__["_cut_cache"] = cached
@@ -309,3 +312,46 @@ def _complex(domain, values):
     indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=count.shape[0]))])
     out = sp.csr_matrix((mean.data[keep] - shift, mean.indices[keep], indptr), shape=mean.shape)
     return points, simplices, out
+
+
+def _within_reach(domain, values):
+    """The sparse ``values`` (CSR, vertices x regions) without the entries of regions that
+    win in no element around their vertex; the largest function is unchanged.
+
+    A region cannot win anywhere in an element where its largest value at the element's
+    vertices is below another region's smallest, ``T(e)`` (the functions are linear on
+    each simplex of the refinement, whose points average the element's vertices); ``T``
+    is read off the regions that are largest at some vertex of ``e``. A region is kept
+    at a vertex when its value at a vertex of the vertex's star reaches the smallest
+    ``T`` there: every region that may win in an element is kept at all its vertices,
+    and the partition resolves each region near where it competes only.
+    """
+    values = sp.csr_matrix(values)
+    values.sort_indices()
+    V, L = values.shape
+    by_element = domain.incidence.T.tocsr()
+    corners = by_element.indices  # every element's vertices, element by element
+    elements = np.repeat(np.arange(by_element.shape[0]), np.diff(by_element.indptr))
+    best = _argmax_rows(values)
+    keys = np.repeat(np.arange(V), np.diff(values.indptr)) * L + values.indices  # increasing
+    T = np.full(by_element.shape[0], -np.inf)
+    for reduce in (np.minimum, np.maximum):  # the lowest and the highest leading region
+        lead = reduce.reduceat(best[corners], by_element.indptr[:-1])
+        want = corners * L + lead[elements]
+        at = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+        found = keys[at] == want
+        low = np.where(found, values.data[at], -np.inf)  # not stored: no bound from it
+        T = np.maximum(T, np.minimum.reduceat(low, by_element.indptr[:-1]))
+    reach = np.minimum.reduceat(T[domain.incidence.indices], domain.incidence.indptr[:-1])
+    rows = np.repeat(np.arange(V), np.diff(values.indptr))
+    hot = values.copy()  # its own index arrays: dropping its zeros must not touch values'
+    hot.data = (values.data >= reach[rows]).astype(np.float64)
+    hot.eliminate_zeros()
+    star = domain.incidence @ (by_element @ hot)  # > 0 where a vertex of the star is hot
+    star = sp.csr_matrix(star)
+    star.sort_indices()
+    skeys = np.repeat(np.arange(V), np.diff(star.indptr)) * L + star.indices
+    at = np.minimum(np.searchsorted(skeys, keys), max(skeys.size - 1, 0))
+    keep = (skeys[at] == keys) if skeys.size else np.zeros(keys.size, dtype=bool)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=V))])
+    return sp.csr_matrix((values.data[keep], values.indices[keep], indptr), shape=(V, L))
