@@ -8,6 +8,7 @@ labelling, its heat and field, and the last factorisation of the integration sys
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import sys
 import time
@@ -330,9 +331,13 @@ class Relaxer:
         elements = np.flatnonzero(mask)
 
         def outside():
-            """The fill's walk and every vertex's side: they depend on the band alone."""
+            """The fill's walk and every vertex's side: they depend on the band alone. A
+            deferred fill is handed the side as a function of the region's members, so
+            that many regions do not each hold a mask over the whole domain."""
+            if not self._fill:
+                return None, functools.partial(_vertex_side, domain, on, np.flatnonzero(region1))
             side = region1 if on == "vertices" else domain.vertices_of(region1)
-            return (OutsideFill(domain, elements, vertices, distances).prepare() if self._fill else None), side
+            return OutsideFill(domain, elements, vertices, distances).prepare(), side
 
         with ThreadPoolExecutor(1) as pool:
             # on the second core while the band is relaxed, if the band is large enough to hide it
@@ -344,11 +349,16 @@ class Relaxer:
         rate = growth_rate(res.phi, dist[vertices], width)
         if fill is not None:
             res.phi = fill(res.phi, side, rate)
+            u = np.zeros(domain.n_vertices)
+            u[vertices] = res.u
+            res.u = u
         else:
+            # one region among many: what covers the whole domain is built when read, and
+            # the fields on its band are not kept (see RegionsResult.regions)
             res.phi = DeferredFill(elements, vertices, res.phi, side, distances, rate)
-        u = np.zeros(domain.n_vertices)
-        u[vertices] = res.u
-        res.u, res.boundary, res.classes, res.domain = u, boundary, classes, domain
+            res.u = DeferredFill(elements, vertices, res.u, None, None, None)
+            res.field = res.smoothed_field = None
+        res.boundary, res.classes, res.domain = boundary, classes, domain
         fill = time.perf_counter() - tick
         if verbose:
             print(f"[ndboundary] {'fill':<12s} {fill:8.3f} s", file=sys.stderr, flush=True)
@@ -403,3 +413,10 @@ def _labels_key(region1, on, pad):
     h.update(repr((on, pad, region1.shape)).encode())
     h.update(np.ascontiguousarray(region1, dtype=bool).view(np.uint8))
     return h.hexdigest()
+
+
+def _vertex_side(domain, on, members):
+    """The vertices on a region's side, from its elements (or vertices) ``members``."""
+    mask = np.zeros(domain.n_elements if on == "elements" else domain.n_vertices, dtype=bool)
+    mask[members] = True
+    return domain.vertices_of(mask) if on == "elements" else mask

@@ -27,10 +27,20 @@ class DeferredFill:
 
     def __init__(self, elements, vertices, phi_band, side, distances, rate):
         self.elements, self.vertices, self.phi_band = elements, vertices, phi_band
-        self.side, self.distances, self.rate = side, distances, rate
+        self._side, self.distances, self.rate = side, distances, rate
+
+    @property
+    def side(self):
+        """Whether each vertex is on the region's side (given, or computed when read)."""
+        return self._side() if callable(self._side) else self._side
 
     def filled(self, domain):
-        """Phi on every vertex of ``domain``."""
+        """Phi on every vertex of ``domain``; without a side, the band's values and zero
+        beyond (the heat, which is zero far from zeta)."""
+        if self._side is None:
+            out = np.zeros(domain.n_vertices)
+            out[self.vertices] = self.phi_band
+            return out
         return extend_outside(domain, self.elements, self.vertices, self.phi_band, self.side, self.distances, self.rate)
 
     def stored(self):
@@ -41,7 +51,7 @@ class DeferredFill:
         more than a ring of elements past where it can win.
         """
         c = float(np.abs(self.phi_band - 0.5).max()) + 1.0
-        beyond = self.side.copy()
+        beyond = self.side if callable(self._side) else self._side.copy()
         beyond[self.vertices] = False
         deep = np.flatnonzero(beyond)
         return np.concatenate([self.vertices, deep]), np.concatenate([self.phi_band, np.full(deep.size, 0.5 + c)])
@@ -138,9 +148,10 @@ class RelaxResult(_RegionMethods):
         The relaxed function; ``phi > 1/2`` in region 1 (``classes[1]``).
     u : ndarray of shape (n_vertices,)
         The heat (step 1), on the original vertices.
-    field : ndarray of shape (n_padded_elements, dim)
-        The unit field of step 2 on the padded domain.
-    smoothed_field : ndarray of shape (n_padded_elements, dim)
+    field : ndarray of shape (n_padded_elements, dim) or None
+        The unit field of step 2 on the padded domain (None for a region among many
+        relaxed on its band, see :attr:`RegionsResult.regions`).
+    smoothed_field : ndarray of shape (n_padded_elements, dim) or None
         The field after step 3.
     boundary : Boundary
         The jagged boundary zeta.
@@ -236,10 +247,17 @@ class RegionsResult(_RegionMethods):
 
     @property
     def regions(self):
-        """Every region relaxed against the rest, as a list of :class:`RelaxResult`."""
+        """Every region relaxed against the rest, as a list of :class:`RelaxResult`.
+
+        Relaxed on their bands, the regions do not keep their fields (``field`` and
+        ``smoothed_field`` are None): hundreds of regions of a large image would hold
+        gigabytes of them. ``phi`` and ``u`` cover the domain once this is read.
+        """
         for res in self._regions:
             if isinstance(res.phi, DeferredFill):
                 res.phi = res.phi.filled(self.domain)
+            if isinstance(res.u, DeferredFill):
+                res.u = res.u.filled(self.domain)
         return self._regions
 
     @property
