@@ -110,15 +110,15 @@ class LevelSet:
             used = (starts + ends) > 0
             return bool(np.all(starts[used] == 1) and np.all(ends[used] == 1))
         # oriented facets: each must meet its reverse exactly once
-        key = _canonical_oriented(f)
-        uniq, counts = np.unique(key, axis=0, return_counts=True)
+        key = _row_keys(_canonical_oriented(f), self.n_points)
+        axis = 0 if key.ndim == 2 else None
+        uniq, counts = np.unique(key, axis=axis, return_counts=True)
         if np.any(counts != 1):
             return False
         rev = f.copy()
         rev[:, [0, 1]] = rev[:, [1, 0]]
-        rkey = _canonical_oriented(rev)
-        both = np.concatenate([key, rkey])
-        _, c2 = np.unique(both, axis=0, return_counts=True)
+        both = np.concatenate([key, _row_keys(_canonical_oriented(rev), self.n_points)])
+        _, c2 = np.unique(both, axis=axis, return_counts=True)
         return bool(np.all(c2 == 2))
 
     def n_components(self) -> int:
@@ -156,6 +156,26 @@ def _canonical_oriented(f):
     srt = np.take_along_axis(f, order, axis=1)
     parity = _permutation_parity(order)
     return np.concatenate([srt, parity[:, None]], axis=1)
+
+
+def _row_keys(rows, n):
+    """One integer per row of ``rows`` (point ids below ``n``, then a parity bit), equal
+    for equal rows, when they fit in 63 bits (a sort of integers, not of rows); else the
+    rows themselves.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> _row_keys(np.array([[1, 2, 0], [1, 2, 1], [0, 2, 1]]), 3).tolist()
+    [10, 11, 5]
+    """
+    ids = rows.shape[1] - 1
+    if ids * np.log2(max(n, 2)) + 1 > 62:
+        return rows
+    key = np.zeros(rows.shape[0], dtype=np.int64)
+    for c in range(ids):
+        key = key * n + rows[:, c]
+    return key * 2 + rows[:, -1]
 
 
 def _permutation_parity(perm):
