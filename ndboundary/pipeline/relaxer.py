@@ -333,7 +333,8 @@ class Relaxer:
         def outside():
             """The fill's walk and every vertex's side: they depend on the band alone. A
             deferred fill is handed the side as a function of the region's members, so
-            that many regions do not each hold a mask over the whole domain."""
+            that many regions do not each hold a mask over the whole domain.
+            """
             if not self._fill:
                 return None, functools.partial(_vertex_side, domain, on, np.flatnonzero(region1))
             side = region1 if on == "vertices" else domain.vertices_of(region1)

@@ -36,7 +36,8 @@ class DeferredFill:
 
     def filled(self, domain):
         """Phi on every vertex of ``domain``; without a side, the band's values and zero
-        beyond (the heat, which is zero far from zeta)."""
+        beyond (the heat, which is zero far from zeta).
+        """
         if self._side is None:
             out = np.zeros(domain.n_vertices)
             out[self.vertices] = self.phi_band
