@@ -59,7 +59,8 @@ smoothing within sectors is measured against.
 Columns: ``mean/h``, ``max/h`` over the interface points; ``away``, ``away max`` over
 those farther than 2 h from every true junction and from the border (where the largest
 errors are not); ``t>f`` the largest distance from a true junction to the found ones,
-``f>t`` from a found junction to the true ones; ``meas%`` the largest relative error of
+``f>t`` from a found junction to the true ones; ``jag t>f`` the same ``t>f`` for the
+jagged labels' junctions (the vertices where three labels meet); ``meas%`` the largest relative error of
 a region's measure; ``s`` the seconds of the relax call.
 
 Usage::
@@ -80,6 +81,7 @@ import sys
 import time
 
 import numpy as np
+import scipy.sparse as sp
 from regions_truths import PlaneCuts, VoronoiTruth, YTruth, angles_between, direction_angle, match
 from scipy.spatial import cKDTree
 from verdicts import print_verdicts
@@ -93,7 +95,8 @@ from ndboundary.partition import partition
 COLUMNS = [("L", 3, "d", "n_regions"), ("h", 7, ".4f", "h"), ("mean/h", 7, ".3f", "mean_h"),
            ("max/h", 7, ".3f", "max_h"), ("away", 6, ".3f", "away_mean_h"), ("away max", 8, ".3f", "away_max_h"),
            ("junc t/f", 9, "s", "junctions"), ("t>f/h", 7, ".3f", "true_to_found_h"),
-           ("f>t/h", 7, ".3f", "found_to_true_h"), ("jcurve/h", 8, ".3f", "junction_curve_mean_h"),
+           ("f>t/h", 7, ".3f", "found_to_true_h"), ("jag t>f", 7, ".3f", "jagged_true_to_found_h"),
+           ("jcurve/h", 8, ".3f", "junction_curve_mean_h"),
            ("meas%", 7, ".3f", "measure_err_pct"), ("gap%", 6, ".3f", "naive_gap_pct"),
            ("over%", 6, ".3f", "naive_overlap_pct"), ("seam/h", 6, ".2f", "naive_seam_max_h"),
            ("argmax", 8, ".1e", "argmax_gap_rel"), ("s", 6, ".2f", "seconds")]  # fmt: skip
@@ -141,6 +144,17 @@ def found_junctions(res):
     j = res.interfaces().junctions()
     sets = [set(res.classes[r[r >= 0]].tolist()) for r in j.regions]
     return j.points[j.simplices[:, 0]], sets
+
+
+def jagged_junctions(mesh, labels):
+    """The vertices where three or more labels meet, with the set of labels at each: the
+    jagged partition's junctions, which the relaxed ones are compared with."""
+    classes, codes = np.unique(labels, return_inverse=True)
+    onehot = sp.csr_matrix((np.ones(codes.size), (np.arange(codes.size), codes)), shape=(codes.size, classes.size))
+    touch = (mesh.incidence @ onehot).tocsr()
+    at = np.flatnonzero(np.diff(touch.indptr) >= 3)
+    sets = [set(classes[touch.indices[touch.indptr[v] : touch.indptr[v + 1]]].tolist()) for v in at]
+    return mesh.points[at], sets
 
 
 def naive(res, h):
@@ -210,9 +224,11 @@ def measure_plane(name, mesh, sites):
     found, sets = found_junctions(res)
     t2f, f2t = match(found, sets, true, [set(t.tolist()) for t in triples])
     t2f, f2t = t2f.max(initial=0) / h, f2t.max(initial=0) / h
+    jagged = match(*jagged_junctions(mesh, truth.labels(mesh.element_centroids())), true,
+                   [set(t.tolist()) for t in triples])[0].max(initial=0) / h  # fmt: skip
     err = 100 * np.abs(res.region_measures() / truth.exact_measures(mesh)[res.classes] - 1)
     row.update(junctions=f"{len(true)}/{len(found)}", true_to_found_h=t2f, found_to_true_h=f2t,
-               measure_err_pct=err.max(), bisector_line_max_h=line["max_h"])  # fmt: skip
+               jagged_true_to_found_h=jagged, measure_err_pct=err.max(), bisector_line_max_h=line["max_h"])  # fmt: skip
     return targets(row, res, ("interface mean / h", row["mean_h"], 0.12), ("interface max / h", row["max_h"], 0.5),
                    ("every true junction found (max / h)", t2f, 0.5), ("no spurious junction (max / h)", f2t, 1.0),
                    ("area error %", err.max(), 0.5))  # fmt: skip
