@@ -46,30 +46,21 @@ class DeferredFill:
 
     def stored(self):
         """The vertices and values this region stores in a sparse partition
-        (:func:`~ndboundary.partition.partition`): phi on the band, and ``1/2 + c`` on its
-        side beyond it (as :meth:`bounded`). The other vertices leave it out: there it is
-        below every function that competes (see :meth:`bounded`), and the band reaches
-        more than a ring of elements past where it can win.
+        (:func:`~ndboundary.partition.partition`): phi on the band, and beyond it, on the
+        region's side, ``1/2 + c`` with ``c`` one more than the largest ``|phi - 1/2|`` on
+        the band.
+
+        Outside its band a region is either the only one whose function exceeds 1/2 (the
+        vertex is inside it, farther from its boundary than the band reaches, so no other
+        band reaches it either) or below every function that competes there, and the band
+        reaches more than a ring of elements past where it can win: the vertices left out
+        change no largest function, and the partition is the filled functions' one.
         """
         c = float(np.abs(self.phi_band - 0.5).max()) + 1.0
         beyond = self.side if callable(self._side) else self._side.copy()
         beyond[self.vertices] = False
         deep = np.flatnonzero(beyond)
         return np.concatenate([self.vertices, deep]), np.concatenate([self.phi_band, np.full(deep.size, 0.5 + c)])
-
-    def bounded(self, n_vertices):
-        """Phi on the band, and outside it ``1/2 +- c`` (``+`` on the region's side), with
-        ``c`` one more than the largest ``|phi - 1/2|`` on the band.
-
-        Outside its band a region is either the only one whose function exceeds 1/2 (the
-        vertex is inside it, farther from its boundary than the band reaches, so no other
-        band reaches it either) or below every function that competes there: the argmax
-        is the filled one's.
-        """
-        c = float(np.abs(self.phi_band - 0.5).max()) + 1.0
-        values = np.where(self.side, 0.5 + c, 0.5 - c)
-        values[self.vertices] = self.phi_band
-        return values
 
 
 class _RegionMethods:
