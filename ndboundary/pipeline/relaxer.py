@@ -37,7 +37,7 @@ from .heat import diffuse
 from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
-from .result import DeferredFill, RegionsResult, RelaxResult
+from .result import BandValues, DeferredFill, RegionsResult, RelaxResult
 from . import sectors
 from .sectors import region_sectors
 from .smoothing import smooth
@@ -357,7 +357,7 @@ class Relaxer:
             # one region among many: what covers the whole domain is built when read, and
             # the fields on its band are not kept (see RegionsResult.regions)
             res.phi = DeferredFill(elements, vertices, res.phi, side, distances, rate)
-            res.u = DeferredFill(elements, vertices, res.u, None, None, None)
+            res.u = BandValues(vertices, res.u)
             res.field = res.smoothed_field = None
         res.boundary, res.classes, res.domain = boundary, classes, domain
         fill = time.perf_counter() - tick

@@ -13,7 +13,7 @@ from ..partition import partition
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
-__all__ = ["DeferredFill", "RegionsResult", "RelaxResult"]
+__all__ = ["BandValues", "DeferredFill", "RegionsResult", "RelaxResult"]
 
 
 class DeferredFill:
@@ -35,13 +35,7 @@ class DeferredFill:
         return self._side() if callable(self._side) else self._side
 
     def filled(self, domain):
-        """Phi on every vertex of ``domain``; without a side, the band's values and zero
-        beyond (the heat, which is zero far from zeta).
-        """
-        if self._side is None:
-            out = np.zeros(domain.n_vertices)
-            out[self.vertices] = self.phi_band
-            return out
+        """Phi on every vertex of ``domain``."""
         return extend_outside(domain, self.elements, self.vertices, self.phi_band, self.side, self.distances, self.rate)
 
     def stored(self):
@@ -61,6 +55,21 @@ class DeferredFill:
         beyond[self.vertices] = False
         deep = np.flatnonzero(beyond)
         return np.concatenate([self.vertices, deep]), np.concatenate([self.phi_band, np.full(deep.size, 0.5 + c)])
+
+
+class BandValues:
+    """Values on a band's vertices, zero beyond it, spread over the domain when read: the
+    heat of a region among many, which is zero far from its zeta.
+    """
+
+    def __init__(self, vertices, values):
+        self.vertices, self.values = vertices, values
+
+    def filled(self, domain):
+        """The values on every vertex of ``domain``."""
+        out = np.zeros(domain.n_vertices)
+        out[self.vertices] = self.values
+        return out
 
 
 class _RegionMethods:
@@ -248,7 +257,7 @@ class RegionsResult(_RegionMethods):
         for res in self._regions:
             if isinstance(res.phi, DeferredFill):
                 res.phi = res.phi.filled(self.domain)
-            if isinstance(res.u, DeferredFill):
+            if isinstance(res.u, BandValues):
                 res.u = res.u.filled(self.domain)
         return self._regions
 
@@ -317,10 +326,8 @@ def _complex(domain, values):
     count = (abs(R).sign() @ stored).tocsr()
     mean.sort_indices()
     count.sort_indices()
-    rows = np.repeat(np.arange(count.shape[0]), np.diff(count.indptr))
-    keep = count.data == np.diff(R.indptr)[rows]
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=count.shape[0]))])
-    out = sp.csr_matrix((mean.data[keep] - shift, mean.indices[keep], indptr), shape=mean.shape)
+    rows = _entry_keys(count)[0]
+    out = _kept(mean, rows, count.data == np.diff(R.indptr)[rows], offset=shift)
     return points, simplices, out
 
 
@@ -343,25 +350,41 @@ def _within_reach(domain, values):
     corners = by_element.indices  # every element's vertices, element by element
     elements = np.repeat(np.arange(by_element.shape[0]), np.diff(by_element.indptr))
     best = _argmax_rows(values)
-    keys = np.repeat(np.arange(V), np.diff(values.indptr)) * L + values.indices  # increasing
+    rows, keys = _entry_keys(values)
     T = np.full(by_element.shape[0], -np.inf)
     for reduce in (np.minimum, np.maximum):  # the lowest and the highest leading region
         lead = reduce.reduceat(best[corners], by_element.indptr[:-1])
-        want = corners * L + lead[elements]
-        at = np.minimum(np.searchsorted(keys, want), keys.size - 1)
-        found = keys[at] == want
+        at, found = _lookup(keys, corners * L + lead[elements])
         low = np.where(found, values.data[at], -np.inf)  # not stored: no bound from it
         T = np.maximum(T, np.minimum.reduceat(low, by_element.indptr[:-1]))
     reach = np.minimum.reduceat(T[domain.incidence.indices], domain.incidence.indptr[:-1])
-    rows = np.repeat(np.arange(V), np.diff(values.indptr))
     hot = values.copy()  # its own index arrays: dropping its zeros must not touch values'
     hot.data = (values.data >= reach[rows]).astype(np.float64)
     hot.eliminate_zeros()
-    star = domain.incidence @ (by_element @ hot)  # > 0 where a vertex of the star is hot
-    star = sp.csr_matrix(star)
+    star = sp.csr_matrix(domain.incidence @ (by_element @ hot))  # > 0 where a vertex of the star is hot
     star.sort_indices()
-    skeys = np.repeat(np.arange(V), np.diff(star.indptr)) * L + star.indices
-    at = np.minimum(np.searchsorted(skeys, keys), max(skeys.size - 1, 0))
-    keep = (skeys[at] == keys) if skeys.size else np.zeros(keys.size, dtype=bool)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=V))])
-    return sp.csr_matrix((values.data[keep], values.indices[keep], indptr), shape=(V, L))
+    return _kept(values, rows, _lookup(_entry_keys(star)[1], keys)[1])
+
+
+def _entry_keys(matrix):
+    """The row of every stored entry of a CSR ``matrix`` with sorted indices, and its key
+    ``row * n_columns + column`` (increasing).
+    """
+    rows = np.repeat(np.arange(matrix.shape[0]), np.diff(matrix.indptr))
+    return rows, rows * matrix.shape[1] + matrix.indices
+
+
+def _lookup(keys, want):
+    """Where each of ``want`` is in the increasing ``keys``, and whether it is there."""
+    if keys.size == 0:
+        return np.zeros(want.size, dtype=np.int64), np.zeros(want.size, dtype=bool)
+    at = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+    return at, keys[at] == want
+
+
+def _kept(matrix, rows, keep, offset=0.0):
+    """The CSR ``matrix`` with only the entries ``keep`` (``rows`` their rows), its values
+    less ``offset``.
+    """
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=matrix.shape[0]))])
+    return sp.csr_matrix((matrix.data[keep] - offset, matrix.indices[keep], indptr), shape=matrix.shape)
