@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import sys
 import warnings
 from dataclasses import dataclass, field
 
@@ -159,11 +160,27 @@ def blas_threads(n):
     """
     if n is None:
         return contextlib.nullcontext()
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn
+    controller = _threadpools()
+    if controller is None:  # pragma: no cover - threadpoolctl ships with scikit-learn
         return contextlib.nullcontext()
-    return threadpool_limits(limits=n, user_api="blas")
+    return controller.limit(limits=n, user_api="blas")
+
+
+_controller = [None, -1]
+
+
+def _threadpools():
+    """The process's thread pools (a ``threadpoolctl.ThreadpoolController``), found again
+    only when modules were imported since: each search lists every loaded library, which
+    cost 4 ms a solve, many times over for a partition of many regions.
+    """
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn
+        return None
+    if _controller[1] != len(sys.modules):  # a new module may have brought its own BLAS
+        _controller[:] = ThreadpoolController(), len(sys.modules)
+    return _controller[0]
 
 
 def one_blas_thread():
