@@ -21,6 +21,7 @@ from ._compiled import insert_sorted, row_blocks
 from ._kernels import kernel
 
 __all__ = [
+    "assemble_box_stencil",
     "assemble_cell_blocks",
     "edge_length_graph",
     "facet_adjacency",
@@ -672,3 +673,82 @@ def edge_length_graph(incidence, simplices, points, *, unit=1.0, with_graph=True
     _edge_rows(indptr, elements, simplices, points, nbr, rows, cols, lengths, float(unit))
     graph = sp.csr_matrix((lengths, cols, rows.astype(idx)), shape=(V, V))
     return graph, mean
+
+
+@kernel("void(i8[:, ::1], i8[::1], i8[::1], i8[::1], f8[::1], i4[:, ::1], f8[:, ::1])")
+@numba.njit(cache=True, nogil=True)
+def _box_stencil_fill(corners, first, second, slot, value, nbr, data):  # pragma: no cover - compiled
+    # every cell adds value[p] to the entry (corners[c, first[p]], corners[c, second[p]]),
+    # kept in the row's slot slot[p] (one slot per offset between two corners)
+    for c in range(corners.shape[0]):
+        for p in range(first.size):
+            a = corners[c, first[p]]
+            nbr[a, slot[p]] = corners[c, second[p]]
+            data[a, slot[p]] += value[p]
+
+
+@kernel("void(i4[:, ::1], f8[:, ::1], i8[::1], i4[::1], f8[::1])")
+@numba.njit(cache=True, nogil=True)
+def _box_stencil_compress(nbr, data, rows, cols, out):  # pragma: no cover - compiled
+    t = 0
+    for a in range(nbr.shape[0]):
+        for s in range(nbr.shape[1]):
+            if nbr[a, s] >= 0:
+                cols[t] = nbr[a, s]
+                out[t] = data[a, s]
+                t += 1
+        rows[a + 1] = t
+
+
+def assemble_box_stencil(corners, block, offsets, n_vertices):
+    """``sum_c P_c^T B P_c`` for cells that all share the symmetric block ``B`` (the voxels
+    of an image), in canonical CSR form, without a search: each row keeps one slot per
+    offset between two corners of a cell, so every entry of a cell goes straight to its
+    slot, and the slots, in increasing order of the offset, are the row's columns in
+    increasing order when the vertices are numbered in the order of their positions
+    (as a grid's corners are). The zero entries of ``B`` are left out of the pattern.
+
+    Parameters
+    ----------
+    corners : ndarray of int of shape (n_cells, m)
+        Every cell's vertices.
+    block : ndarray of shape (m, m)
+        The block every cell shares, symmetric.
+    offsets : ndarray of int of shape (m,)
+        Every corner's position in the vertex order, relative to the cell's first corner
+        (the grid's corner strides): the offset ``offsets[j] - offsets[i]`` names the slot
+        of ``(i, j)``, and its order the columns' order.
+    n_vertices : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix of shape (n_vertices, n_vertices)
+
+    Examples
+    --------
+    Two unit segments sharing vertex 1:
+
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import assemble_box_stencil
+    >>> block = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    >>> K = assemble_box_stencil(np.array([[0, 1], [1, 2]]), block, np.array([0, 1]), 3)
+    >>> K.toarray().tolist(), bool(K.has_canonical_format)
+    ([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]], True)
+    """
+    corners = np.ascontiguousarray(corners, dtype=np.int64)
+    block = np.asarray(block, dtype=np.float64)
+    first, second = np.nonzero(block)
+    step = np.asarray(offsets, dtype=np.int64)
+    shifts, slot = np.unique(step[second] - step[first], return_inverse=True)
+    V = int(n_vertices)
+    if V >= np.iinfo(np.int32).max:
+        raise ValueError(f"{V} vertices are too many for 32-bit column indices")
+    nbr = np.full((V, shifts.size), -1, dtype=np.int32)
+    data = np.zeros((V, shifts.size))
+    _box_stencil_fill(corners, first.astype(np.int64), second.astype(np.int64), slot.astype(np.int64),
+                      np.ascontiguousarray(block[first, second]), nbr, data)  # fmt: skip
+    rows = np.zeros(V + 1, dtype=np.int64)
+    count = int(np.count_nonzero(nbr >= 0))
+    cols, out = np.empty(count, dtype=np.int32), np.empty(count)
+    _box_stencil_compress(nbr, data, rows, cols, out)
+    return sp.csr_matrix((out, cols, rows.astype(np.int32)), shape=(V, V))

@@ -226,7 +226,8 @@ def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spac
     mask[band.pixels] = True
     sub, corners = (PolyhedralMesh if labels.ndim == 3 else PolygonMesh).subdomain(grid, mask)  # a general cut
     np.testing.assert_array_equal(band.corners, corners)
-    assert abs(band.K - sub.K).max() == 0 and np.array_equal(band.mass, sub.mass)
+    # the same stiffness to rounding (the grid leaves out the couplings that vanish)
+    assert abs(band.K - sub.K).max() <= 1e-14 * abs(sub.K).max() and np.array_equal(band.mass, sub.mass)
     np.testing.assert_allclose(result.phi, whole.phi[corners], atol=1e-12)
     np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-12)
     assert result.region_measures().sum() == pytest.approx(grid.A.sum(), rel=1e-12)
@@ -310,7 +311,8 @@ def test_a_grid_bands_components_edges_and_operators_are_its_meshs(shape):
         np.testing.assert_array_equal(band.edges, PolyhedralMesh.build_edges(band))
         for name, build in (("K", "stiffness"), ("G", "gradient"), ("adjacency", "adjacency")):
             general = getattr(PolyhedralMesh, f"build_{build}")(band).tocsr()
-            assert abs(getattr(band, name) - general).max() == 0, name
+            # to rounding: the grid's stiffness sums in another order, without the couplings that vanish
+            assert abs(getattr(band, name) - general).max() <= 1e-14 * abs(general).max(), name
 
 
 @pytest.mark.parametrize("shape", [(14, 15, 16), (30, 31)])

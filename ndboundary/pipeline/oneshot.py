@@ -67,11 +67,13 @@ def relax(
         leaves them whole: they take the mean field of their neighbours
         (:func:`~ndboundary.pipeline.field.fill_flat`).
     rtol : float, default=1e-7
-        Relative residual the linear solves must reach
+        Relative residual the heat solve must reach
         (:data:`~ndboundary.pipeline.params.DEFAULT_RTOL`: the level set moves by less
-        than 1e-4 h from there to 1e-10). The heat is trusted down to
-        ``max(1e-5, 100 rtol)`` of its maximum; below, the field follows the graph
-        distance to zeta.
+        than 1e-4 h from there to 1e-10); the squared-Laplacian integration solves to
+        ``100 rtol``, but no looser than 1e-5
+        (:func:`~ndboundary.pipeline.params.integration_rtol`), the first-order form to
+        ``rtol``. The heat is trusted down to ``max(1e-5, 100 rtol)`` of its maximum;
+        below, the field follows the graph distance to zeta.
     solver : {"auto", "pcg", "direct"}, default="auto"
         How to solve the integration system (see :func:`ndboundary.solvers.solve_integration`).
     band : "auto", float or None, default="auto"

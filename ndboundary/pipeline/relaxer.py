@@ -36,7 +36,7 @@ from .field import initial_field
 from .heat import diffuse
 from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_system
 from .padding import pad as pad_domain
-from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
+from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params, integration_rtol
 from .result import BandValues, DeferredFill, RegionsResult, RelaxResult
 from . import sectors
 from .sectors import region_sectors
@@ -189,8 +189,10 @@ class Relaxer:
             # the padded operators are not needed by the solve: free them before it
             self.clear()
             padded = None
+        # the first-order form (the classifier's) solves to the heat's rtol
+        rtol = p["rtol"] if p["form"] == "gradient" else integration_rtol(p["rtol"])
         phi, int_info = integrate(
-            system, rtol=p["rtol"], solver=p["solver"], cache=self._factors if self._keep else self._shared
+            system, rtol=rtol, solver=p["solver"], cache=self._factors if self._keep else self._shared
         )
         prog.step("integration")
 
