@@ -20,11 +20,19 @@ from functools import cached_property
 import numpy as np
 from scipy import ndimage
 
-from .._arrays import ragged_next, shared_facet_adjacency, unique_values, used_vertices
+from .._arrays import ragged_next, unique_values, used_vertices
 from .polygon import PolygonMesh
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
-from .voxels import CORNER_BITS, box_constants, voxel_edges, voxel_faces, voxel_gradient, voxel_stiffness
+from .voxels import (
+    CORNER_BITS,
+    box_constants,
+    voxel_adjacency,
+    voxel_edges,
+    voxel_faces,
+    voxel_gradient,
+    voxel_stiffness,
+)
 
 __all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
 
@@ -216,8 +224,8 @@ class _Voxels(PolyhedralMesh):
         return voxel_edges(self)
 
     def build_adjacency(self):
-        """Voxels sharing a face: each face is listed once, and every voxel has six."""
-        return shared_facet_adjacency(self.cell_faces, np.repeat(np.arange(self.n_elements), 6), self.n_elements)
+        """Voxels sharing a face (:func:`~ndboundary.domains.voxels.voxel_adjacency`)."""
+        return voxel_adjacency(self)
 
 
 class VoxelGrid(ImageGrid, _Voxels):

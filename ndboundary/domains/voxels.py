@@ -22,6 +22,7 @@ from .cell_operators import _cell_stiffness
 __all__ = [
     "CORNER_BITS",
     "box_constants",
+    "voxel_adjacency",
     "voxel_edges",
     "voxel_faces",
     "voxel_gradient",
@@ -189,3 +190,31 @@ def voxel_edges(mesh):
             other[3 * corners[:, i] + k] = corners[:, j]
     slots = np.flatnonzero(other >= 0)
     return np.stack([slots // 3, other[slots]], axis=1)
+
+
+def voxel_adjacency(mesh):
+    """The voxels sharing a face, as a CSR matrix of ones with sorted columns.
+
+    Voxel ``e``'s neighbour across its high face along an axis is the voxel whose low face
+    along that axis is the same face, read off a table of the low faces' owners; the
+    neighbours in the order low faces along axes 0, 1, 2, then high faces along axes 2,
+    1, 0 are in increasing order (the voxels are numbered in C order), so each row's
+    columns come sorted without a sort.
+    """
+    n = mesh.n_elements
+    faces = mesh.cell_faces.reshape(n, 6)
+    idx = np.int32 if 6 * n < np.iinfo(np.int32).max else np.int64
+    owner = np.full(mesh.n_faces, -1, dtype=idx)
+    nbr = np.full((n, 6), -1, dtype=idx)
+    for a in range(3):
+        owner[faces[:, 2 * a]] = np.arange(n, dtype=idx)
+        nbr[:, 5 - a] = owner[faces[:, 2 * a + 1]]  # across the high face
+        owner[faces[:, 2 * a]] = -1
+    for a in range(3):  # across the low face: the voxel whose high face it is
+        owner[faces[:, 2 * a + 1]] = np.arange(n, dtype=idx)
+        nbr[:, a] = owner[faces[:, 2 * a]]
+        owner[faces[:, 2 * a + 1]] = -1
+    there = nbr >= 0
+    indptr = np.zeros(n + 1, dtype=idx)
+    np.cumsum(there.sum(axis=1), out=indptr[1:])
+    return sp.csr_matrix((np.ones(int(indptr[-1])), nbr[there], indptr), shape=(n, n))
