@@ -370,3 +370,24 @@ def test_many_regions_partition_their_bands_as_their_filled_functions():
     length = [np.linalg.norm(np.diff(x.points[x.simplices], axis=1), axis=2).sum() for x in (j, k)]
     assert length[0] == pytest.approx(length[1], rel=1e-9) and length[0] > 0
     assert all(result.region_boundary(r).is_closed() for r in range(5))
+
+
+@pytest.mark.parametrize("band", [False, True])
+def test_a_voxel_grids_gradient_and_divergence_need_no_matrix(band):
+    """The gradient and weak divergence of voxels, computed from the box every voxel shares,
+    are those of the gradient matrix to rounding, exact on linear functions and adjoint."""
+    from ndboundary.domains.image import GridBand
+
+    rng = np.random.default_rng(3)
+    shape, spacing, direction = (9, 10, 11), (0.6, 1.0, 2.5), _rotation(3)
+    if band:
+        grid = GridBand(shape, np.flatnonzero(rng.uniform(size=int(np.prod(shape))) < 0.4), spacing=spacing)
+    else:
+        grid = ImageGrid(shape, spacing=spacing, direction=direction)
+    f, X = rng.standard_normal(grid.n_vertices), rng.standard_normal((grid.n_elements, 3))
+    G = grid.G
+    np.testing.assert_allclose(grid.gradient(f), (G @ f).reshape(-1, 3), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(grid.div(X), G.T @ (X * grid.A[:, None]).reshape(-1), rtol=0, atol=1e-13)
+    slope = np.array([1.0, -2.0, 0.5])
+    np.testing.assert_allclose(grid.gradient(grid.points @ slope), np.tile(slope, (grid.n_elements, 1)), atol=1e-12)
+    assert f @ grid.div(X) == pytest.approx(np.sum(grid.A * np.einsum("ij,ij->i", grid.gradient(f), X)), rel=1e-12)

@@ -219,6 +219,22 @@ class _Voxels(PolyhedralMesh):
         """The gradient operator (see :class:`~ndboundary.PolyhedralMesh`), in CSR form directly."""
         return voxel_gradient(self)
 
+    def gradient(self, f):
+        """Per-voxel gradient of the vertex function ``f``, shape (n_elements, 3): ``G @ f``
+        without the matrix, each voxel's corner values times the coefficients every voxel
+        shares (the matrix would hold 24 entries a voxel that repeat the same 24 numbers).
+        """
+        f = np.asarray(f, dtype=np.float64).reshape(self.n_vertices)
+        return f[self.cell_vertices[1].reshape(self.n_elements, 8)] @ self.box[2]
+
+    def div(self, X):
+        """Weak divergence ``G^T diag(A) X`` of a per-voxel field ``X`` of shape
+        (n_elements, 3), without the matrix (see :meth:`gradient`).
+        """
+        X = np.asarray(X, dtype=np.float64).reshape(self.n_elements, 3)
+        weights = (X * self.A[:, None]) @ self.box[2].T  # (n_elements, 8): each corner's share
+        return np.bincount(self.cell_vertices[1], weights=weights.reshape(-1), minlength=self.n_vertices)
+
     def build_edges(self):
         """The unique edges, ``i < j``, from the voxels' corners without a sort."""
         return voxel_edges(self)
