@@ -153,7 +153,9 @@ def integration_system(work, Xs, h, padded, sources, *, lam, mu, form):
     ((121, 121), (121,))
     """
     k = work.element_dim
-    Kh = work.K * h ** (2 - k)
+    K = work.K.tocsr()
+    # K's index arrays shared: a copy of the pattern is half a gigabyte on a large voxel band
+    Kh = K if h == 1.0 else sp.csr_matrix((K.data * h ** (2 - k), K.indices, K.indptr), shape=K.shape)
     mh = work.mass / h**k
     d = work.div(Xs) * h ** (1 - k)
     if form == "gradient":

@@ -10,6 +10,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from .._compiled import pattern_sums
 from .amg_hierarchy import energy_hierarchy
 from .common import load_optional, one_blas_thread
 
@@ -214,10 +215,9 @@ def light_vertex_jacobi(A, mass, apply):
     True
     """
     A = sp.csr_matrix(A)
-    ones = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
     diag = A.diagonal()
     neighbours = np.diff(A.indptr) - (diag != 0)
-    around = (ones @ mass - np.where(diag != 0, mass, 0.0)) / np.maximum(neighbours, 1)
+    around = (pattern_sums(A, mass) - np.where(diag != 0, mass, 0.0)) / np.maximum(neighbours, 1)
     light = np.flatnonzero((mass < LIGHT_VERTEX_SHARE * around) & (neighbours > 0))
     if light.size == 0:
         return apply

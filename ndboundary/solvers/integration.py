@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .._compiled import ThreadedMatvec
+from .._compiled import ThreadedMatvec, plus_diagonal
 from .amg import AMG_DENSE_ROWS, amg_preconditioner, light_vertex_jacobi
 from .cache import cached, orderings_of
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
@@ -286,7 +286,7 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     t0 = time.perf_counter()
     sts = np.asarray(abs(S).T @ abs(S) @ np.ones(S.shape[1])).ravel()
     d = 0.5 * mu * mass + np.sqrt(lam * sts * mass)
-    A = (K + sp.diags(d)).tocsr()
+    A = plus_diagonal(K, d)
     use_amg = _use_amg(preconditioner, sparse_rows, K.shape[0], K.nnz / max(K.shape[0], 1))
     name = "pcg-amg" if use_amg else "pcg-cholesky"
     with one_blas_thread():
