@@ -329,11 +329,14 @@ def _orientation(points, values, S, parity, owner, local, t):
     """
     m, k = t.shape
     k1 = S.shape[1]
-    rows = np.arange(m)[:, None]
-    xi = np.zeros((m, k, k1))
-    xi[rows, np.arange(k)[None, :], local[:, :, 0]] = 1.0 - t
-    xi[rows, np.arange(k)[None, :], local[:, :, 1]] += t
-    xi = xi[:, :, 1:]  # drop the first barycentric coordinate: reference coordinates in R^k
+    # output vertex j lies at (1 - t) e_a + t e_b in barycentric coordinates, (a, b) its
+    # edge's ends; dropping the first coordinate leaves reference coordinates in R^(k1 - 1),
+    # set coordinate by coordinate (a scatter through index arrays cost seconds on millions)
+    xi = np.zeros((m, k, k1 - 1))
+    for j in range(k):
+        a, b, tj = local[:, j, 0], local[:, j, 1], t[:, j]
+        for c in range(1, k1):
+            xi[:, j, c - 1] = np.where(a == c, 1.0 - tj, 0.0) + np.where(b == c, tj, 0.0)
     f = values[S[owner]]
     dphi = f[:, 1:] - f[:, :1]  # gradient of the function in reference coordinates
     cols = np.concatenate([xi[:, 1:, :] - xi[:, :1, :], dphi[:, None, :]], axis=1)
