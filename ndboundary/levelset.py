@@ -280,7 +280,7 @@ def marching_simplices(points, simplices, values, value=0.5):
             loc = np.stack([lo[path[:, 0]], hi[path[:, 1]]], axis=-1)  # (k, 2) local positions
             out_edges.append(S[sel][:, loc])  # (n, k, 2) directed below -> above
             out_owner.append(sel)
-            out_local.append(np.broadcast_to(loc, (sel.size,) + loc.shape))
+            out_local.append(np.broadcast_to(loc.astype(np.int8), (sel.size,) + loc.shape))
     E = np.concatenate(out_edges)  # (m, k, 2)
     owner = np.concatenate(out_owner)
     local = np.concatenate(out_local)
@@ -320,18 +320,42 @@ def _merge_vertex_crossings(pts, tris, ue, at_vertex):
     return pts[keep], tris.reshape(-1, k), ue[keep]
 
 
+#: Output simplices whose orientation is found at once: the temporaries of a block stay
+#: small (a few megabytes), where a level set of millions of triangles took gigabytes.
+ORIENTATION_BLOCK = 1 << 17
+
+
 def _orientation(points, values, S, parity, owner, local, t):
     """Sign telling whether each output simplex has the function increasing along its normal.
 
     Computed in the reference (barycentric) coordinates of the owning simplex, where no
     element is thin, then carried to space by the owner's orientation: the sign of its
-    volume for full-dimensional simplices, its winding as given otherwise.
+    volume for full-dimensional simplices, its winding as given otherwise. Blocks of
+    :data:`ORIENTATION_BLOCK` simplices are done one after another.
+    """
+    m, k1 = t.shape[0], S.shape[1]
+    if k1 - 1 == points.shape[1]:
+        own = np.empty(S.shape[0])
+        for lo in range(0, S.shape[0], ORIENTATION_BLOCK):
+            X = points[S[lo : lo + ORIENTATION_BLOCK]]
+            own[lo : lo + ORIENTATION_BLOCK] = np.sign(_det(X[:, 1:, :] - X[:, :1, :]))
+    else:
+        own = parity
+    out = np.empty(m)
+    for lo in range(0, m, ORIENTATION_BLOCK):
+        block = slice(lo, lo + ORIENTATION_BLOCK)
+        out[block] = _reference_sign(values, S, owner[block], local[block], t[block]) * own[owner[block]]
+    return out
+
+
+def _reference_sign(values, S, owner, local, t):
+    """The sign of each output simplex's orientation against the function's gradient, in
+    the reference coordinates of its owner ``S[owner]``.
     """
     m, k = t.shape
     k1 = S.shape[1]
     # output vertex j lies at (1 - t) e_a + t e_b in barycentric coordinates, (a, b) its
-    # edge's ends; dropping the first coordinate leaves reference coordinates in R^(k1 - 1),
-    # set coordinate by coordinate (a scatter through index arrays cost seconds on millions)
+    # edge's ends; dropping the first coordinate leaves reference coordinates in R^(k1 - 1)
     xi = np.zeros((m, k, k1 - 1))
     for j in range(k):
         a, b, tj = local[:, j, 0], local[:, j, 1], t[:, j]
@@ -340,13 +364,7 @@ def _orientation(points, values, S, parity, owner, local, t):
     f = values[S[owner]]
     dphi = f[:, 1:] - f[:, :1]  # gradient of the function in reference coordinates
     cols = np.concatenate([xi[:, 1:, :] - xi[:, :1, :], dphi[:, None, :]], axis=1)
-    sign = np.sign(_det(cols))
-    if k1 - 1 == points.shape[1]:
-        X = points[S]
-        own = np.sign(_det(X[:, 1:, :] - X[:, :1, :]))
-    else:
-        own = parity
-    return sign * own[owner]
+    return np.sign(_det(cols))
 
 
 def _det(M):
