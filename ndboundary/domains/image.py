@@ -22,6 +22,7 @@ from scipy import ndimage
 
 from .._arrays import ragged_next, unique_values, used_vertices
 from .polygon import PolygonMesh
+from .queries import as_mask
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
 from .voxels import (
@@ -242,6 +243,38 @@ class _Voxels(PolyhedralMesh):
     def build_adjacency(self):
         """Voxels sharing a face (:func:`~ndboundary.domains.voxels.voxel_adjacency`)."""
         return voxel_adjacency(self)
+
+    def _corners(self):
+        """Every voxel's 8 vertices, shape (n_elements, 8) (a view of ``cell_vertices``)."""
+        return self.cell_vertices[1].reshape(self.n_elements, 8)
+
+    def vertices_of(self, elements):
+        """The vertices of the voxels selected by the boolean mask ``elements``, read off
+        their corners, without the incidence (8 entries a voxel) the general query reads.
+        """
+        elements = as_mask(elements, self.n_elements, "elements")
+        out = np.zeros(self.n_vertices, dtype=bool)
+        out[self._corners()[elements].ravel()] = True
+        return out
+
+    def elements_at(self, vertices):
+        """The voxels holding a vertex selected by the boolean mask ``vertices``, read off
+        their corners a column at a time.
+        """
+        vertices = as_mask(vertices, self.n_vertices, "vertices")
+        corners = self._corners()
+        out = vertices[corners[:, 0]]
+        for c in range(1, 8):
+            out |= vertices[corners[:, c]]
+        return out
+
+    def element_max(self, f):
+        """Per voxel, the largest value of the vertex function ``f`` at its corners."""
+        f, corners = np.asarray(f), self._corners()
+        out = f[corners[:, 0]]
+        for c in range(1, 8):
+            np.maximum(out, f[corners[:, c]], out=out)
+        return out
 
 
 class VoxelGrid(ImageGrid, _Voxels):

@@ -90,10 +90,10 @@ def initial_field(domain, padded, region1, sources, u, rtol):
     if far.any():
         # distances on the unpadded domain; a padding vertex takes its element's mean
         dist = graph_distance(domain, sources)
-        if work.n_vertices - V == padded.split.size:
+        if work is not domain and work.n_vertices - V == padded.split.size:
             inc = domain.incidence[:, padded.split].T.tocsr()
             dist = np.concatenate([dist, (inc @ dist) / np.diff(inc.indptr)])
-        else:
+        elif work is not domain:
             dist = graph_distance(work, sources)
         X[far] = -normalize_rows(work.gradient(dist)[far])
     X[padded.elem_region1] *= -1.0
