@@ -125,7 +125,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         # two labels: the band is the relaxation's; more: each region's band of the same
         # width lies within it
         inner = None if classes.size == 2 else width
-        result = Relaxer(domain, _keep=False, _h=h).relax(
+        result = Relaxer(domain, _keep=False, _h=h, _private=True).relax(
             flat[pixels], on="elements", pad=pad, **{**params, "band": inner}
         )
         result.params.update(band=width, band_vertices=int(domain.n_vertices))

@@ -96,7 +96,7 @@ class Relaxer:
     0
     """
 
-    def __init__(self, domain, *, _keep=True, _h=None):
+    def __init__(self, domain, *, _keep=True, _h=None, _private=False):
         if not isinstance(domain, Domain):
             raise TypeError(
                 f"domain must be an ndboundary domain (e.g. SimplicialComplex), got {type(domain).__name__}"
@@ -113,6 +113,10 @@ class Relaxer:
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
         self._sectors = None  # (every element's region, this region): smooth within sectors
+        # the domain is this relaxation's own (a band it cut): what the result does not read
+        # is dropped from it once used, so that the integration and the level set, the
+        # largest steps, run beside less memory (read again, it is built again)
+        self._private = _private
 
     @property
     def nbytes(self) -> int:
@@ -189,12 +193,16 @@ class Relaxer:
             # the padded operators are not needed by the solve: free them before it
             self.clear()
             padded = None
+            if self._private:
+                _forget(domain, ("adjacency", "edges", "edge_lengths"))
         # the first-order form (the classifier's) solves to the heat's rtol
         rtol = p["rtol"] if p["form"] == "gradient" else integration_rtol(p["rtol"])
         phi, int_info = integrate(
             system, rtol=rtol, solver=p["solver"], cache=self._factors if self._keep else self._shared
         )
         prog.step("integration")
+        if self._private and not self._keep:
+            _forget(domain, ("K",))
 
         timings = dict(prog.times)
         timings["total"] = time.perf_counter() - t0
@@ -277,7 +285,7 @@ class Relaxer:
             if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
                 return self._band_relaxer
             sub, vertices = domain.subdomain(mask)
-            return mask_key, Relaxer(sub, _keep=self._keep, _h=h), vertices
+            return mask_key, Relaxer(sub, _keep=self._keep, _h=h, _private=not self._keep), vertices
 
         def labels_of(mask, vertices):
             return region1[mask] if on == "elements" else region1[vertices]
@@ -409,6 +417,12 @@ class Relaxer:
         if self._keep:
             self._heat = ((key, t, rtol), u, heat_info, X)
         return u, heat_info, X
+
+
+def _forget(domain, names):
+    """Drop the cached properties ``names`` of ``domain`` (built again when read)."""
+    for name in names:
+        domain.__dict__.pop(name, None)
 
 
 def _labels_key(region1, on, pad):
