@@ -9,7 +9,7 @@ are the pixels' corners, half a spacing from the centres. Pixels are quadrilater
 :class:`~ndboundary.PolyhedralMesh`: every operator, padding and band of those meshes
 serves the grids unchanged, with anisotropic spacing. A voxel grid's faces, operators and
 geometry come from its structure (:mod:`~ndboundary.domains.voxels`) instead of a search
-and a computation per cell; the faces' geometry is found only when read. Cut to some of
+and a computation per cell; the faces, and their geometry, are found only when read. Cut to some of
 its pixels (a band), a grid stays a grid: a :class:`GridBand`, built from their indices.
 """
 
@@ -170,6 +170,64 @@ class _Voxels(PolyhedralMesh):
     def box(self):
         """What every voxel shares (:func:`~ndboundary.domains.voxels.box_constants`)."""
         return box_constants(self.spacing, self.direction)
+
+    @property
+    def n_elements(self):
+        """Number of voxels."""
+        return self._n_voxels
+
+    @cached_property
+    def _faces(self):
+        """``(face_indices, face_offsets, cell_faces, cell_offsets, cell_face_signs,
+        axis_counts)`` (:func:`~ndboundary.domains.voxels.voxel_faces`), found when first
+        read: the relaxation reads them only to find the face adjacency, so a band drops
+        them once it has, and a large grid never holds them unread.
+        """
+        shape = self.shape
+        strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
+        fi, fo, ci, co, signs, counts = voxel_faces(shape, strides, getattr(self, "pixels", None))
+        corners = getattr(self, "corners", None)
+        if corners is not None:
+            fi = np.searchsorted(corners, fi)  # the band's numbering of the grid's corners
+        if self.direction is not None and np.linalg.det(self.direction) < 0:
+            signs = -signs  # a reflection turns every face
+        return fi, fo, ci, co, signs, counts
+
+    @property
+    def face_indices(self):
+        """Face ``f`` is ``face_indices[face_offsets[f]:face_offsets[f + 1]]`` (counter-clockwise
+        seen from its axis' positive side; see :class:`~ndboundary.PolyhedralMesh`).
+        """
+        return self._faces[0]
+
+    @property
+    def face_offsets(self):
+        """See :attr:`face_indices`."""
+        return self._faces[1]
+
+    @property
+    def cell_faces(self):
+        """Voxel ``e`` has the faces ``cell_faces[6 e:6 e + 6]``: low then high along each axis."""
+        return self._faces[2]
+
+    @property
+    def cell_offsets(self):
+        """See :attr:`cell_faces`."""
+        return self._faces[3]
+
+    @property
+    def cell_face_signs(self):
+        """-1 for a voxel's low faces, +1 for its high ones (outward; turned by a reflection)."""
+        return self._faces[4]
+
+    @property
+    def _axis_counts(self):
+        return self._faces[5]
+
+    @cached_property
+    def _face_ids(self):
+        """Every face is listed once."""
+        return np.arange(self.n_faces)
 
     @cached_property
     def _face_axes(self):
@@ -437,14 +495,15 @@ def _pixel_strides(grid):
 
 
 def _init_voxels(mesh, voxels, kwargs):
-    """Build the hexahedra of the ``voxels`` of ``mesh``'s grid (all of them for None)."""
+    """Build the hexahedra of the ``voxels`` of ``mesh``'s grid (all of them for None): their
+    corners and points; the faces are found when first read (``_Voxels._faces``).
+    """
     laplacian = kwargs.pop("laplacian", "consistent")
     stabilization = check_laplacian_options(laplacian, kwargs.pop("stabilization", 4.0))
     if kwargs:
         raise TypeError(f"{type(mesh).__name__} got unexpected keyword arguments {sorted(kwargs)}")
     shape = mesh.shape
     strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
-    fi, fo, ci, co, signs, counts = voxel_faces(shape, strides, voxels)
     lowest = _lowest_corners(shape, np.arange(int(np.prod(shape))) if voxels is None else voxels)
     cell_vertices = lowest[:, None] + CORNER_BITS @ strides
     if voxels is None:
@@ -452,13 +511,9 @@ def _init_voxels(mesh, voxels, kwargs):
     else:
         # the corners the voxels hold, numbered by a table over the grid's, without a sort
         mesh.corners, remap = used_vertices(cell_vertices, int(np.prod([n + 1 for n in shape])))
-        cell_vertices, fi = remap[cell_vertices], remap[fi]
+        cell_vertices = remap[cell_vertices]
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
-    if mesh.direction is not None and np.linalg.det(mesh.direction) < 0:
-        signs = -signs  # a reflection turns every face
     mesh.stabilization, mesh.laplacian, mesh.points = stabilization, laplacian, points
-    mesh.face_indices, mesh.face_offsets, mesh.cell_faces, mesh.cell_offsets = fi, fo, ci, co
-    mesh.cell_face_signs, mesh._axis_counts = signs, counts
+    mesh._n_voxels = cell_vertices.shape[0]
     mesh._volumes = np.full(cell_vertices.shape[0], float(np.prod(mesh.spacing)))
     mesh.__dict__["cell_vertices"] = (np.repeat(np.arange(cell_vertices.shape[0]), 8), cell_vertices.ravel())
-    mesh.__dict__["_face_ids"] = np.arange(mesh.n_faces)  # every face is listed once

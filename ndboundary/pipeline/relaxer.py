@@ -194,7 +194,7 @@ class Relaxer:
             self.clear()
             padded = None
             if self._private:
-                _forget(domain, ("adjacency", "edges", "edge_lengths"))
+                _forget(domain, ("adjacency", "edges", "edge_lengths", "_faces", "_face_ids"))
         # the first-order form (the classifier's) solves to the heat's rtol
         rtol = p["rtol"] if p["form"] == "gradient" else integration_rtol(p["rtol"])
         phi, int_info = integrate(
