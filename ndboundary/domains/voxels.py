@@ -195,25 +195,30 @@ def voxel_edges(mesh):
 def voxel_adjacency(mesh):
     """The voxels sharing a face, as a CSR matrix of ones with sorted columns.
 
-    Voxel ``e``'s neighbour across its high face along an axis is the voxel whose low face
-    along that axis is the same face, read off a table of the low faces' owners; the
-    neighbours in the order low faces along axes 0, 1, 2, then high faces along axes 2,
-    1, 0 are in increasing order (the voxels are numbered in C order), so each row's
-    columns come sorted without a sort.
+    Voxel ``e``'s neighbour across its high face along an axis is the voxel one stride
+    further along it (found among a band's ``pixels`` by a binary search), unless ``e`` lies
+    at the grid's end; across its low face, the voxel whose high neighbour it is. The
+    neighbours in the order low faces along axes 0, 1, 2, then high faces along axes 2, 1,
+    0 are in increasing order (the voxels are numbered in C order), so each row's columns
+    come sorted without a sort, and no face is listed.
     """
-    n = mesh.n_elements
-    faces = mesh.cell_faces.reshape(n, 6)
+    n, shape = mesh.n_elements, mesh.shape
+    pixels = getattr(mesh, "pixels", None)  # None: every voxel of the grid
+    index = np.arange(n) if pixels is None else pixels
     idx = np.int32 if 6 * n < np.iinfo(np.int32).max else np.int64
-    owner = np.full(mesh.n_faces, -1, dtype=idx)
     nbr = np.full((n, 6), -1, dtype=idx)
     for a in range(3):
-        owner[faces[:, 2 * a]] = np.arange(n, dtype=idx)
-        nbr[:, 5 - a] = owner[faces[:, 2 * a + 1]]  # across the high face
-        owner[faces[:, 2 * a]] = -1
-    for a in range(3):  # across the low face: the voxel whose high face it is
-        owner[faces[:, 2 * a + 1]] = np.arange(n, dtype=idx)
-        nbr[:, a] = owner[faces[:, 2 * a]]
-        owner[faces[:, 2 * a + 1]] = -1
+        stride = int(np.prod(shape[a + 1 :]))
+        above = index + stride
+        inside = (index // stride) % shape[a] < shape[a] - 1
+        if pixels is None:
+            high = np.where(inside, above, -1)
+        else:
+            pos = np.minimum(np.searchsorted(pixels, above), n - 1)
+            high = np.where(inside & (pixels[pos] == above), pos, -1)
+        nbr[:, 5 - a] = high
+        has = np.flatnonzero(high >= 0)
+        nbr[high[has], a] = has  # the low-side neighbour of the voxel above
     there = nbr >= 0
     indptr = np.zeros(n + 1, dtype=idx)
     np.cumsum(there.sum(axis=1), out=indptr[1:])
