@@ -9,8 +9,9 @@ are the pixels' corners, half a spacing from the centres. Pixels are quadrilater
 :class:`~ndboundary.PolyhedralMesh`: every operator, padding and band of those meshes
 serves the grids unchanged, with anisotropic spacing. A voxel grid's faces, operators and
 geometry come from its structure (:mod:`~ndboundary.domains.voxels`) instead of a search
-and a computation per cell; the faces, and their geometry, are found only when read. Cut to some of
-its pixels (a band), a grid stays a grid: a :class:`GridBand`, built from their indices.
+and a computation per cell; the faces, and their geometry, are found only when read.
+Cut to some of its pixels (a band), a grid stays a grid: a :class:`GridBand`, built from
+their indices.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
 from .voxels import (
     CORNER_BITS,
+    _corners_of,
     box_constants,
     voxel_adjacency,
     voxel_edges,
@@ -284,7 +286,7 @@ class _Voxels(PolyhedralMesh):
         shares (the matrix would hold 24 entries a voxel that repeat the same 24 numbers).
         """
         f = np.asarray(f, dtype=np.float64).reshape(self.n_vertices)
-        return f[self.cell_vertices[1].reshape(self.n_elements, 8)] @ self.box[2]
+        return f[_corners_of(self)] @ self.box[2]
 
     def div(self, X):
         """Weak divergence ``G^T diag(A) X`` of a per-voxel field ``X`` of shape
@@ -302,17 +304,13 @@ class _Voxels(PolyhedralMesh):
         """Voxels sharing a face (:func:`~ndboundary.domains.voxels.voxel_adjacency`)."""
         return voxel_adjacency(self)
 
-    def _corners(self):
-        """Every voxel's 8 vertices, shape (n_elements, 8) (a view of ``cell_vertices``)."""
-        return self.cell_vertices[1].reshape(self.n_elements, 8)
-
     def vertices_of(self, elements):
         """The vertices of the voxels selected by the boolean mask ``elements``, read off
         their corners, without the incidence (8 entries a voxel) the general query reads.
         """
         elements = as_mask(elements, self.n_elements, "elements")
         out = np.zeros(self.n_vertices, dtype=bool)
-        out[self._corners()[elements].ravel()] = True
+        out[_corners_of(self)[elements].ravel()] = True
         return out
 
     def elements_at(self, vertices):
@@ -320,7 +318,7 @@ class _Voxels(PolyhedralMesh):
         their corners a column at a time.
         """
         vertices = as_mask(vertices, self.n_vertices, "vertices")
-        corners = self._corners()
+        corners = _corners_of(self)
         out = vertices[corners[:, 0]]
         for c in range(1, 8):
             out |= vertices[corners[:, c]]
@@ -328,7 +326,7 @@ class _Voxels(PolyhedralMesh):
 
     def element_max(self, f):
         """Per voxel, the largest value of the vertex function ``f`` at its corners."""
-        f, corners = np.asarray(f), self._corners()
+        f, corners = np.asarray(f), _corners_of(self)
         out = f[corners[:, 0]]
         for c in range(1, 8):
             np.maximum(out, f[corners[:, c]], out=out)
