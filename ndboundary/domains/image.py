@@ -30,6 +30,7 @@ from .voxels import (
     CORNER_BITS,
     _corners_of,
     box_constants,
+    corner_strides,
     voxel_adjacency,
     voxel_edges,
     voxel_faces,
@@ -185,9 +186,8 @@ class _Voxels(PolyhedralMesh):
         read: the relaxation reads them only to find the face adjacency, so a band drops
         them once it has, and a large grid never holds them unread.
         """
-        shape = self.shape
-        strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
-        fi, fo, ci, co, signs, counts = voxel_faces(shape, strides, getattr(self, "pixels", None))
+        strides = corner_strides(self.shape)
+        fi, fo, ci, co, signs, counts = voxel_faces(self.shape, strides, getattr(self, "pixels", None))
         corners = getattr(self, "corners", None)
         if corners is not None:
             fi = np.searchsorted(corners, fi)  # the band's numbering of the grid's corners
@@ -501,9 +501,8 @@ def _init_voxels(mesh, voxels, kwargs):
     if kwargs:
         raise TypeError(f"{type(mesh).__name__} got unexpected keyword arguments {sorted(kwargs)}")
     shape = mesh.shape
-    strides = np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
     lowest = _lowest_corners(shape, np.arange(int(np.prod(shape))) if voxels is None else voxels)
-    cell_vertices = lowest[:, None] + CORNER_BITS @ strides
+    cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(shape)
     if voxels is None:
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction)
     else:

@@ -22,6 +22,7 @@ from .cell_operators import _cell_stiffness
 __all__ = [
     "CORNER_BITS",
     "box_constants",
+    "corner_strides",
     "voxel_adjacency",
     "voxel_edges",
     "voxel_faces",
@@ -32,6 +33,18 @@ __all__ = [
 #: A voxel's 8 corners as 0/1 offsets along the axes, in increasing corner index (axis 0
 #: slowest, as the grid's C order).
 CORNER_BITS = np.array(list(product((0, 1), repeat=3)))
+
+
+def corner_strides(shape):
+    """The strides of the grid's corners (C order over ``shape + 1``), one per axis.
+
+    Examples
+    --------
+    >>> from ndboundary.domains.voxels import corner_strides
+    >>> corner_strides((2, 3, 4)).tolist()
+    [20, 5, 1]
+    """
+    return np.cumprod((1,) + tuple(n + 1 for n in shape[::-1]))[:-1][::-1]
 
 
 def voxel_faces(shape, strides, voxels=None):
@@ -152,8 +165,7 @@ def voxel_stiffness(mesh):
     block = _cell_stiffness(grads, mesh._volumes[:1], X - X.mean(axis=1, keepdims=True), mesh.stabilization)[0]
     block = 0.5 * (block + block.T)
     block[np.abs(block) <= 1e-12 * np.abs(block).max()] = 0.0
-    strides = np.cumprod((1,) + tuple(n + 1 for n in mesh.shape[::-1]))[:-1][::-1]
-    return assemble_box_stencil(corners, block, CORNER_BITS @ strides, mesh.n_vertices)
+    return assemble_box_stencil(corners, block, CORNER_BITS @ corner_strides(mesh.shape), mesh.n_vertices)
 
 
 def voxel_gradient(mesh):

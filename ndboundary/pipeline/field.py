@@ -90,11 +90,12 @@ def initial_field(domain, padded, region1, sources, u, rtol):
     if far.any():
         # distances on the unpadded domain; a padding vertex takes its element's mean
         dist = graph_distance(domain, sources)
-        if work is not domain and work.n_vertices - V == padded.split.size:
-            inc = domain.incidence[:, padded.split].T.tocsr()
-            dist = np.concatenate([dist, (inc @ dist) / np.diff(inc.indptr)])
-        elif work is not domain:
-            dist = graph_distance(work, sources)
+        if work is not domain:  # padded: its vertices beyond the domain's need distances too
+            if work.n_vertices - V == padded.split.size:
+                inc = domain.incidence[:, padded.split].T.tocsr()
+                dist = np.concatenate([dist, (inc @ dist) / np.diff(inc.indptr)])
+            else:
+                dist = graph_distance(work, sources)
         X[far] = -normalize_rows(work.gradient(dist)[far])
     X[padded.elem_region1] *= -1.0
     if padded.straddle.any():
