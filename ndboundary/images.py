@@ -2,19 +2,25 @@
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 
 import numpy as np
+import scipy.sparse as sp
+from scipy import ndimage
 
 from ._validation import check_labels
-from .domains.image import GridBand, ImageGrid, grid_direction, grid_geometry
-from .pipeline import relax
-from .pipeline.band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_width
-from .pipeline.grid_band import grid_mean_edge_length, image_band
+from .domains.image import GridBand, ImageGrid, grid_direction, grid_geometry, grid_usual_degree
+from .pipeline import relax, sectors
+from .pipeline.band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_width, growth_rate
+from .pipeline.boundary import Boundary, element_boundary
+from .pipeline.grid_band import corners_of, grid_mean_edge_length, image_band, region_band
 from .pipeline.integration import grid_scale_hint
 from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
 from .pipeline.relaxer import Relaxer
+from .pipeline.result import BandValues, DeferredFill, RegionsResult
+from .solvers import FactorCache
 
 __all__ = ["REACH_SCALE", "relax_image"]
 
@@ -106,27 +112,19 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     start = time.perf_counter()
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
     pixels, h, width = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
-    if pixels is None:
+    if width is not None and classes.size > 2:
+        result = _relax_regions(codes.reshape(labels.shape), classes, geometry, direction, pixels, h, width, pad, params)
+        result.timings["total"] = time.perf_counter() - start
+    elif pixels is None:
         grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
-        if width is not None and classes.size > 2:
-            # each region on its band of the image's width: the grid's boundary weight is
-            # known, no region need read it on a band of its own first
-            params = {**params, "band": width}
         result = relax(grid, flat, on="elements", pad=pad, **params)
     else:
-        domain = GridBand(labels.shape, pixels, spacing=geometry[1], origin=geometry[2], direction=direction)
-        rest = np.ones(flat.size, dtype=bool)
-        rest[pixels] = False
-        counts = np.bincount(codes[rest].astype(np.intp), minlength=classes.size)
-        domain.outside = dict(zip(classes.tolist(), (counts * float(np.prod(geometry[1]))).tolist(), strict=True))
+        domain = _image_band(labels.shape, geometry, direction, pixels, codes, classes)
         locate = time.perf_counter() - start
         if params.get("verbose"):
             print(f"[ndboundary] {'image band':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
-        # two labels: the band is the relaxation's; more: each region's band of the same
-        # width lies within it
-        inner = None if classes.size == 2 else width
         result = Relaxer(domain, _keep=False, _h=h, _private=True).relax(
-            flat[pixels], on="elements", pad=pad, **{**params, "band": inner}
+            flat[pixels], on="elements", pad=pad, **{**params, "band": None}
         )
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
         result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}
@@ -136,6 +134,157 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
             raise ValueError(f"background {background!r} is not one of the labels {result.classes.tolist()}")
         result.params["background"] = int(where[0])
     return result
+
+
+def _image_band(shape, geometry, direction, pixels, codes, classes):
+    """The :class:`GridBand` of ``pixels``, with the measure of each class among the pixels
+    it leaves out (``codes``: every pixel's class, flat).
+    """
+    domain = GridBand(shape, pixels, spacing=geometry[1], origin=geometry[2], direction=direction)
+    domain.usual_degree = grid_usual_degree(shape)
+    rest = np.ones(codes.size, dtype=bool)
+    rest[pixels] = False
+    counts = np.bincount(codes[rest].astype(np.intp), minlength=classes.size)
+    domain.outside = dict(zip(classes.tolist(), (counts * float(np.prod(geometry[1]))).tolist(), strict=True))
+    return domain
+
+
+#: The relaxation's parameters that :func:`_relax_regions` passes on, with their defaults.
+_SOLVE_DEFAULTS = {
+    "lam": DEFAULT_LAM,
+    "smoothing": DEFAULT_SMOOTHING,
+    "mu": DEFAULT_MU,
+    "form": "mass",
+    "rtol": DEFAULT_RTOL,
+    "solver": "auto",
+}
+
+
+def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, params):
+    """Relax every region of a label image against the rest, each on its own band.
+
+    Region ``r``'s band is the pixels within ``width`` of its zeta, found in a box around
+    the region (:func:`~ndboundary.pipeline.grid_band.region_band`) and built as a
+    :class:`GridBand` of its own: no region reads the whole image, so that hundreds of
+    regions cost what their bands cost. The bands and their relaxations are those that
+    :func:`~ndboundary.relax` cuts from the whole grid with ``band=width``, and the result
+    lives on the whole grid (``pixels`` None) or on the band of every region (``pixels``),
+    as :func:`~ndboundary.relax` returns it there.
+
+    Parameters
+    ----------
+    codes : ndarray of int, the image's shape
+        Every pixel's region (an index into ``classes``).
+    pixels : ndarray of int64 or None
+    """
+    shape, spacing, origin = geometry
+    t0 = time.perf_counter()
+    unknown = set(params) - set(_SOLVE_DEFAULTS) - {"t", "band", "verbose", "on"}
+    if unknown:
+        raise TypeError(f"relax_image got unexpected keyword arguments {sorted(unknown)}")
+    if params.get("on", "elements") != "elements":
+        raise ValueError(f"relax_image labels pixels: on must be 'elements', got {params['on']!r}")
+    verbose = params.get("verbose", False)
+    p = check_params(
+        on="elements", t=params.get("t"), band=width, **{k: params.get(k, d) for k, d in _SOLVE_DEFAULTS.items()}
+    )
+    if pixels is None:
+        domain = ImageGrid(shape, spacing=spacing, origin=origin, direction=direction)
+    else:
+        domain = _image_band(shape, geometry, direction, pixels, codes.reshape(-1), classes)
+    reach = [int(np.ceil(width * h / s)) + 1 for s in spacing]  # the band's reach in pixels, per axis
+    boxes = ndimage.find_objects(codes + 1)
+    distances = _OnFirstCall(functools.partial(domain.edge_distances, h))
+    shared = FactorCache(keep_factor=False)
+    solve = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
+    results = []
+    for r in range(classes.size):
+        tick = time.perf_counter()
+        box = tuple(
+            slice(max(b.start - m, 0), min(b.stop + m, n)) for b, m, n in zip(boxes[r], reach, shape, strict=True)
+        )
+        band_pixels, dist, labels, band_codes = region_band(codes, r, box, spacing, h, width)
+        band = GridBand(shape, band_pixels, spacing=spacing, origin=origin, direction=direction)
+        band.usual_degree = domain.usual_degree
+        locate = time.perf_counter() - tick
+        if verbose:
+            print(
+                f"[ndboundary] region {r + 1}/{classes.size} ({classes[r]!r}): {band.n_elements} pixels",
+                file=sys.stderr,
+                flush=True,
+            )
+        relaxer = Relaxer(band, _keep=False, _h=h, _private=True)
+        relaxer._shared = shared
+        if sectors.SECTOR_SMOOTHING:
+            relaxer._sectors = (band_codes, r)
+        res = relaxer.relax(labels, on="elements", pad=pad, verbose=verbose, band=None, **solve)
+        if pixels is None:
+            vertices, elements = band.corners, band_pixels
+        else:
+            vertices, elements = np.searchsorted(domain.corners, band.corners), np.searchsorted(pixels, band_pixels)
+        side = functools.partial(_region_side, domain, codes, r, box)
+        res.phi = DeferredFill(elements, vertices, res.phi, side, distances, growth_rate(res.phi, dist, width))
+        res.u = BandValues(vertices, res.u)
+        res.field = res.smoothed_field = None
+        if pad:  # zeta over the band's own vertices, not over its padding's
+            res.boundary = element_boundary(band, labels)
+        res.boundary = _moved(res.boundary, vertices, domain.n_vertices)
+        res.domain = domain
+        res.timings = {"locate": locate, **res.timings, "total": time.perf_counter() - tick}
+        res.params.update(band=width, band_vertices=int(band.n_vertices))
+        results.append(res)
+    timings = {}
+    for res in results:
+        for step, seconds in res.timings.items():
+            timings[step] = timings.get(step, 0.0) + seconds
+    timings["total"] = time.perf_counter() - t0
+    params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
+    params.update(pad=bool(pad), h=h, band_vertices=int(domain.n_vertices))
+    return RegionsResult(classes, domain, results, timings, params)
+
+
+class _OnFirstCall:
+    """A callable built when first called: the whole domain's edge distances, which a
+    region's phi needs only when it is filled beyond its band.
+    """
+
+    def __init__(self, build):
+        self._build, self._built = build, None
+
+    def __call__(self, *args, **kwargs):
+        if self._built is None:
+            self._built = self._build()
+        return self._built(*args, **kwargs)
+
+
+def _region_side(domain, codes, region, box):
+    """The vertices of ``domain`` (the whole grid or a :class:`GridBand`) that hold a pixel
+    of ``region``, all of whose pixels lie in ``box``: a mask over its vertices.
+    """
+    held = np.nonzero(corners_of(codes[box] == region))
+    corners = np.ravel_multi_index(
+        tuple(i + b.start for i, b in zip(held, box, strict=True)), tuple(n + 1 for n in codes.shape)
+    )
+    if isinstance(domain, GridBand):  # the corners the band holds, as its vertices
+        at = np.minimum(np.searchsorted(domain.corners, corners), domain.corners.size - 1)
+        corners = at[domain.corners[at] == corners]
+    side = np.zeros(domain.n_vertices, dtype=bool)
+    side[corners] = True
+    return side
+
+
+def _moved(boundary, vertices, n_vertices):
+    """A band's zeta (:class:`~ndboundary.pipeline.boundary.Boundary`) over the vertices of
+    the domain it was cut from, ``vertices[i]`` being the band's vertex ``i``.
+    """
+    S = sp.csr_matrix(boundary.S)
+    return Boundary(
+        vertices[boundary.sources],
+        sp.csr_matrix((S.data, vertices[S.indices], S.indptr), shape=(S.shape[0], n_vertices)),
+        boundary.points,
+        edges=None if boundary.edges is None else vertices[boundary.edges],
+        facets=lambda: vertices[boundary.facets],
+    )
 
 
 def _band_pixels(codes, geometry, direction, params):

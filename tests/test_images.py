@@ -248,6 +248,49 @@ def test_many_regions_of_an_image_band_partition_the_whole_image():
         assert result.region_boundary(r).measure() == pytest.approx(whole.region_boundary(r).measure(), rel=1e-10)
 
 
+@pytest.mark.parametrize(
+    ("shape", "spacing", "band"),
+    [((30, 34, 28), (1.0, 1.2, 0.9), 4.3), ((60, 70), (1.0, 1.0), 5.3), ((20, 22, 18), (1.0, 1.0, 1.0), 10.3)],
+    ids=["voxels-band", "pixels-band", "voxels-whole"],
+)
+def test_each_region_of_an_image_relaxes_on_its_own_band(shape, spacing, band):
+    """Every region is relaxed on the band cut around it from the image alone: the same
+    functions on the same bands as relax cuts from the whole grid, which the image's
+    regions never build (no edges, no adjacency of the whole grid or of the union band)."""
+    from ndboundary import relax
+
+    labels = _voronoi(shape, 7, spacing, seed=1) * 3 + 1  # labels that are not their indices
+    result = relax_image(labels, spacing=spacing, band=band)
+    grid = ImageGrid(shape, spacing=spacing)
+    whole = relax(grid, labels.ravel(), on="elements", band=band, pad=False)
+    corners = getattr(result.domain, "corners", np.arange(grid.n_vertices))
+    assert (band == 10.3) == (corners.size == grid.n_vertices)  # the union band is the whole grid
+    np.testing.assert_array_equal(result.classes, whole.classes)
+    a, b = result.region_values(), whole.region_values()[corners]
+    assert a.nnz == b.nnz and abs(a - b).max() == 0.0
+    for mine, theirs in zip(result._regions, whole._regions, strict=True):
+        assert mine.params["band_vertices"] == theirs.params["band_vertices"] < corners.size
+        np.testing.assert_array_equal(corners[mine.boundary.sources], theirs.boundary.sources)
+    assert not {"edges", "adjacency", "_faces"} & set(result.domain.__dict__)
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-12)
+    # filled beyond its band (along the domain's own edges), phi keeps the labels' sides
+    pixels = getattr(result.domain, "pixels", np.arange(labels.size))
+    bands = [res.phi.vertices for res in result._regions]
+    for r, label in enumerate(result.classes):
+        beyond = np.ones(corners.size, dtype=bool)
+        beyond[bands[r]] = False
+        inside = result.domain.vertices_of(labels.ravel()[pixels] == label)
+        assert beyond.any() and np.array_equal((result.phi[:, r] > 0.5)[beyond], inside[beyond])
+
+
+def test_grid_usual_degree_is_the_adjacencys():
+    from ndboundary.domains.image import grid_usual_degree
+
+    for shape in [(1, 5), (2, 3), (3, 3), (12, 3), (3, 4, 5), (2, 9, 9), (1, 1, 4), (10, 10, 10)]:
+        degrees = np.diff(ImageGrid(shape).build_adjacency().indptr)
+        assert grid_usual_degree(shape) == np.percentile(degrees, 90)
+
+
 def test_a_large_image_with_a_small_boundary_is_relaxed_on_its_band_by_default():
     """band="auto": the band of the pixels' reach, cut when it holds under 70 % of the
     pixels; the relaxed disc is as faithful as on the whole grid, and its measures count

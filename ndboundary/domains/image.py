@@ -145,6 +145,35 @@ class ImageGrid:
         """The pixels selected by ``mask`` as a :class:`GridBand` (see :meth:`Domain.subdomain`)."""
         return _grid_subdomain(self, mask)
 
+    @cached_property
+    def usual_degree(self) -> float:
+        """The :attr:`~ndboundary.Domain.usual_degree`, counted from the shape
+        (:func:`grid_usual_degree`) rather than from the pixels' adjacency.
+        """
+        return grid_usual_degree(self.shape)
+
+
+def grid_usual_degree(shape):
+    """The :attr:`~ndboundary.Domain.usual_degree` of an image grid of ``shape``: the 90th
+    percentile of its pixels' numbers of face neighbours, counted from the shape alone
+    (a pixel's count is the sum over the axes of its neighbours along each).
+
+    Examples
+    --------
+    >>> from ndboundary.domains.image import grid_usual_degree
+    >>> grid_usual_degree((40, 40, 40)), grid_usual_degree((2, 3))
+    (6.0, 3.0)
+    """
+    counts = np.ones(1, dtype=np.int64)  # counts[k]: the pixels with k neighbours so far
+    for n in shape:
+        along = np.zeros(3, dtype=np.int64)  # the pixels with 0, 1 and 2 neighbours along the axis
+        along[0], along[1], along[2] = (n == 1), 2 * (n > 1), max(n - 2, 0)
+        counts = np.convolve(counts, along)
+    position = 0.9 * (counts.sum() - 1)  # numpy's linear percentile over the sorted counts
+    ends = np.cumsum(counts)
+    low, high = np.searchsorted(ends, [np.floor(position), np.ceil(position)], side="right")
+    return float(low + (position - np.floor(position)) * (high - low))
+
 
 class PixelGrid(ImageGrid, PolygonMesh):
     """The pixels of a 2-D image (see :class:`ImageGrid`)."""

@@ -15,7 +15,15 @@ from itertools import product
 
 import numpy as np
 
-__all__ = ["corner_distances", "grid_mean_edge_length", "image_band", "zeta_corners"]
+__all__ = [
+    "corner_distances",
+    "corners_of",
+    "grid_mean_edge_length",
+    "image_band",
+    "pixels_at",
+    "region_band",
+    "zeta_corners",
+]
 
 
 def zeta_corners(codes):
@@ -130,8 +138,99 @@ def image_band(codes, spacing, h, width):
     >>> image_band(codes, (1.0, 1.0), 1.0, 1.0).tolist()  # pixels touching corners 4 to 6
     [3, 4, 5, 6]
     """
-    near = corner_distances(zeta_corners(codes), [s / h for s in spacing], width) <= width
-    inside = np.zeros(codes.shape, dtype=bool)
-    for corner in product((0, 1), repeat=codes.ndim):
-        inside |= near[tuple(slice(c, c + n) for c, n in zip(corner, codes.shape, strict=True))]
-    return np.flatnonzero(inside)
+    distances = corner_distances(zeta_corners(codes), [s / h for s in spacing], width)
+    return np.flatnonzero(pixels_at(distances <= width))
+
+
+def pixels_at(corners):
+    """Whether each pixel holds one of the ``corners`` (a boolean array over the grid's
+    corners, shape ``shape + 1``), shape ``shape``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.grid_band import pixels_at
+    >>> pixels_at(np.array([[True, False, False], [False, False, False]])).tolist()
+    [[True, False]]
+    """
+    shape = tuple(n - 1 for n in corners.shape)
+    out = np.zeros(shape, dtype=bool)
+    for corner in product((0, 1), repeat=corners.ndim):
+        out |= corners[tuple(slice(c, c + n) for c, n in zip(corner, shape, strict=True))]
+    return out
+
+
+def corners_of(pixels):
+    """Whether each corner belongs to one of the ``pixels`` (a boolean array, shape
+    ``shape``), shape ``shape + 1``: the vertices of those pixels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.grid_band import corners_of
+    >>> corners_of(np.array([[True, False]])).astype(int).tolist()
+    [[1, 1, 0], [1, 1, 0]]
+    """
+    out = np.zeros(tuple(n + 1 for n in pixels.shape), dtype=bool)
+    for corner in product((0, 1), repeat=pixels.ndim):
+        out[tuple(slice(c, c + n) for c, n in zip(corner, pixels.shape, strict=True))] |= pixels
+    return out
+
+
+def region_band(codes, region, box, spacing, h, width):
+    """The band of one region of a label image, found in a box around it.
+
+    The pixels within the band of half-width ``width`` (units of ``h``) around the
+    region's own zeta (the faces between its pixels and the others), as
+    :func:`image_band` finds them for the image of the region against the rest, but
+    reading only ``box``: the region's bounding box widened by the band's reach, in which
+    every graph path of length up to ``width * h`` from the region's zeta lies (an
+    L1 path stays within the box of its ends). The cost follows the region, not the image.
+
+    Parameters
+    ----------
+    codes : ndarray of int
+        Every pixel's region.
+    region : int
+    box : tuple of slice
+        Holds the region's pixels and every pixel within ``width * h`` of them along each
+        axis (clipped to the image).
+    spacing : sequence of float
+    h : float
+    width : float
+
+    Returns
+    -------
+    pixels : ndarray of int64
+        The band's pixels, increasing indices into the image (C order).
+    distance : ndarray of float64
+        The graph distance (units of ``h``) from zeta of each corner of the band's pixels,
+        in the order of the whole grid's corners (as a
+        :class:`~ndboundary.domains.image.GridBand` numbers its vertices).
+    labels : ndarray of bool
+        Whether each of the band's pixels is the region's.
+    codes : ndarray of int
+        Each of the band's pixels' region.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.grid_band import image_band, region_band
+    >>> codes = np.zeros((1, 12), dtype=int); codes[0, 5:7] = 1; codes[0, 7:] = 2
+    >>> box = (slice(0, 1), slice(3, 9))
+    >>> pixels, distance, labels, _ = region_band(codes, 1, box, (1.0, 1.0), 1.0, 1.0)
+    >>> pixels.tolist(), labels.tolist()
+    ([3, 4, 5, 6, 7, 8], [False, False, True, True, False, False])
+    >>> pixels.tolist() == image_band(codes == 1, (1.0, 1.0), 1.0, 1.0).tolist()
+    True
+    """
+    sub = codes[box]
+    mine = sub == region
+    distances = corner_distances(zeta_corners(mine), [s / h for s in spacing], width)
+    near = distances <= width
+    local = pixels_at(near)
+    starts = [b.start for b in box]
+    pixels = np.ravel_multi_index(
+        tuple(i + s for i, s in zip(np.nonzero(local), starts, strict=True)), codes.shape
+    )  # C order: a box's pixels keep their order in the image
+    return pixels, distances[corners_of(local)], mine[local], sub[local]
