@@ -14,7 +14,7 @@ from ._validation import check_labels
 from .domains.image import GridBand, ImageGrid, grid_direction, grid_geometry, grid_usual_degree
 from .pipeline import relax, sectors
 from .pipeline.band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_width, growth_rate
-from .pipeline.boundary import Boundary, element_boundary
+from .pipeline.boundary import Boundary, element_boundary, zeta_facets
 from .pipeline.grid_band import corners_of, grid_mean_edge_length, image_band, region_band
 from .pipeline.integration import grid_scale_hint
 from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
@@ -113,7 +113,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
     pixels, h, width = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
     if width is not None and classes.size > 2:
-        result = _relax_regions(codes.reshape(labels.shape), classes, geometry, direction, pixels, h, width, pad, params)
+        result = _relax_regions(
+            codes.reshape(labels.shape), classes, geometry, direction, pixels, h, width, pad, params
+        )
         result.timings["total"] = time.perf_counter() - start
     elif pixels is None:
         grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
@@ -197,7 +199,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
     distances = _OnFirstCall(functools.partial(domain.edge_distances, h))
     shared = FactorCache(keep_factor=False)
     solve = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
-    results = []
+    results, names = [], classes.tolist()
     for r in range(classes.size):
         tick = time.perf_counter()
         box = tuple(
@@ -209,7 +211,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         locate = time.perf_counter() - tick
         if verbose:
             print(
-                f"[ndboundary] region {r + 1}/{classes.size} ({classes[r]!r}): {band.n_elements} pixels",
+                f"[ndboundary] region {r + 1}/{classes.size} (label {names[r]!r}): {band.n_elements} pixels",
                 file=sys.stderr,
                 flush=True,
             )
@@ -228,7 +230,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         res.field = res.smoothed_field = None
         if pad:  # zeta over the band's own vertices, not over its padding's
             res.boundary = element_boundary(band, labels)
-        res.boundary = _moved(res.boundary, vertices, domain.n_vertices)
+        res.boundary = _moved(res.boundary, vertices, domain, codes, r)
         res.domain = domain
         res.timings = {"locate": locate, **res.timings, "total": time.perf_counter() - tick}
         res.params.update(band=width, band_vertices=int(band.n_vertices))
@@ -273,18 +275,28 @@ def _region_side(domain, codes, region, box):
     return side
 
 
-def _moved(boundary, vertices, n_vertices):
+def _moved(boundary, vertices, domain, codes, region):
     """A band's zeta (:class:`~ndboundary.pipeline.boundary.Boundary`) over the vertices of
-    the domain it was cut from, ``vertices[i]`` being the band's vertex ``i``.
+    the ``domain`` it was cut from, ``vertices[i]`` being the band's vertex ``i``; its
+    facets are sought on ``domain`` when first read, so that it holds no reference to the
+    band.
     """
     S = sp.csr_matrix(boundary.S)
+    sources = vertices[boundary.sources]
     return Boundary(
-        vertices[boundary.sources],
-        sp.csr_matrix((S.data, vertices[S.indices], S.indptr), shape=(S.shape[0], n_vertices)),
+        sources,
+        sp.csr_matrix((S.data, vertices[S.indices], S.indptr), shape=(S.shape[0], domain.n_vertices)),
         boundary.points,
-        edges=None if boundary.edges is None else vertices[boundary.edges],
-        facets=lambda: vertices[boundary.facets],
+        facets=functools.partial(_region_facets, domain, codes, region, sources),
     )
+
+
+def _region_facets(domain, codes, region, sources):
+    """The facets of ``domain`` between ``region`` and the rest (``codes``: every pixel's
+    region, the image's shape) around zeta's vertices ``sources``.
+    """
+    mine = codes.reshape(-1) == region
+    return zeta_facets(domain, mine if domain.n_elements == mine.size else mine[domain.pixels], sources)
 
 
 def _band_pixels(codes, geometry, direction, params):

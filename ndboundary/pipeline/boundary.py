@@ -10,7 +10,7 @@ import scipy.sparse as sp
 from .._arrays import used_vertices
 from .band import can_cut, element_rings
 
-__all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary"]
+__all__ = ["Boundary", "element_boundary", "pinned_rows", "vertex_boundary", "zeta_facets"]
 
 
 class Boundary:
@@ -78,11 +78,11 @@ def element_boundary(domain, region1):
     S = sp.csr_matrix(
         (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
     )
-    facets = functools.partial(_interface_facets, domain, region1, sources)
+    facets = functools.partial(zeta_facets, domain, region1, sources)
     return Boundary(sources, S, domain.points[sources], facets=facets)
 
 
-def _interface_facets(domain, region1, sources):
+def zeta_facets(domain, region1, sources):
     """``domain.interface_facets(region1)``, sought among the elements touching ``sources``."""
     near = element_rings(domain, sources)
     n_near = np.count_nonzero(near)
