@@ -418,6 +418,37 @@ def test_many_regions_partition_their_bands_as_their_filled_functions():
     assert all(result.region_boundary(r).is_closed() for r in range(5))
 
 
+def _triangles(surface):
+    """The surface's oriented triangles, whatever their order and their first vertex."""
+    rows = [tuple(map(tuple, t)) for t in np.round(surface.points[surface.simplices], 9)]
+    return sorted(min(t[i:] + t[:i] for i in range(len(t))) for t in rows)
+
+
+def test_many_regions_cut_region_by_region_as_all_at_once(monkeypatch):
+    """Beyond PARTITION_BY_REGION_SIMPLICES, each region is cut from the simplices where it
+    is stored: the same boundary, simplex for simplex, and the same measures, without the
+    partition of every region at once."""
+    from ndboundary.pipeline import result as result_module
+
+    labels = np.pad(_voronoi((16, 18, 20), 6, (1.0, 1.0, 1.0), seed=2), 1, constant_values=9)
+    whole = relax_image(labels, band=4.0)
+    whole.region_measures()  # the partition of every region at once
+    assert whole._by_region() is None
+    monkeypatch.setattr(result_module, "PARTITION_BY_REGION_SIMPLICES", 0)
+    by_region = relax_image(labels, band=4.0)
+    assert by_region._by_region() is not None
+    np.testing.assert_allclose(by_region.region_measures(), whole.region_measures(), rtol=1e-12)
+    assert "_cut_cache" not in by_region.__dict__  # no partition of every region was built
+    for r in range(whole.classes.size):
+        a, b = by_region.region_boundary(r), whole.region_boundary(r)
+        assert a.simplices.shape == b.simplices.shape and a.is_closed() == b.is_closed()
+        assert _triangles(a) == _triangles(b)
+        assert a.measure() == pytest.approx(b.measure(), rel=1e-12)
+    assert by_region.region_boundary(6).is_closed()  # enclosed by the frame of label 9
+    # the interfaces of every region at once are still there, as the whole partition's
+    assert by_region.interfaces().measure() == pytest.approx(whole.interfaces().measure(), rel=1e-12)
+
+
 @pytest.mark.parametrize("band", [False, True])
 def test_a_voxel_grids_gradient_and_divergence_need_no_matrix(band):
     """The gradient and weak divergence of voxels, computed from the box every voxel shares,
