@@ -82,7 +82,10 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         passes, or a grid whose boundary weight
         (:func:`~ndboundary.pipeline.integration.grid_scale_hint`) is below that of the
         meshes the reach was measured on (:data:`REACH_SCALE`). The regions' measures
-        count the pixels outside the band whole.
+        count the pixels outside the band whole. With three labels or more, each region
+        relaxes on its own band of that width, cut from a box around it (no region reads
+        the whole image, so that hundreds of labels cost what their bands cost), as
+        :func:`~ndboundary.relax` would relax it on the grid with ``band=width``.
 
     Raises
     ------
@@ -113,10 +116,13 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
     pixels, h, width = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
     if width is not None and classes.size > 2:
+        locate = time.perf_counter() - start
+        if params.get("verbose"):
+            print(f"[ndboundary] {'image band':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
         result = _relax_regions(
             codes.reshape(labels.shape), classes, geometry, direction, pixels, h, width, pad, params
         )
-        result.timings["total"] = time.perf_counter() - start
+        result.timings = {"image band": locate, **result.timings, "total": time.perf_counter() - start}
     elif pixels is None:
         grid = ImageGrid(labels.shape, spacing=geometry[1], origin=geometry[2], direction=direction)
         result = relax(grid, flat, on="elements", pad=pad, **params)
@@ -199,7 +205,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
     distances = _OnFirstCall(functools.partial(domain.edge_distances, h))
     shared = FactorCache(keep_factor=False)
     solve = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
-    results, names = [], classes.tolist()
+    results = []
     for r in range(classes.size):
         tick = time.perf_counter()
         box = tuple(
@@ -209,12 +215,6 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         band = GridBand(shape, band_pixels, spacing=spacing, origin=origin, direction=direction)
         band.usual_degree = domain.usual_degree
         locate = time.perf_counter() - tick
-        if verbose:
-            print(
-                f"[ndboundary] region {r + 1}/{classes.size} (label {names[r]!r}): {band.n_elements} pixels",
-                file=sys.stderr,
-                flush=True,
-            )
         relaxer = Relaxer(band, _keep=False, _h=h, _private=True)
         relaxer._shared = shared
         if sectors.SECTOR_SMOOTHING:
