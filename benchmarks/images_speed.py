@@ -2,7 +2,7 @@
 
 Each run is a fresh process: the label volume (a ball of radius 0.32 n, its centre off the
 grid's symmetry, as ``images.py``'s ``ball64``; with ``--regions K`` the Voronoi partition
-of K random sites instead), one ``relax_image`` with the defaults and its ``level_set()``
+of K random sites instead, and ``--shape`` for a volume that is not a cube), one ``relax_image`` with the defaults and its ``level_set()``
 (for a partition, every region's boundary); then, in the same process on the same volume, VTK's
 ``vtkSurfaceNets3D`` (when the ``[bench]`` extra is installed; on a partition, with every
 label at once), the peer whose ratio is printed. Prints every run, then the medians.
@@ -20,6 +20,7 @@ Usage::
     python benchmarks/images_speed.py 96 --repeats 1
     python benchmarks/images_speed.py 64 --against ../release
     python benchmarks/images_speed.py 128 --regions 16 --repeats 1
+    python benchmarks/images_speed.py --shape 275,347,245 --regions 365 --repeats 1  # an atlas's size
 """
 
 from __future__ import annotations
@@ -41,16 +42,16 @@ ONE_RUN = """
 import json, resource, time
 import numpy as np
 from ndboundary import relax_image
-n, regions = {n}, {regions}
-x = np.indices((n, n, n)).reshape(3, -1).T - (n - 1) / 2 - np.array([0.17, -0.23, 0.31]) * n / 64
+from scipy.spatial import cKDTree
+shape, regions = {shape}, {regions}
+n = shape[0]
+centre = (np.array(shape) - 1) / 2 + np.array([0.17, -0.23, 0.31]) * n / 64
+x = np.indices(shape).reshape(3, -1).T - centre
 if regions:  # the Voronoi partition of random sites, by voxel centre
-    sites = np.random.default_rng(0).uniform(-n / 2, n / 2, (regions, 3))
-    mask = np.empty(n ** 3, dtype=np.int32)
-    for rows in np.array_split(np.arange(n ** 3), n):
-        mask[rows] = np.argmin(((x[rows, None, :] - sites[None]) ** 2).sum(axis=-1), axis=1)
-    mask = mask.reshape(n, n, n)
+    sites = np.random.default_rng(0).uniform(-0.5, 0.5, (regions, 3)) * shape
+    mask = cKDTree(sites).query(x, workers=2)[1].astype(np.int32).reshape(shape)
 else:
-    mask = (np.linalg.norm(x, axis=1) < 0.32 * n).reshape(n, n, n)
+    mask = (np.linalg.norm(x, axis=1) < 0.32 * n).reshape(shape)
 del x
 t0 = time.perf_counter()
 result = relax_image(mask)
@@ -79,10 +80,10 @@ print(json.dumps({{"relax_s": t1 - t0, "level_set_s": t2 - t1, "total_s": t2 - t
 """
 
 
-def one_run(n, regions=0, source=None):
+def one_run(shape, regions=0, source=None):
     """One fresh process's figures, with ndboundary from ``source`` if given."""
     code = (FROM_SOURCE.format(source=str(source)) if source else "") + ONE_RUN.format(
-        n=n, regions=regions, bench=str(HERE)
+        shape=tuple(shape), regions=regions, bench=str(HERE)
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -103,15 +104,20 @@ def main():
     parser.add_argument("--repeats", type=int, default=3, help="fresh processes (default 3)")
     parser.add_argument("--against", type=Path, help="another source tree, run alternately with this one")
     parser.add_argument("--regions", type=int, default=0, help="a Voronoi partition of this many regions instead")
+    parser.add_argument("--shape", help="a volume of these voxels instead of n^3 (e.g. 275,347,245; with --regions)")
     args = parser.parse_args()
+    shape = tuple(int(v) for v in args.shape.split(",")) if args.shape else (args.n,) * 3
+    if len(shape) != 3 or (args.shape and not args.regions):
+        parser.error("--shape takes three sizes, for a Voronoi partition (--regions)")
     case = f"voronoi of {args.regions}" if args.regions else "ball"
+    size = "x".join(map(str, shape))
     trees = ([("against", args.against.resolve())] if args.against else []) + [("this", None)]
     runs = {name: [] for name, _ in trees}
     for _ in range(args.repeats):
         for name, source in trees:
-            runs[name].append(one_run(args.n, args.regions, source))
+            runs[name].append(one_run(shape, args.regions, source))
             fields = (f"{k} {v:.6g}" if isinstance(v, float) else f"{k} {v}" for k, v in runs[name][-1].items())
-            print(f"{name} tree, {case} {args.n}^3: " + ", ".join(fields), flush=True)
+            print(f"{name} tree, {case} {size}: " + ", ".join(fields), flush=True)
     med = {name: medians(r) for name, r in runs.items()}
     peer = med["this"]["surface_nets_s"]
     print(f"this tree: {med['this']['total_s']:.2f} s, vtkSurfaceNets3D {peer:.3f} s in the same processes "
@@ -119,9 +125,9 @@ def main():
     if args.against:
         ratio = {k: med["this"][k] / med["against"][k] for k in ("relax_s", "total_s", "peak_gb")}
         print("this tree / the other: " + ", ".join(f"{k} {v:.2f}" for k, v in ratio.items()))
-        print(json.dumps({"bench": "images_speed", "n": args.n, "repeats": args.repeats, **med, "ratio": ratio}))
+        print(json.dumps({"bench": "images_speed", "shape": shape, "repeats": args.repeats, **med, "ratio": ratio}))
     else:
-        print(json.dumps({"bench": "images_speed", "n": args.n, "repeats": args.repeats, **med["this"]}))
+        print(json.dumps({"bench": "images_speed", "shape": shape, "repeats": args.repeats, **med["this"]}))
 
 
 if __name__ == "__main__":
