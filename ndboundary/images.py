@@ -205,6 +205,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
     distances = _OnFirstCall(functools.partial(domain.edge_distances, h))
     shared = FactorCache(keep_factor=False)
     solve = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
+    index = np.int32 if domain.n_vertices < np.iinfo(np.int32).max else np.int64
     results = []
     for r in range(classes.size):
         tick = time.perf_counter()
@@ -224,6 +225,8 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
             vertices, elements = band.corners, band_pixels
         else:
             vertices, elements = np.searchsorted(domain.corners, band.corners), np.searchsorted(pixels, band_pixels)
+        # kept by every region until the partition: hundreds of bands of a large image
+        vertices, elements = vertices.astype(index), elements.astype(index)
         side = functools.partial(_region_side, domain, codes, r, box)
         res.phi = DeferredFill(elements, vertices, res.phi, side, distances, growth_rate(res.phi, dist, width))
         res.u = BandValues(vertices, res.u)

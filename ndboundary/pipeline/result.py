@@ -391,18 +391,22 @@ class RegionsResult(_RegionMethods):
             return self.__dict__["_phi"]
         if not any(isinstance(r.phi, DeferredFill) for r in self._regions):
             return self.phi
-        rows, cols, data = [], [], []
-        for j, res in enumerate(self._regions):
+        # column by column (each region's vertices are distinct): no triplets, whose
+        # row and column arrays would cost more than the matrix at hundreds of regions
+        V, L = self.domain.n_vertices, len(self._regions)
+        index = np.int32 if V < np.iinfo(np.int32).max else np.int64
+        rows, data = [], []
+        for res in self._regions:
             if isinstance(res.phi, DeferredFill):
                 vertices, values = res.phi.stored()
             else:
                 vertices, values = np.arange(res.phi.size), res.phi
-            rows.append(vertices)
-            cols.append(np.full(vertices.size, j))
+            rows.append(vertices.astype(index, copy=False))
             data.append(values)
-        shape = (self.domain.n_vertices, len(self._regions))
-        rows, cols, data = np.concatenate(rows), np.concatenate(cols), np.concatenate(data)
-        return sp.csr_matrix((data, (rows, cols)), shape=shape)
+        indptr = np.concatenate([[0], np.cumsum([r.size for r in rows])])
+        columns = sp.csc_matrix((np.concatenate(data), np.concatenate(rows), indptr), shape=(V, L))
+        del rows, data
+        return columns.tocsr()
 
 
 def _argmax_rows(values):
