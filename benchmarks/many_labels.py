@@ -1,0 +1,90 @@
+"""Hundreds of labels at an atlas's size: ``relax_image`` and every region's boundary, phase
+by phase, with the resident memory of each.
+
+The volume is the Voronoi partition of ``--sites`` random sites (by voxel centre, a k-d
+tree) on 275 x 347 x 245 voxels, a brain atlas's size, times ``--scale`` along each axis.
+One fresh run (an atlas takes half an hour on two cores): the relaxation; the region
+values the partition reads; the refinement of the voxels that interfaces cross; every
+region's boundary (``region_boundary``, region by region beyond
+``PARTITION_BY_REGION_SIMPLICES``); the region measures and how closely they sum to the
+image's volume. A thread polls ``/proc/self/statm`` every 50 ms: ``rss`` is the memory
+after each phase, ``peak`` the most within it. The run stops itself beyond ``--limit``
+GB.
+
+Usage::
+
+    python benchmarks/many_labels.py                       # 365 sites, 275 x 347 x 245
+    python benchmarks/many_labels.py --sites 46 --scale 0.5
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import threading
+import time
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+ATLAS_SHAPE = (275, 347, 245)
+
+
+class Memory:
+    """The resident memory, polled on a thread: the current value, and the most since reset."""
+
+    def __init__(self, limit):
+        self.now = self.peak = self.top = 0.0
+        self.limit = limit
+        threading.Thread(target=self._poll, daemon=True).start()
+
+    def _poll(self):
+        while True:
+            with open("/proc/self/statm") as f:
+                rss = int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e9
+            self.now, self.peak, self.top = rss, max(self.peak, rss), max(self.top, rss)
+            if rss > self.limit:
+                print(f"resident memory {rss:.1f} GB above --limit, stopping", flush=True)
+                os._exit(3)
+            time.sleep(0.05)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sites", type=int, default=365, help="regions (default 365)")
+    parser.add_argument("--scale", type=float, default=1.0, help="times the atlas's size along each axis")
+    parser.add_argument("--limit", type=float, default=21.0, help="stop beyond this resident memory, GB")
+    args = parser.parse_args()
+    shape = tuple(int(round(n * args.scale)) for n in ATLAS_SHAPE)
+    sites = np.random.default_rng(0).uniform(0, 1, (args.sites, 3)) * shape
+    centres = np.indices(shape, dtype=np.float32).reshape(3, -1).T
+    labels = cKDTree(sites).query(centres, workers=2)[1].astype(np.int32).reshape(shape)
+    del centres
+    memory = Memory(args.limit)
+    from ndboundary import relax_image
+
+    def phase(name, start):
+        print(f"{name:44s} {time.perf_counter() - start:8.2f} s  rss {memory.now:6.2f} GB  peak {memory.peak:6.2f} GB",
+              flush=True)  # fmt: skip
+        memory.peak = memory.now
+        return time.perf_counter()
+
+    begin = tick = time.perf_counter()
+    result = relax_image(labels)
+    tick = phase(f"relax {'x'.join(map(str, shape))}, {args.sites} labels", tick)
+    values = result.region_values()
+    tick = phase(f"region values ({values.nnz} stored)", tick)
+    del values
+    complex_, _ = result._mixed()
+    tick = phase(f"refinement of the mixed voxels ({0 if complex_ is None else complex_[1].shape[0]} simplices)", tick)
+    by_region = result._by_region() is not None
+    area = sum(result.region_boundary(r).measure() for r in range(args.sites))
+    tick = phase(f"every region's boundary ({'region by region' if by_region else 'all at once'}), area {area:.6g}",
+                 tick)  # fmt: skip
+    measures = result.region_measures()
+    phase(f"region measures (sum off the volume by {abs(measures.sum() / labels.size - 1):.1e})", tick)
+    print(f"end to end {time.perf_counter() - begin:.1f} s, most resident memory {memory.top:.2f} GB")
+
+
+if __name__ == "__main__":
+    main()
