@@ -10,7 +10,7 @@ import scipy.sparse as sp
 from ..domains.image import GridBand
 from ..levelset import LevelSet, marching_simplices
 from ..partition import Cells, Partition, partition
-from ..partition_clip import sweep_sparse
+from ..partition_clip import simplex_measures, sweep_sparse
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
@@ -224,6 +224,9 @@ class _RegionCuts:
         """
         c = self.columns
         stored = c.indices[c.indptr[r] : c.indptr[r + 1]]
+        if stored.size == 0:  # the region wins in none of these simplices
+            self._measures[r] = 0.0
+            return partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2))), 0
         simplices = self.simplices[np.unique(self.incidence[stored].indices)]
         used, local = np.unique(simplices, return_inverse=True)
         values = self.values[used]
@@ -233,7 +236,9 @@ class _RegionCuts:
         )
         points, simplices = self.points[used], local.reshape(simplices.shape)
         X, S, regions, parents = sweep_sparse(points, simplices, values)
-        part = Partition(Cells(X, S, regions, None, parents), present.size, lambda: None)
+        part = Partition(
+            Cells(X, S, regions, None, parents), present.size, lambda: float(simplex_measures(points, simplices).sum())
+        )
         j = int(np.searchsorted(present, r))
         self._measures[r] = float(part.region_measures()[j])
         return part, j
