@@ -19,7 +19,7 @@ from .pipeline.grid_band import corners_of, grid_mean_edge_length, image_band, r
 from .pipeline.integration import grid_scale_hint
 from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
 from .pipeline.relaxer import Relaxer
-from .pipeline.result import BandValues, DeferredFill, RegionsResult
+from .pipeline.result import RegionsResult, keep_band, summed_timings
 from .solvers import FactorCache
 
 __all__ = ["REACH_SCALE", "relax_image"]
@@ -157,7 +157,7 @@ def _image_band(shape, geometry, direction, pixels, codes, classes):
     return domain
 
 
-#: The relaxation's parameters that :func:`_relax_regions` passes on, with their defaults.
+#: The relaxation's parameters that :func:`relax_image` reads, with their defaults.
 _SOLVE_DEFAULTS = {
     "lam": DEFAULT_LAM,
     "smoothing": DEFAULT_SMOOTHING,
@@ -166,6 +166,15 @@ _SOLVE_DEFAULTS = {
     "rtol": DEFAULT_RTOL,
     "solver": "auto",
 }
+
+
+def _checked(params, band):
+    """The relaxation's parameters in ``params`` (the defaults for those not given),
+    checked (:func:`~ndboundary.pipeline.params.check_params`), with ``band``.
+    """
+    return check_params(
+        on="elements", t=params.get("t"), band=band, **{k: params.get(k, d) for k, d in _SOLVE_DEFAULTS.items()}
+    )
 
 
 def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, params):
@@ -193,9 +202,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
     if params.get("on", "elements") != "elements":
         raise ValueError(f"relax_image labels pixels: on must be 'elements', got {params['on']!r}")
     verbose = params.get("verbose", False)
-    p = check_params(
-        on="elements", t=params.get("t"), band=width, **{k: params.get(k, d) for k, d in _SOLVE_DEFAULTS.items()}
-    )
+    p = _checked(params, width)
     if pixels is None:
         domain = ImageGrid(shape, spacing=spacing, origin=origin, direction=direction)
     else:
@@ -228,9 +235,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         # kept by every region until the partition: hundreds of bands of a large image
         vertices, elements = vertices.astype(index), elements.astype(index)
         side = functools.partial(_region_side, domain, codes, r, box)
-        res.phi = DeferredFill(elements, vertices, res.phi, side, distances, growth_rate(res.phi, dist, width))
-        res.u = BandValues(vertices, res.u)
-        res.field = res.smoothed_field = None
+        keep_band(res, elements, vertices, side, distances, growth_rate(res.phi, dist, width))
         if pad:  # zeta over the band's own vertices, not over its padding's
             res.boundary = element_boundary(band, labels)
         res.boundary = _moved(res.boundary, vertices, domain, codes, r)
@@ -238,10 +243,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         res.timings = {"locate": locate, **res.timings, "total": time.perf_counter() - tick}
         res.params.update(band=width, band_vertices=int(band.n_vertices))
         results.append(res)
-    timings = {}
-    for res in results:
-        for step, seconds in res.timings.items():
-            timings[step] = timings.get(step, 0.0) + seconds
+    timings = summed_timings(results)
     timings["total"] = time.perf_counter() - t0
     params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
     params.update(pad=bool(pad), h=h, band_vertices=int(domain.n_vertices))
@@ -316,17 +318,7 @@ def _band_pixels(codes, geometry, direction, params):
     """
     shape, spacing, _ = geometry
     band = params.get("band", "auto")
-    p = check_params(
-        on="elements",
-        lam=params.get("lam", DEFAULT_LAM),
-        smoothing=params.get("smoothing", DEFAULT_SMOOTHING),
-        mu=params.get("mu", DEFAULT_MU),
-        t=params.get("t"),
-        form=params.get("form", "mass"),
-        rtol=params.get("rtol", DEFAULT_RTOL),
-        solver=params.get("solver", "auto"),
-        band=band,
-    )
+    p = _checked(params, band)
     h = grid_mean_edge_length(shape, spacing)
     if p["band"] is None:
         return None, h, None

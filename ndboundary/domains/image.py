@@ -189,6 +189,13 @@ class PixelGrid(ImageGrid, PolygonMesh):
         PolygonMesh.__init__(self, points, quads, **kwargs)
 
 
+def _faces_part(i, doc):
+    """A read-only property: item ``i`` of the voxels' faces, found when first read
+    (``_Voxels._faces``).
+    """
+    return property(lambda self: self._faces[i], doc=doc)
+
+
 class _Voxels(PolyhedralMesh):
     """Hexahedra that are the voxels of a grid: their stiffness and gradient are built
     from the one box they all are (:func:`~ndboundary.domains.voxels.voxel_stiffness`).
@@ -224,36 +231,18 @@ class _Voxels(PolyhedralMesh):
             signs = -signs  # a reflection turns every face
         return fi, fo, ci, co, signs, counts
 
-    @property
-    def face_indices(self):
+    face_indices = _faces_part(
+        0,
         """Face ``f`` is ``face_indices[face_offsets[f]:face_offsets[f + 1]]`` (counter-clockwise
-        seen from its axis' positive side; see :class:`~ndboundary.PolyhedralMesh`).
-        """
-        return self._faces[0]
-
-    @property
-    def face_offsets(self):
-        """See :attr:`face_indices`."""
-        return self._faces[1]
-
-    @property
-    def cell_faces(self):
-        """Voxel ``e`` has the faces ``cell_faces[6 e:6 e + 6]``: low then high along each axis."""
-        return self._faces[2]
-
-    @property
-    def cell_offsets(self):
-        """See :attr:`cell_faces`."""
-        return self._faces[3]
-
-    @property
-    def cell_face_signs(self):
-        """-1 for a voxel's low faces, +1 for its high ones (outward; turned by a reflection)."""
-        return self._faces[4]
-
-    @property
-    def _axis_counts(self):
-        return self._faces[5]
+        seen from its axis' positive side; see :class:`~ndboundary.PolyhedralMesh`).""",
+    )
+    face_offsets = _faces_part(1, "See :attr:`face_indices`.")
+    cell_faces = _faces_part(2, "Voxel ``e`` has the faces ``cell_faces[6 e:6 e + 6]``: low then high along each axis.")
+    cell_offsets = _faces_part(3, "See :attr:`cell_faces`.")
+    cell_face_signs = _faces_part(
+        4, "-1 for a voxel's low faces, +1 for its high ones (outward; turned by a reflection)."
+    )
+    _axis_counts = _faces_part(5, "The number of faces across each axis.")
 
     @cached_property
     def _face_ids(self):

@@ -37,7 +37,7 @@ from .heat import diffuse
 from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_system
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params, integration_rtol
-from .result import BandValues, DeferredFill, RegionsResult, RelaxResult
+from .result import RegionsResult, RelaxResult, keep_band, summed_timings
 from . import sectors
 from .sectors import region_sectors
 from .smoothing import smooth
@@ -243,10 +243,7 @@ class Relaxer:
             distances = relaxer._distances
         if self._keep:
             self._distances = distances
-        timings = {}
-        for res in results:
-            for step, seconds in res.timings.items():
-                timings[step] = timings.get(step, 0.0) + seconds
+        timings = summed_timings(results)
         timings["total"] = time.perf_counter() - t0
         return RegionsResult(classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
 
@@ -366,9 +363,7 @@ class Relaxer:
         else:
             # one region among many: what covers the whole domain is built when read, and
             # the fields on its band are not kept (see RegionsResult.regions)
-            res.phi = DeferredFill(elements, vertices, res.phi, side, distances, rate)
-            res.u = BandValues(vertices, res.u)
-            res.field = res.smoothed_field = None
+            keep_band(res, elements, vertices, side, distances, rate)
         res.boundary, res.classes, res.domain = boundary, classes, domain
         fill = time.perf_counter() - tick
         if verbose:

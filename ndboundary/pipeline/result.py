@@ -14,7 +14,15 @@ from ..partition_clip import simplex_measures, sweep_sparse
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
-__all__ = ["PARTITION_BY_REGION_SIMPLICES", "BandValues", "DeferredFill", "RegionsResult", "RelaxResult"]
+__all__ = [
+    "PARTITION_BY_REGION_SIMPLICES",
+    "BandValues",
+    "DeferredFill",
+    "RegionsResult",
+    "RelaxResult",
+    "keep_band",
+    "summed_timings",
+]
 
 
 class DeferredFill:
@@ -71,6 +79,26 @@ class BandValues:
         out = np.zeros(domain.n_vertices)
         out[self.vertices] = self.values
         return out
+
+
+def keep_band(res, elements, vertices, side, distances, rate):
+    """Make ``res``, a region among many relaxed on the band of ``elements`` and
+    ``vertices``, keep its phi and heat on the band only (filled over the domain when
+    read: :class:`DeferredFill`, :class:`BandValues`) and none of its fields, so that
+    hundreds of regions of a large domain do not each hold arrays of its size.
+    """
+    res.phi = DeferredFill(elements, vertices, res.phi, side, distances, rate)
+    res.u = BandValues(vertices, res.u)
+    res.field = res.smoothed_field = None
+
+
+def summed_timings(results):
+    """Seconds per step, summed over the relaxations ``results`` (of many regions)."""
+    timings = {}
+    for res in results:
+        for step, seconds in res.timings.items():
+            timings[step] = timings.get(step, 0.0) + seconds
+    return timings
 
 
 class _RegionMethods:
