@@ -97,6 +97,51 @@ def _sweep(indptr, indices, data, A, B, start, stop):  # pragma: no cover - comp
             B[i, c] *= s
 
 
+# the sweeps' dispatchers, which compiled callers call
+_sweep3_rows, _sweep3_unit_rows, _sweep_rows = _sweep3.jit, _sweep3_unit.jit, _sweep.jit
+
+
+@kernel("i8(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8)")
+@numba.njit(cache=True, nogil=True)
+def _sweeps3(indptr, indices, data, A, B, passes):  # pragma: no cover - compiled
+    """``passes`` sweeps of :func:`_sweep3` over every row, ``A`` and ``B`` swapped after
+    each; returns 0 when the last sweep's rows are in ``A``, 1 when in ``B``.
+    """
+    n = indptr.size - 1
+    for k in range(passes):
+        if k % 2 == 0:
+            _sweep3_rows(indptr, indices, data, A, B, 0, n)
+        else:
+            _sweep3_rows(indptr, indices, data, B, A, 0, n)
+    return passes % 2
+
+
+@kernel("i8(i4[::1], i4[::1], f8[:, ::1], f8[:, ::1], b1, i8)")
+@numba.njit(cache=True, nogil=True)
+def _sweeps3_unit(indptr, indices, A, B, with_self, passes):  # pragma: no cover - compiled
+    """``passes`` sweeps of :func:`_sweep3_unit`, as :func:`_sweeps3`."""
+    n = indptr.size - 1
+    for k in range(passes):
+        if k % 2 == 0:
+            _sweep3_unit_rows(indptr, indices, A, B, with_self, 0, n)
+        else:
+            _sweep3_unit_rows(indptr, indices, B, A, with_self, 0, n)
+    return passes % 2
+
+
+@kernel("i8(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8)")
+@numba.njit(cache=True, nogil=True)
+def _sweeps(indptr, indices, data, A, B, passes):  # pragma: no cover - compiled
+    """``passes`` sweeps of :func:`_sweep`, as :func:`_sweeps3`."""
+    n = indptr.size - 1
+    for k in range(passes):
+        if k % 2 == 0:
+            _sweep_rows(indptr, indices, data, A, B, 0, n)
+        else:
+            _sweep_rows(indptr, indices, data, B, A, 0, n)
+    return passes % 2
+
+
 def smooth_rows_compiled(W, X, passes, plus_identity=False):
     """``passes`` sweeps of ``X <- normalize_rows(W @ X)``, each row in one go (``W + I``
     for ``plus_identity``, never formed when ``W``'s weights are ones).
@@ -131,6 +176,13 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
             sweep(indptr, indices, data, A, B, *rows)
 
     bounds = row_blocks(indptr)
+    if len(bounds) == 2:  # one block: every sweep in one call, without a thread per sweep
+        if unit:
+            last = _sweeps3_unit(indptr, indices, A, B, bool(plus_identity), passes)
+        else:
+            last = (_sweeps3 if d in (2, 3) else _sweeps)(indptr, indices, data, A, B, passes)
+        A = B if last else A
+        return A[:, :d].copy() if d == 2 else A
     blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
     for _ in range(passes):
         # every row reads the previous sweep's rows only: the blocks are independent

@@ -112,13 +112,21 @@ def check_labels(labels, n_expected, *, what, many=False):
         raise ValueError(f"labels contain NaN (first at index {int(np.flatnonzero(np.isnan(arr))[0])})")
     if arr.dtype == object and any(v is None for v in arr):
         raise ValueError("labels contain None")
+    classes = None
     if arr.dtype.kind in "biu" and arr.size:
         # integers and booleans: two classes are the minimum and the maximum, in linear time
         lo, hi = arr.min(), arr.max()
         region1 = arr == hi
         if lo != hi and np.count_nonzero(region1) + np.count_nonzero(arr == lo) == arr.size:
             return np.array([lo, hi], dtype=arr.dtype), region1
-    classes, inverse = np.unique(arr, return_inverse=True)
+        if arr.dtype.kind != "b" and int(hi) - int(lo) < 4 * arr.size:
+            # more classes in a short range: counted, not sorted
+            offset = arr.astype(np.intp) - int(lo)
+            present = np.bincount(offset) > 0
+            classes = (np.flatnonzero(present) + int(lo)).astype(arr.dtype)
+            inverse = (np.cumsum(present) - 1)[offset]
+    if classes is None:
+        classes, inverse = np.unique(arr, return_inverse=True)
     if classes.shape[0] == 1:
         raise ValueError(f"labels hold one class only ({classes[0]!r}); two are needed to have a boundary")
     if classes.shape[0] > 2 and many:

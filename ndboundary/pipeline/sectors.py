@@ -62,16 +62,26 @@ def region_sectors(domain, codes, region):
     True
     """
     codes = np.asarray(codes)
-    outside = np.flatnonzero(codes != region)
-    sectors = np.full(codes.shape, -1, dtype=np.int64)
-    if outside.size == 0:
-        return sectors
-    A = domain.adjacency.tocoo()
-    c = domain.element_centroids()
-    lengths = np.linalg.norm(c[A.row] - c[A.col], axis=1) + 1e-300  # an explicit zero would drop the edge
-    graph = sp.csr_matrix((lengths, (A.row, A.col)), shape=A.shape)
     inside = codes == region
-    _, _, source = dijkstra(graph, directed=False, indices=outside, min_only=True, return_predecessors=True)
-    reached = inside & (source >= 0)
-    sectors[reached] = codes[source[reached]]
+    sectors = np.full(codes.shape, -1, dtype=np.int64)
+    if inside.all() or not inside.any():
+        return sectors
+    # a shortest path from outside enters the region from the ring of outside elements
+    # next to it and then stays inside: the walk needs the region and that ring alone
+    A = domain.adjacency
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    cols = A.indices
+    keep = inside[rows] & (rows != cols)
+    rows, cols = rows[keep], cols[keep]
+    nodes = np.union1d(np.flatnonzero(inside), cols)
+    local = np.full(codes.shape, -1, dtype=np.int64)
+    local[nodes] = np.arange(nodes.size)
+    c = domain.element_centroids()[nodes]
+    i, j = local[rows], local[cols]
+    lengths = np.linalg.norm(c[i] - c[j], axis=1) + 1e-300  # an explicit zero would drop the edge
+    graph = sp.csr_matrix((lengths, (i, j)), shape=(nodes.size, nodes.size))
+    ring = np.flatnonzero(~inside[nodes])
+    _, _, source = dijkstra(graph, directed=False, indices=ring, min_only=True, return_predecessors=True)
+    reached = np.flatnonzero(inside[nodes] & (source >= 0))
+    sectors[nodes[reached]] = codes[nodes[source[reached]]]
     return sectors
