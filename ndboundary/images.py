@@ -114,7 +114,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     flat = labels.reshape(-1)
     start = time.perf_counter()
     classes, codes = check_labels(flat, flat.size, what="pixel", many=True)
-    pixels, h, width = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
+    pixels, h, width, distance = _band_pixels(codes.reshape(labels.shape), geometry, direction, params)
     if width is not None and classes.size > 2:
         locate = time.perf_counter() - start
         if params.get("verbose"):
@@ -131,9 +131,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         locate = time.perf_counter() - start
         if params.get("verbose"):
             print(f"[ndboundary] {'image band':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
-        result = Relaxer(domain, _keep=False, _h=h, _private=True).relax(
-            flat[pixels], on="elements", pad=pad, **{**params, "band": None}
-        )
+        relaxer = Relaxer(domain, _keep=False, _h=h, _private=True)
+        relaxer._reach = (distance, domain.integration_reach)
+        result = relaxer.relax(flat[pixels], on="elements", pad=pad, **{**params, "band": None})
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
         result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}
     if background is not None:
@@ -225,6 +225,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         locate = time.perf_counter() - tick
         relaxer = Relaxer(band, _keep=False, _h=h, _private=True)
         relaxer._shared = shared
+        relaxer._reach = (dist, domain.integration_reach)
         if sectors.SECTOR_SMOOTHING:
             relaxer._sectors = (band_codes, r)
         res = relaxer.relax(labels, on="elements", pad=pad, verbose=verbose, band=None, **solve)
@@ -305,9 +306,11 @@ def _region_facets(domain, codes, region, sources):
 
 
 def _band_pixels(codes, geometry, direction, params):
-    """``(pixels, h, width)`` of the band to relax the image on. ``pixels`` is None for the
-    whole grid: when the band of ``width`` holds (nearly) all of it, or when there is no
-    band (``band=None``, or a small grid: ``width`` None too).
+    """``(pixels, h, width, distance)`` of the band to relax the image on: ``distance``
+    is the graph distance from zeta of its corners (:func:`image_band`). ``pixels`` and
+    ``distance`` are None for the whole grid: when the band of ``width`` holds (nearly)
+    all of it, or when there is no band (``band=None``, or a small grid: ``width`` None
+    too).
 
     A number ``band`` cuts the band of that width whenever it leaves pixels out. ``"auto"``
     cuts the band of :func:`~ndboundary.pipeline.band.band_width` for the grid's boundary
@@ -321,18 +324,18 @@ def _band_pixels(codes, geometry, direction, params):
     p = _checked(params, band)
     h = grid_mean_edge_length(shape, spacing)
     if p["band"] is None:
-        return None, h, None
+        return None, h, None, None
     if p["band"] == "auto":
         if np.prod([n + 1 for n in shape]) < AUTO_BAND_MIN_VERTICES:
-            return None, h, None
+            return None, h, None, None
         proto = ImageGrid((1,) * len(shape), spacing=spacing, direction=direction)  # a pixel of the grid
         width = band_width(p, proto, grid_scale_hint(proto, h) / REACH_SCALE[len(shape)])
         if width is None:
-            return None, h, None
+            return None, h, None, None
     else:
         width = p["band"]
-    pixels = image_band(codes, spacing, h, width)
+    pixels, distance = image_band(codes, spacing, h, width)
     share = pixels.size / codes.size
     if share == 1.0 or (p["band"] == "auto" and share > AUTO_BAND_MAX_SHARE):
-        return None, h, width
-    return pixels, h, width
+        return None, h, width, None
+    return pixels, h, width, distance

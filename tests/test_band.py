@@ -300,3 +300,26 @@ def test_auto_widens_the_band_by_the_whole_domain_s_boundary_scale():
     assert auto.params["lam_scale"] == pytest.approx(scale, rel=1e-9)
     mean, worst = level_set_gap(auto, whole, cells.mean_edge_length())
     assert mean <= 0.01 and worst <= 0.05
+
+
+@pytest.mark.parametrize("make", [lambda: kuhn_grid(160, 2, jitter=0.25, random_state=0), lambda: hex_grid(30)])
+def test_the_integration_solves_the_inner_band_and_continues_phi_beyond(make):
+    from ndboundary.pipeline.boundary import element_boundary
+
+    mesh = make()
+    labels = label_by(mesh, circle if mesh.dim == 2 else ball)
+    h = mesh.mean_edge_length()
+    width = 12.0
+    res = relax(mesh, labels, on="elements", band=width)
+    mesh.integration_reach = None  # the whole band integrated
+    whole_band = relax(mesh, labels, on="elements", band=width)
+    assert res.params["band_vertices"] == whole_band.params["band_vertices"]
+    # beyond the inner band (6 h, and the 3 edges of a cube's diagonal) phi is 1/2 +/- c d
+    dist = mesh.edge_distances(h)(element_boundary(mesh, labels == 1).sources, limit=width)
+    far = np.isfinite(dist) & (dist > 6.0 + 3.5)
+    rate = np.abs(res.phi[far] - 0.5) / dist[far]
+    assert far.sum() > 100 and np.ptp(rate) < 1e-9
+    assert not np.ptp(np.abs(whole_band.phi[far] - 0.5) / dist[far]) < 1e-3
+    # and the level set is where the whole band's integration puts it
+    gap = level_set_distance(res.level_set(), whole_band.level_set()) / h
+    assert gap.mean() < 0.005 and gap.max() < 0.03

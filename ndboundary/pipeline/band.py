@@ -17,6 +17,12 @@ band at its edge, and grows away from zeta at the rate of the solved phi
 Vertices that no path joins to the band (domain components without zeta) get
 ``1/2 -/+ 1``, as the whole-domain solve pins them.
 
+Within the band, only the integration's inner band (the elements within the domain's
+:attr:`~ndboundary.Domain.integration_reach` of zeta, :func:`inner_band`) is integrated: the heat and the
+smoothing need the band's width, the integration does not. Pinned at zeta and fitting a
+field already smoothed, its level set hardly depends on what lies beyond a few rings, and
+beyond the inner band phi is continued at the rate it grows there (:func:`inner_phi`).
+
 Outside the band, nothing but linear passes touches the domain: finding zeta and its
 neighbourhood (:func:`~ndboundary.pipeline.boundary.element_boundary`), the stopped
 Dijkstra of :func:`band_elements` and the one of :func:`extend_outside`, along the edges
@@ -46,7 +52,10 @@ __all__ = [
     "element_rings",
     "extend_outside",
     "growth_rate",
+    "inner_band",
+    "inner_phi",
 ]
+
 
 #: ``band="auto"`` relaxes the whole domain with fewer smoothing passes than this: a field
 #: smoothed a few times only is rough, and its integration depends on what lies far from
@@ -131,6 +140,62 @@ def growth_rate(phi_band, distance, width):
     d, f = distance[outer], np.abs(phi_band[outer] - 0.5)
     slope = np.cov(d, f, bias=True)[0, 1] / np.var(d)
     return float(np.clip(slope, 0.5, 2.0))
+
+
+def inner_band(work, distance, reach):
+    """The elements of ``work`` (a band, padded or not) that the integration solves on:
+    those with a vertex within ``reach`` of zeta, as a mask; None when they are all of
+    them, ``reach`` is None or ``work`` cannot be cut.
+
+    ``distance`` holds the graph distance from zeta (units of ``h``) of the band's own
+    vertices, the first of ``work``'s; vertices that the padding adds split elements
+    whose vertices all lie on zeta, and lie within reach.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import inner_band
+    >>> chain = kuhn_grid(10, 1)  # 11 vertices, zeta at vertex 0
+    >>> inner_band(chain, np.arange(11.0), 3.0).tolist()[:5]
+    [True, True, True, True, False]
+    """
+    if reach is None or not can_cut(work):
+        return None
+    near = np.ones(work.n_vertices, dtype=bool)  # the padding's vertices lie on zeta
+    near[: distance.size] = distance <= reach
+    inner = work.elements_at(near)
+    return None if inner.all() else inner
+
+
+def inner_phi(domain, phi_inner, vertices, distance, side, reach):
+    """Phi on every vertex of ``domain`` from its values ``phi_inner`` on the inner band's
+    ``vertices``: beyond it ``1/2 +/- c d``, ``d`` the graph distance from zeta (units of
+    ``h``, ``distance``), ``c`` the rate at which ``|phi - 1/2|`` grows over the inner
+    band's outer half (:func:`growth_rate`), on the side of 1/2 of ``side`` (a mask of the
+    region-1 vertices).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import inner_phi
+    >>> chain = kuhn_grid(6, 1)  # 7 vertices, zeta at vertex 2
+    >>> d = np.abs(np.arange(7.0) - 2)
+    >>> side = np.arange(7) >= 2
+    >>> inner = 0.5 + np.where(side, 0.9, -0.9) * d  # on the inner band, vertices 0 to 4
+    >>> inner_phi(chain, inner[:5], np.arange(5), d, side, 2.0).round(6).tolist()
+    [-1.3, -0.4, 0.5, 1.4, 2.3, 3.2, 4.1]
+    """
+    vertices = np.asarray(vertices)
+    d = np.full(domain.n_vertices, 0.0)
+    d[: distance.size] = distance
+    rate = growth_rate(phi_inner[vertices < distance.size], d[vertices[vertices < distance.size]], reach)
+    full = np.zeros(domain.n_vertices)
+    full[: side.size] = side
+    phi = 0.5 + np.where(full > 0, 1.0, -1.0) * rate * np.where(np.isfinite(d), d, 2 * reach)
+    phi[vertices] = phi_inner
+    return phi
 
 
 class OutsideFill:

@@ -127,19 +127,25 @@ def image_band(codes, spacing, h, width):
 
     Returns
     -------
-    ndarray of int64
+    pixels : ndarray of int64
         The band's pixels, as increasing indices in C order.
+    distance : ndarray of float64
+        The graph distance (units of ``h``) from zeta of each corner of the band's pixels,
+        in the order of the grid's corners (as a
+        :class:`~ndboundary.domains.image.GridBand` numbers its vertices).
 
     Examples
     --------
     >>> import numpy as np
     >>> from ndboundary.pipeline.grid_band import image_band
     >>> codes = (np.arange(10) >= 5).astype(int).reshape(1, 10)  # one row: 0 0 0 0 0 1 1 1 1 1
-    >>> image_band(codes, (1.0, 1.0), 1.0, 1.0).tolist()  # pixels touching corners 4 to 6
-    [3, 4, 5, 6]
+    >>> pixels, distance = image_band(codes, (1.0, 1.0), 1.0, 1.0)
+    >>> pixels.tolist(), distance.reshape(2, -1)[0].tolist()  # pixels touching corners 4 to 6
+    ([3, 4, 5, 6], [2.0, 1.0, 0.0, 1.0, 2.0])
     """
     distances = corner_distances(zeta_corners(codes), [s / h for s in spacing], width)
-    return np.flatnonzero(pixels_at(distances <= width))
+    near = pixels_at(distances <= width)
+    return np.flatnonzero(near), distances[corners_of(near)]
 
 
 def pixels_at(corners):
@@ -221,7 +227,7 @@ def region_band(codes, region, box, spacing, h, width):
     >>> pixels, distance, labels, _ = region_band(codes, 1, box, (1.0, 1.0), 1.0, 1.0)
     >>> pixels.tolist(), labels.tolist()
     ([3, 4, 5, 6, 7, 8], [False, False, True, True, False, False])
-    >>> pixels.tolist() == image_band(codes == 1, (1.0, 1.0), 1.0, 1.0).tolist()
+    >>> pixels.tolist() == image_band(codes == 1, (1.0, 1.0), 1.0, 1.0)[0].tolist()
     True
     """
     sub = codes[box]

@@ -8,6 +8,7 @@ labelling, its heat and field, and the last factorisation of the integration sys
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import sys
@@ -29,6 +30,8 @@ from .band import (
     band_elements,
     band_width,
     growth_rate,
+    inner_band,
+    inner_phi,
 )
 from .boundary import Boundary, element_boundary, vertex_boundary
 from .checks import check_element_shapes
@@ -113,6 +116,9 @@ class Relaxer:
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
         self._sectors = None  # (every element's region, this region): smooth within sectors
+        # on a band: (its vertices' graph distance from zeta, the integration's reach), both
+        # in units of h, which limit the integration to the inner band (band.inner_band)
+        self._reach = None
         # the domain is this relaxation's own (a band it cut): what the result does not read
         # is dropped from it once used, so that the integration and the level set, the
         # largest steps, run beside less memory (read again, it is built again)
@@ -186,9 +192,17 @@ class Relaxer:
             groups = region_sectors(self.domain, *self._sectors)[padded.parent]
         Xs = smooth(padded.work, X, p["smoothing"], groups)
         prog.step("smoothing")
-        system = integration_system(
-            padded.work, Xs, h, padded, boundary.sources, lam=p["lam"], mu=p["mu"], form=p["form"]
-        )
+        work = padded.work
+        inner = None if self._reach is None else inner_band(work, *self._reach)
+        if inner is None:
+            system = integration_system(work, Xs, h, padded, boundary.sources, lam=p["lam"], mu=p["mu"], form=p["form"])
+        else:
+            sub, kept = work.subdomain(inner)
+            system = integration_system(
+                sub, Xs[inner], h, *_cut_rows(padded, boundary.sources, kept, work.n_vertices),
+                lam=p["lam"], mu=p["mu"], form=p["form"],
+            )  # fmt: skip
+            sub = None
         if not self._keep:
             # the padded operators are not needed by the solve: free them before it
             self.clear()
@@ -200,6 +214,9 @@ class Relaxer:
         phi, int_info = integrate(
             system, rtol=rtol, solver=p["solver"], cache=self._factors if self._keep else self._shared
         )
+        if inner is not None:
+            side = region1 if p["on"] == "vertices" else domain.vertices_of(region1)
+            phi = inner_phi(work, phi, kept, self._reach[0], side, self._reach[1])
         prog.step("integration")
         if self._private and not self._keep:
             _forget(domain, ("K",))
@@ -327,6 +344,8 @@ class Relaxer:
                 return boundary
             band = relaxer_of(mask)
         _, relaxer, vertices = band
+        reach = domain.integration_reach
+        relaxer._reach = None if reach is None else (dist[vertices], reach)
         self._band_relaxer = band if self._keep else None
         self._band = (key, boundary, scale, (width, mask, dist)) if self._keep else None
         locate = time.perf_counter() - tick
@@ -412,6 +431,20 @@ class Relaxer:
         if self._keep:
             self._heat = ((key, t, rtol), u, heat_info, X)
         return u, heat_info, X
+
+
+def _cut_rows(padded, sources, kept, n):
+    """The padding's constraint rows and zeta's sources over the vertices ``kept`` (of
+    ``n``) of the inner band: ``(padded, sources)`` for its integration. Rows that reach
+    beyond it (the pins of parts of the band that zeta does not reach) are dropped.
+    """
+    local = np.full(n, -1, dtype=np.int64)
+    local[kept] = np.arange(kept.size)
+    S = padded.S.tocsr()
+    cut = S[:, kept].tocsr()
+    whole = np.diff(cut.indptr) == np.diff(S.indptr)
+    sources = local[sources]
+    return dataclasses.replace(padded, S=cut[whole], targets=padded.targets[whole]), sources[sources >= 0]
 
 
 def _forget(domain, names):
