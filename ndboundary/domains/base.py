@@ -296,9 +296,15 @@ class Domain(IncidenceQueries):
         degree = np.diff(adjacency.indptr)
         cap = np.minimum(1.0, self.usual_degree / np.maximum(degree, 1))
         if groups is not None:
-            a, b = np.repeat(np.asarray(groups), degree), np.asarray(groups)[adjacency.indices]
+            groups = np.asarray(groups)
+            rows = np.repeat(np.arange(degree.size), degree)
+            a, b = groups[rows], groups[adjacency.indices]
             same = (a == b) | (a < 0) | (b < 0)
-            adjacency = sp.csr_matrix((adjacency.data * same, adjacency.indices, adjacency.indptr), adjacency.shape)
+            # the neighbours across groups dropped, not weighted 0: the weights stay ones
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[same], minlength=degree.size))])
+            adjacency = sp.csr_matrix(
+                (adjacency.data[same], adjacency.indices[same], indptr.astype(adjacency.indptr.dtype)), adjacency.shape
+            )
         if (cap < 1.0).any():
             adjacency = (adjacency @ sp.diags(cap)).tocsr()
         return smooth_rows(adjacency, X, passes, plus_identity=True)
