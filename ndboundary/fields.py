@@ -10,8 +10,9 @@ __all__ = ["COMPILED_SMOOTHING_MIN_ROWS", "normalize_rows", "smooth_rows"]
 #: From this many field rows, :func:`smooth_rows` runs a compiled loop (numba) that sums
 #: and renormalises each row in one go, every sweep in one call below two threads' worth
 #: of rows: half the time of the sparse products on a band of 20 000 elements, with the
-#: same numbers (``benchmarks/table1.py`` times the step). Built at install, it costs no
-#: compilation; on the smallest fields the products are as fast.
+#: same numbers for fields of 2 and 3 components (to rounding beyond; ``benchmarks/table1.py``
+#: times the step). Built at install, it costs no compilation; on the smallest fields the
+#: products are as fast.
 COMPILED_SMOOTHING_MIN_ROWS = 2_000
 
 

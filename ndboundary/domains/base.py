@@ -241,12 +241,10 @@ class Domain(IncidenceQueries):
 
     #: The half-width (units of ``h``) of the inner band that a band's integration solves
     #: on (:func:`~ndboundary.pipeline.band.inner_band`), or None to integrate the whole
-    #: band. The heat and the smoothing need the band's width; the integration, pinned at
-    #: zeta and fitting a field already smoothed, does not: on a 96^3 voxel ball the band's
-    #: level set lies as near the whole grid's integrated on 6 h as on the whole band of
-    #: 13.1 h, in half the time. 4 h put a tetrahedral ball's 0.06 h from it at worst
-    #: (``benchmarks/band.py``).
-    integration_reach = 6.0
+    #: band, as meshes do: a fixed 6 h moved the level set of a Voronoi polyhedral mesh by
+    #: 0.39 h and of a polygonal surface by 0.23 h at worst (``benchmarks/band.py --suite``).
+    #: Image grids set it (:class:`~ndboundary.domains.image.ImageGrid`).
+    integration_reach = None
 
     @cached_property
     def usual_degree(self) -> float:

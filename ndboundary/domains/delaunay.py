@@ -103,10 +103,6 @@ class DelaunayComplex(SimplicialComplex):
     (2, 50)
     """
 
-    #: A band of the complex is integrated whole, as a graph's: phi near zeta is the
-    #: decision function, which a narrower integration moves.
-    integration_reach = None
-
     def __init__(self, points, *, rtol=1e-10):
         pts, self.triangulation, simplices = _triangulate(points, rtol)
         super().__init__(pts, simplices)

@@ -79,11 +79,6 @@ class StencilDomain(Domain):
         Vertex pairs (duplicate, its representative): edges of no element.
     """
 
-    #: A band of the graph is integrated whole: a sample's stencil reaches several ``h``,
-    #: and phi near zeta is the decision function, which a narrower integration moves
-    #: (by 0.03 h on average within 3 h of zeta, ``tests/test_pointcloud_band.py``).
-    integration_reach = None
-
     # -- sizes ------------------------------------------------------------------------
     @property
     def dim(self) -> int:

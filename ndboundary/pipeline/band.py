@@ -17,7 +17,7 @@ band at its edge, and grows away from zeta at the rate of the solved phi
 Vertices that no path joins to the band (domain components without zeta) get
 ``1/2 -/+ 1``, as the whole-domain solve pins them.
 
-Within the band, only the integration's inner band (the elements within the domain's
+On image grids, only the integration's inner band (the elements within the grid's
 :attr:`~ndboundary.Domain.integration_reach` of zeta, :func:`inner_band`) is integrated: the heat and the
 smoothing need the band's width, the integration does not. Pinned at zeta and fitting a
 field already smoothed, its level set hardly depends on what lies beyond a few rings, and
@@ -54,6 +54,7 @@ __all__ = [
     "growth_rate",
     "inner_band",
     "inner_phi",
+    "integration_reach",
 ]
 
 
@@ -140,6 +141,27 @@ def growth_rate(phi_band, distance, width):
     d, f = distance[outer], np.abs(phi_band[outer] - 0.5)
     slope = np.cov(d, f, bias=True)[0, 1] / np.var(d)
     return float(np.clip(slope, 0.5, 2.0))
+
+
+def integration_reach(domain, width):
+    """The half-width (units of ``h``) of the inner band that a band of ``width`` around
+    zeta on ``domain`` integrates: the domain's
+    :attr:`~ndboundary.Domain.integration_reach`, widened by the factor by which ``width``
+    exceeds its :attr:`~ndboundary.Domain.band_reach` (a weaker boundary term, a rougher
+    field), or None (the whole band).
+
+    Examples
+    --------
+    >>> from ndboundary import ImageGrid
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary.pipeline.band import integration_reach
+    >>> integration_reach(ImageGrid((4, 4, 4)), 18.0), integration_reach(kuhn_grid(4, 2), 8.0)
+    (9.0, None)
+    """
+    reach = domain.integration_reach
+    if reach is None:
+        return None
+    return reach * max(1.0, width / domain.band_reach)
 
 
 def inner_band(work, distance, reach):

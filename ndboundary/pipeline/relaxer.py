@@ -32,6 +32,7 @@ from .band import (
     growth_rate,
     inner_band,
     inner_phi,
+    integration_reach,
 )
 from .boundary import Boundary, element_boundary, vertex_boundary
 from .checks import check_element_shapes
@@ -344,7 +345,7 @@ class Relaxer:
                 return boundary
             band = relaxer_of(mask)
         _, relaxer, vertices = band
-        reach = domain.integration_reach
+        reach = integration_reach(domain, width)
         relaxer._reach = None if reach is None else (dist[vertices], reach)
         self._band_relaxer = band if self._keep else None
         self._band = (key, boundary, scale, (width, mask, dist)) if self._keep else None
