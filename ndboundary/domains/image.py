@@ -91,6 +91,38 @@ def corner_points(shape, spacing, origin, direction=None, corners=None):
     return (points if direction is None else points @ direction.T) + np.asarray(origin)
 
 
+#: The inner band of an image band's integration, in steps along its coarsest axis.
+INTEGRATION_STEPS = 6.0
+
+
+def grid_integration_reach(shape, spacing):
+    """The half-width (units of the grid's mean edge length ``h``) of the inner band that
+    a band of an image integrates (:attr:`~ndboundary.Domain.integration_reach`):
+    :data:`INTEGRATION_STEPS` steps along the coarsest axis.
+
+    On a 96^3 voxel ball the level set then lies as near the whole grid's as when the
+    whole band of 13.1 h is integrated, 0.0077 h against 0.0080 h on average, in half the
+    integration's time. Counted in ``h``, 6 h would span under three of the prostate's
+    4 mm slices (``h`` 1.7 mm), and its regions' volumes moved by 0.17 %.
+
+    Examples
+    --------
+    >>> from ndboundary.domains.image import grid_integration_reach
+    >>> grid_integration_reach((10, 10, 10), (1.0, 1.0, 1.0)), grid_integration_reach((10, 10), (1.0, 3.0))
+    (6.0, 9.0)
+    """
+    from ..pipeline.grid_band import grid_mean_edge_length  # the pipeline builds on the domains
+
+    return INTEGRATION_STEPS * float(max(spacing)) / grid_mean_edge_length(shape, spacing)
+
+
+def _integration_reach(grid) -> float:
+    """A band of the image integrates the pixels within :data:`INTEGRATION_STEPS` steps
+    of its coarsest axis from zeta (:func:`grid_integration_reach`).
+    """
+    return grid_integration_reach(grid.shape, grid.spacing)
+
+
 class ImageGrid:
     """The pixels or voxels of an image as a domain: ``ImageGrid(shape, spacing=, origin=)``.
 
@@ -131,11 +163,7 @@ class ImageGrid:
     (True, 'VoxelGrid')
     """
 
-    #: A band of the image integrates its inner 6 h, widened as the band is
-    #: (:func:`~ndboundary.pipeline.band.integration_reach`): on a 96^3 voxel ball its level
-    #: set lies as near the whole grid's as when the whole band of 13.1 h is integrated,
-    #: 0.0077 h against 0.0080 h on average, in half the integration's time.
-    integration_reach = 6.0
+    integration_reach = property(_integration_reach)
 
     def __new__(cls, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
         """A :class:`PixelGrid` or :class:`VoxelGrid`, by the number of axes of ``shape``."""
@@ -403,11 +431,7 @@ class GridBand:
     (16, 50, 2.0)
     """
 
-    #: A band of the image integrates its inner 6 h, widened as the band is
-    #: (:func:`~ndboundary.pipeline.band.integration_reach`): on a 96^3 voxel ball its level
-    #: set lies as near the whole grid's as when the whole band of 13.1 h is integrated,
-    #: 0.0077 h against 0.0080 h on average, in half the integration's time.
-    integration_reach = 6.0
+    integration_reach = property(_integration_reach)
 
     def __new__(cls, shape, pixels, **kwargs):
         """A :class:`PixelBand` or :class:`VoxelBand`, by the number of axes of ``shape``."""
