@@ -131,7 +131,7 @@ def image_band(codes, spacing, h, width):
         The band's pixels, as increasing indices in C order.
     distance : ndarray of float64
         The graph distance (units of ``h``) from zeta of each corner of the band's pixels,
-        in the order of the grid's corners (as a
+        ``inf`` beyond ``width``, in the order of the grid's corners (as a
         :class:`~ndboundary.domains.image.GridBand` numbers its vertices).
 
     Examples
@@ -141,7 +141,7 @@ def image_band(codes, spacing, h, width):
     >>> codes = (np.arange(10) >= 5).astype(int).reshape(1, 10)  # one row: 0 0 0 0 0 1 1 1 1 1
     >>> pixels, distance = image_band(codes, (1.0, 1.0), 1.0, 1.0)
     >>> pixels.tolist(), distance.reshape(2, -1)[0].tolist()  # pixels touching corners 4 to 6
-    ([3, 4, 5, 6], [2.0, 1.0, 0.0, 1.0, 2.0])
+    ([3, 4, 5, 6], [inf, 1.0, 0.0, 1.0, inf])
     """
     distances = corner_distances(zeta_corners(codes), [s / h for s in spacing], width)
     near = pixels_at(distances <= width)
