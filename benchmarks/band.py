@@ -10,6 +10,7 @@ Usage::
 
     python benchmarks/band.py [--widths 8,12,16,21,24,auto] [--params "dict(smoothing=3)"]
     python benchmarks/band.py --suite        # every relax of quality.py and meshes.py
+    python benchmarks/band.py --cases voxels-96 --widths auto [--integrate-whole-band]
 
 ``--suite`` runs ``benchmarks/quality.py`` (defaults and the paper's settings) and
 ``benchmarks/meshes.py`` (Fig. 6 and the shared meshes) with every call of ``relax``
@@ -17,6 +18,10 @@ made three times: ``band="auto"`` (the default, whose result the script then che
 ``band=None``, and the band at the width auto chooses (forced, although auto relaxes
 meshes under ``AUTO_BAND_MIN_VERTICES`` vertices whole); it prints the gaps to the
 whole-domain level set per call, then the scripts' own tables.
+
+``--integrate-whole-band`` makes image grids integrate their whole band, as meshes do,
+instead of the inner band within their ``integration_reach`` of zeta: the level set and
+the time it buys (cases ``voxels-64`` and ``voxels-96``).
 
 Prints a table, then one JSON line per case and width.
 """
@@ -28,7 +33,7 @@ import json
 import time
 
 import ndboundary
-from ndboundary import relax
+from ndboundary import ImageGrid, relax
 from ndboundary.metrics import level_set_distance
 from ndboundary.pipeline.band import band_width, can_cut
 from ndboundary.datasets import (
@@ -56,10 +61,17 @@ CASES = {
     "ball-64-r0.3": lambda: (kuhn_grid(64, 3, jitter=0.25, random_state=0), lambda x: ball(x, 0.3)),
     "hex-56-r0.3": lambda: (hex_grid(56, jitter=0.25, random_state=0), lambda x: ball(x, 0.3)),
     "4d-ball-12": lambda: (kuhn_grid(12, 4, jitter=0.1, random_state=0), ball),
+    "voxels-64": lambda: (voxel_cube(64), ball),
+    "voxels-96": lambda: (voxel_cube(96), ball),
 }
 DEFAULT_CASES = (
     "flower-160,flower-400,quads-80,voronoi-80,ico5-plane,ball-44,hex-40,ball-64-r0.3,hex-56-r0.3,4d-ball-12"
 )
+
+
+def voxel_cube(n):
+    """The voxels of [-1, 1]^3, ``n`` a side."""
+    return ImageGrid((n, n, n), spacing=2 / n, origin=-1 + 1 / n)
 
 
 def gap(a, b, h):
@@ -144,7 +156,14 @@ def main():
     parser.add_argument("--params", default="{}", help="relax parameters, a Python dict literal")
     parser.add_argument("--cases", default=DEFAULT_CASES, help=f"any of {', '.join(CASES)}")
     parser.add_argument("--suite", action="store_true", help="every relax of quality.py and meshes.py instead")
+    parser.add_argument(
+        "--integrate-whole-band",
+        action="store_true",
+        help="image grids integrate their whole band, as meshes do, instead of their inner band",
+    )
     args = parser.parse_args()
+    if args.integrate_whole_band:
+        ImageGrid.integration_reach = None
     if args.suite:
         return run_suite()
     params = eval(args.params, {"dict": dict})  # noqa: S307 - a command-line convenience
