@@ -91,8 +91,10 @@ def corner_points(shape, spacing, origin, direction=None, corners=None):
     return (points if direction is None else points @ direction.T) + np.asarray(origin)
 
 
-#: The inner band of an image band's integration, in steps along its coarsest axis.
-INTEGRATION_STEPS = 6.0
+#: The inner band of an image band's integration, in steps along its coarsest axis: the
+#: pixels with a corner within 4 steps of zeta, half a step more so that no corner's
+#: distance ties it (rounding would decide).
+INTEGRATION_STEPS = 4.5
 
 
 def grid_integration_reach(shape, spacing):
@@ -109,7 +111,7 @@ def grid_integration_reach(shape, spacing):
     --------
     >>> from ndboundary.domains.image import grid_integration_reach
     >>> grid_integration_reach((10, 10, 10), (1.0, 1.0, 1.0)), grid_integration_reach((10, 10), (1.0, 3.0))
-    (6.0, 9.0)
+    (4.5, 6.75)
     """
     from ..pipeline.grid_band import grid_mean_edge_length  # the pipeline builds on the domains
 

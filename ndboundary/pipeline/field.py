@@ -43,7 +43,7 @@ def graph_distance(domain, sources):
     return dist
 
 
-def initial_field(domain, padded, region1, sources, u, rtol):
+def initial_field(domain, padded, region1, sources, u, rtol, distance=None):
     """The unit field ``X`` of step 2 on the padded domain, shape (n_elements, dim).
 
     Parameters
@@ -59,6 +59,11 @@ def initial_field(domain, padded, region1, sources, u, rtol):
         The heat.
     rtol : float
         The heat solve's tolerance.
+    distance : ndarray of shape (domain.n_vertices,), optional
+        The graph distance of each vertex from zeta along the edges, ``inf`` where it is
+        not known (beyond a band's width), as the band's search found it. By default it is
+        searched again (:func:`graph_distance`). Elements with a vertex of unknown distance
+        take their neighbours' field (:func:`fill_flat`).
 
     Examples
     --------
@@ -87,23 +92,31 @@ def initial_field(domain, padded, region1, sources, u, rtol):
     V = domain.n_vertices
     X = normalize_rows(work.gradient(u))
     far = work.element_max(u) < max(HEAT_FLOOR, 100.0 * rtol) * u.max()
+    unknown = None
     if far.any():
         # distances on the unpadded domain; a padding vertex takes its element's mean
-        dist = graph_distance(domain, sources)
+        dist = graph_distance(domain, sources) if distance is None else np.asarray(distance, dtype=np.float64)
         if work is not domain:  # padded: its vertices beyond the domain's need distances too
             if work.n_vertices - V == padded.split.size:
                 inc = domain.incidence[:, padded.split].T.tocsr()
                 dist = np.concatenate([dist, (inc @ dist) / np.diff(inc.indptr)])
             else:
                 dist = graph_distance(work, sources)
+        known = np.isfinite(dist)
+        if not known.all():
+            unknown = far & (work.element_max((~known).astype(np.float64)) > 0)
+            far &= ~unknown
+            X[unknown] = 0.0
+            dist = np.where(known, dist, 0.0)
         X[far] = -normalize_rows(work.gradient(dist)[far])
     X[padded.elem_region1] *= -1.0
     if padded.straddle.any():
         ind = np.zeros(work.n_vertices)
         ind[:V] = region1
         X[padded.straddle] = normalize_rows(work.gradient(ind)[padded.straddle])
-    if padded.flat.any():
-        X = fill_flat(work, X, padded.flat)
+    flat = padded.flat if unknown is None else padded.flat | unknown
+    if flat.any():
+        X = fill_flat(work, X, flat)
     return X
 
 

@@ -117,8 +117,11 @@ class Relaxer:
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
         self._sectors = None  # (every element's region, this region): smooth within sectors
-        # on a band: (its vertices' graph distance from zeta, the integration's reach), both
-        # in units of h, which limit the integration to the inner band (band.inner_band)
+        # on the band of an image grid: (its vertices' graph distance from zeta, inf beyond
+        # the band's width, and the integration's reach), both in units of h: the far
+        # field's direction (field.initial_field) and the integration's inner band
+        # (band.inner_band). Meshes and graphs search the far field's distances again
+        # (along the band's edges) and integrate their whole band.
         self._reach = None
         # the domain is this relaxation's own (a band it cut): what the result does not read
         # is dropped from it once used, so that the integration and the level set, the
@@ -427,7 +430,8 @@ class Relaxer:
             return self._heat[1:]
         u, heat_info = diffuse(padded.work, boundary.sources, t, rtol)
         prog.step("heat")
-        X = initial_field(self.domain, padded, region1, boundary.sources, u, rtol)
+        distance = None if self._reach is None else self._reach[0]
+        X = initial_field(self.domain, padded, region1, boundary.sources, u, rtol, distance)
         prog.step("field")
         if self._keep:
             self._heat = ((key, t, rtol), u, heat_info, X)
