@@ -21,7 +21,7 @@ whole-domain level set per call, then the scripts' own tables.
 
 ``--integrate-whole-band`` makes image grids integrate their whole band, as meshes do,
 instead of the inner band within their ``integration_reach`` of zeta: the level set and
-the time it buys (cases ``voxels-64`` and ``voxels-96``).
+the time it buys (cases ``voxels-96`` and ``voxels-128``).
 
 Prints a table, then one JSON line per case and width.
 """
@@ -61,7 +61,7 @@ CASES = {
     "ball-64-r0.3": lambda: (kuhn_grid(64, 3, jitter=0.25, random_state=0), lambda x: ball(x, 0.3)),
     "hex-56-r0.3": lambda: (hex_grid(56, jitter=0.25, random_state=0), lambda x: ball(x, 0.3)),
     "4d-ball-12": lambda: (kuhn_grid(12, 4, jitter=0.1, random_state=0), ball),
-    "voxels-64": lambda: (voxel_cube(64), ball),
+    "voxels-128": lambda: (voxel_cube(128), ball),
     "voxels-96": lambda: (voxel_cube(96), ball),
 }
 DEFAULT_CASES = (
