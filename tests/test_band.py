@@ -339,36 +339,34 @@ def test_a_mesh_band_integrates_the_whole_band():
     assert far.sum() > 100 and np.ptp(np.abs(res.phi[far] - 0.5) / dist[far]) > 1e-3
 
 
-def test_the_far_field_follows_given_distances_and_elements_beyond_them_take_their_neighbours():
-    """Given the graph distances from zeta that a band's search found (inf beyond its
-    width), the field far from zeta is the one the field step searches for itself, and the
-    elements at the band's edge, which hold a vertex beyond the width, take their
-    neighbours' direction."""
+def test_the_far_field_follows_given_distances_also_at_the_bands_edge():
+    """Given the graph distances from zeta that an image band's search found (inf beyond
+    its width), the field far from zeta is the one the field step searches for itself,
+    and in the pixels at the band's edge, which hold a corner beyond the width, it still
+    points into region 1."""
+    from ndboundary import ImageGrid
     from ndboundary.pipeline.boundary import element_boundary
     from ndboundary.pipeline.field import graph_distance, initial_field
     from ndboundary.pipeline.heat import diffuse
     from ndboundary.pipeline.padding import pad
 
-    mesh = kuhn_grid(60, 2, jitter=0.2, random_state=0)
-    h = mesh.mean_edge_length()
-    distance = graph_distance(mesh, element_boundary(mesh, label_by(mesh, circle) == 1).sources) / h
-    band, vertices = mesh.subdomain(mesh.elements_at(distance <= 6.0))
+    grid = ImageGrid((80, 80), spacing=2 / 80, origin=-1 + 1 / 80)
+    h = grid.mean_edge_length()
+    distance = graph_distance(grid, element_boundary(grid, label_by(grid, circle) == 1).sources) / h
+    band, vertices = grid.subdomain(grid.elements_at(distance <= 6.5))  # no distance ties the width
     region1 = label_by(band, circle) == 1
     zeta = element_boundary(band, region1)
-    padded = pad(band, region1, zeta, "elements")
+    padded = pad(band, region1, zeta, "elements", enabled=False)  # as relax_image relaxes pixels
     u, _ = diffuse(padded.work, zeta.sources, h**2, 1e-10)
     # a coarse heat tolerance: the field follows the distance from 1 % of the heat's peak
     searched = initial_field(band, padded, region1, zeta.sources, u, 1e-4)
     given = distance[vertices]
-    np.testing.assert_allclose(initial_field(band, padded, region1, zeta.sources, u, 1e-4, given), searched)
-
-    cut = np.where(given <= 6.0, given, np.inf)
+    cut = np.where(given <= 6.5, given, np.inf)
     X = initial_field(band, padded, region1, zeta.sources, u, 1e-4, cut)
-    edge = np.zeros(padded.work.n_vertices, dtype=bool)
-    edge[: cut.size] = np.isinf(cut)
-    unknown = padded.work.element_max(edge.astype(float)) > 0  # all far from zeta
+    unknown = band.element_max(np.isinf(cut).astype(float)) > 0  # all far from zeta
     assert 0 < unknown.sum() < 0.5 * unknown.size
-    np.testing.assert_allclose(X[~unknown], searched[~unknown])
+    np.testing.assert_allclose(X[~unknown], searched[~unknown], atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(X[unknown], axis=1), 1.0)
-    cosine = np.einsum("ij,ij->i", X[unknown], searched[unknown])
-    assert cosine.mean() > 0.95 and cosine.min() > 0.5  # the distances' gradient is rough at the edge
+    centroids = band.element_centroids()[unknown]
+    inward = -centroids / np.linalg.norm(centroids, axis=1)[:, None]  # into the disc, region 1
+    assert np.einsum("ij,ij->i", X[unknown], inward).min() > 0.7

@@ -61,9 +61,10 @@ def initial_field(domain, padded, region1, sources, u, rtol, distance=None):
         The heat solve's tolerance.
     distance : ndarray of shape (domain.n_vertices,), optional
         The graph distance of each vertex from zeta along the edges, ``inf`` where it is
-        not known (beyond a band's width), as the band's search found it. By default it is
-        searched again (:func:`graph_distance`). Elements with a vertex of unknown distance
-        take their neighbours' field (:func:`fill_flat`).
+        not known (beyond a band's width), as the band's search found it; unknown ones count
+        as one ``h`` beyond the largest known, in the unit of the known ones (which only
+        the field's direction reads). By default it is searched again
+        (:func:`graph_distance`).
 
     Examples
     --------
@@ -92,7 +93,6 @@ def initial_field(domain, padded, region1, sources, u, rtol, distance=None):
     V = domain.n_vertices
     X = normalize_rows(work.gradient(u))
     far = work.element_max(u) < max(HEAT_FLOOR, 100.0 * rtol) * u.max()
-    unknown = None
     if far.any():
         # distances on the unpadded domain; a padding vertex takes its element's mean
         dist = graph_distance(domain, sources) if distance is None else np.asarray(distance, dtype=np.float64)
@@ -103,20 +103,16 @@ def initial_field(domain, padded, region1, sources, u, rtol, distance=None):
             else:
                 dist = graph_distance(work, sources)
         known = np.isfinite(dist)
-        if not known.all():
-            unknown = far & (work.element_max((~known).astype(np.float64)) > 0)
-            far &= ~unknown
-            X[unknown] = 0.0
-            dist = np.where(known, dist, 0.0)
+        if not known.all():  # beyond the band's width: one unit of h past the farthest known
+            dist = np.where(known, dist, dist[known].max(initial=0.0) + 1.0)
         X[far] = -normalize_rows(work.gradient(dist)[far])
     X[padded.elem_region1] *= -1.0
     if padded.straddle.any():
         ind = np.zeros(work.n_vertices)
         ind[:V] = region1
         X[padded.straddle] = normalize_rows(work.gradient(ind)[padded.straddle])
-    flat = padded.flat if unknown is None else padded.flat | unknown
-    if flat.any():
-        X = fill_flat(work, X, flat)
+    if padded.flat.any():
+        X = fill_flat(work, X, padded.flat)
     return X
 
 
