@@ -18,7 +18,7 @@ ball on thick slices (40 x 40 x 10 voxels of 0.6 x 0.6 x 4 mm, as a prostate sca
 Usage::
 
     python benchmarks/integration_rtol.py
-    python benchmarks/integration_rtol.py --cases voxels96
+    python benchmarks/integration_rtol.py --cases voxels96 --also 1e-4,1e-3
 """
 
 from __future__ import annotations
@@ -78,10 +78,13 @@ def run(case, tolerance):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", default=None, help="comma separated (default: all)")
+    parser.add_argument("--also", default="", help="more tolerances to compare, comma separated (e.g. 1e-4,1e-3)")
     args = parser.parse_args(argv)
     table = cases()
     names = args.cases.split(",") if args.cases else list(table)
     settings = {"default": params.integration_rtol, "heat's rtol": lambda rtol: rtol, "1e-10": lambda rtol: 1e-10}
+    for text in filter(None, args.also.split(",")):
+        settings[text] = lambda rtol, value=float(text): value
     print(f"{'case':<11} {'integration':<12} {'rtol':>7} {'iters':>5} {'seconds':>7} {'max dphi/h':>10} {'mean':>9}")
     for name in names:
         run(table[name], params.integration_rtol)  # a first run pays for first-touched memory
