@@ -675,29 +675,54 @@ def edge_length_graph(incidence, simplices, points, *, unit=1.0, with_graph=True
     return graph, mean
 
 
-@kernel("void(i8[:, ::1], i8[::1], i8[::1], i8[::1], f8[::1], i4[:, ::1], f8[:, ::1])")
-@numba.njit(cache=True, nogil=True)
-def _box_stencil_fill(corners, first, second, slot, value, nbr, data):  # pragma: no cover - compiled
-    # every cell adds value[p] to the entry (corners[c, first[p]], corners[c, second[p]]),
-    # kept in the row's slot slot[p] (one slot per offset between two corners)
-    for c in range(corners.shape[0]):
-        for p in range(first.size):
-            a = corners[c, first[p]]
-            nbr[a, slot[p]] = corners[c, second[p]]
-            data[a, slot[p]] += value[p]
+#: Rows of the matrix that :func:`assemble_box_stencil` builds at a time, in a buffer of
+#: one slot per stencil offset that the block reuses (a few MB, which stays in cache
+#: instead of a buffer over every row first touched).
+BOX_STENCIL_BLOCK_ROWS = 8192
 
 
-@kernel("void(i4[:, ::1], f8[:, ::1], i8[::1], i4[::1], f8[::1])")
+@kernel("void(i8[:, ::1], i8[::1], i8[::1], i8[::1], f8[::1], i8[:, ::1], i8[::1], i4[::1], f8[::1], b1, i8, i8)")
 @numba.njit(cache=True, nogil=True)
-def _box_stencil_compress(nbr, data, rows, cols, out):  # pragma: no cover - compiled
-    t = 0
-    for a in range(nbr.shape[0]):
-        for s in range(nbr.shape[1]):
-            if nbr[a, s] >= 0:
-                cols[t] = nbr[a, s]
-                out[t] = data[a, s]
-                t += 1
-        rows[a + 1] = t
+def _box_stencil_blocks(
+    corners, first, second, slot, value, blocks, rows, cols, out, count, start, stop
+):  # pragma: no cover - compiled
+    # for each block b of start..stop, rows blocks[b, 0]..blocks[b, 1], whose cells are
+    # blocks[b, 2]..blocks[b, 3]: every cell adds value[p] to the entry (corners[c,
+    # first[p]], corners[c, second[p]]) of the rows in the block, kept in the row's slot
+    # slot[p] (one slot per offset between two corners); then either the rows' entries
+    # are counted (rows[a + 1], count) or written from rows[a] on in the slots' order
+    n_slots = 0
+    for p in range(slot.size):
+        n_slots = max(n_slots, slot[p] + 1)
+    size = 0
+    for b in range(start, stop):
+        size = max(size, blocks[b, 1] - blocks[b, 0])
+    nbr = np.empty((size, n_slots), dtype=np.int32)
+    data = np.empty((size, n_slots))
+    for b in range(start, stop):
+        lo, hi = blocks[b, 0], blocks[b, 1]
+        nbr[: hi - lo] = -1
+        data[: hi - lo] = 0.0
+        for c in range(blocks[b, 2], blocks[b, 3]):
+            for p in range(first.size):
+                a = corners[c, first[p]]
+                if lo <= a < hi:
+                    nbr[a - lo, slot[p]] = corners[c, second[p]]
+                    data[a - lo, slot[p]] += value[p]
+        for a in range(lo, hi):
+            if count:
+                k = 0
+                for s in range(n_slots):
+                    if nbr[a - lo, s] >= 0:
+                        k += 1
+                rows[a + 1] = k
+            else:
+                t = rows[a]
+                for s in range(n_slots):
+                    if nbr[a - lo, s] >= 0:
+                        cols[t] = nbr[a - lo, s]
+                        out[t] = data[a - lo, s]
+                        t += 1
 
 
 def assemble_box_stencil(corners, block, offsets, n_vertices):
@@ -743,12 +768,23 @@ def assemble_box_stencil(corners, block, offsets, n_vertices):
     V = int(n_vertices)
     if V >= np.iinfo(np.int32).max:
         raise ValueError(f"{V} vertices are too many for 32-bit column indices")
-    nbr = np.full((V, shifts.size), -1, dtype=np.int32)
-    data = np.zeros((V, shifts.size))
-    _box_stencil_fill(corners, first.astype(np.int64), second.astype(np.int64), slot.astype(np.int64),
-                      np.ascontiguousarray(block[first, second]), nbr, data)  # fmt: skip
+    # the cells whose corners reach rows lo..hi: those whose lowest corner is below hi and
+    # whose highest is lo or above, a range of cells when both grow with the cell (cells
+    # in the order of their positions, as a grid's)
+    low, high = corners.min(axis=1), corners.max(axis=1)
+    if corners.shape[0] > 1 and not (np.all(low[1:] >= low[:-1]) and np.all(high[1:] >= high[:-1])):
+        order = np.argsort(low, kind="stable")
+        corners, low = corners[order], low[order]
+        high = np.maximum.accumulate(high[order])  # bounds the cells' ranges from above
+    lo = np.arange(0, V, BOX_STENCIL_BLOCK_ROWS, dtype=np.int64)
+    hi = np.minimum(lo + BOX_STENCIL_BLOCK_ROWS, V)
+    blocks = np.stack([lo, hi, np.searchsorted(high, lo, side="left"), np.searchsorted(low, hi, side="left")], axis=1)
+    args = (corners, first.astype(np.int64), second.astype(np.int64), slot.astype(np.int64).ravel(),
+            np.ascontiguousarray(block[first, second]), np.ascontiguousarray(blocks, dtype=np.int64))  # fmt: skip
+    bounds = row_blocks(np.arange(lo.size + 1), 2)  # blocks of rows, as many to each thread
     rows = np.zeros(V + 1, dtype=np.int64)
-    count = int(np.count_nonzero(nbr >= 0))
-    cols, out = np.empty(count, dtype=np.int32), np.empty(count)
-    _box_stencil_compress(nbr, data, rows, cols, out)
+    _threaded(_box_stencil_blocks, bounds, *args, rows, np.empty(0, np.int32), np.empty(0), True)
+    np.cumsum(rows, out=rows)
+    cols, out = np.empty(int(rows[-1]), dtype=np.int32), np.empty(int(rows[-1]))
+    _threaded(_box_stencil_blocks, bounds, *args, rows, cols, out, False)
     return sp.csr_matrix((out, cols, rows.astype(np.int32)), shape=(V, V))
