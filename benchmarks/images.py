@@ -73,7 +73,7 @@ from images_truths import PEERS, Ball, StarShape, Torus, YAreas, blob_terms, run
 from regions_truths import VoronoiTruth, YTruth
 from verdicts import print_verdicts
 
-from ndboundary import relax_image
+from ndboundary import ImageGrid, relax_image
 from ndboundary.metrics import as_complex, level_set_distance, sample_points
 
 PROSTATE = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "volumes", "prostate_mask_00.nii")
@@ -179,7 +179,7 @@ def partition_case(name, labels_of, boundary_distance, exact_volumes, exact_inte
     measures = res.region_measures()
     bounds_r = [res.region_boundary(r) for r in range(res.classes.size)]
     seconds = time.perf_counter() - t0
-    exact = exact_volumes(res)
+    exact = exact_volumes(res, ImageGrid(shape, spacing=spacing, origin=origin))  # res.domain may be a band
     faces = res.interfaces()
     fm = faces.simplex_measures()
     pair_area = {p: float(fm[np.all(np.sort(faces.pairs, axis=1) == p, axis=1)].sum()) for p in exact_interfaces}
@@ -219,7 +219,7 @@ def y_case(n, bounds):
     y = YTruth()
     ya = YAreas(y)
     interfaces = {tuple(sorted(p)): ya.lengths[YTruth.arc_of(*p)] for p in ((0, 1), (1, 2), (0, 2))}
-    return partition_case(f"Y 2-D {n}^2", y.labels, ya.boundary_distance, lambda res: ya.areas[res.classes],
+    return partition_case(f"Y 2-D {n}^2", y.labels, ya.boundary_distance, lambda res, grid: ya.areas[res.classes],
                           interfaces, n, 2, bounds)  # fmt: skip
 
 
@@ -232,7 +232,7 @@ def voronoi_case(n, bounds, seed=0):
             if f is not None:  # the facet's polygon in its plane's orthonormal coordinates
                 x, y = f[2][:, 0], f[2][:, 1]
                 interfaces[(a, b)] = abs(float((x * np.roll(y, -1) - np.roll(x, -1) * y).sum()) / 2)
-    exact = lambda res: truth.exact_measures(res.domain)[res.classes]  # noqa: E731
+    exact = lambda res, grid: truth.exact_measures(grid)[res.classes]  # noqa: E731
     return partition_case(f"voronoi 6 sites {n}^3", truth.labels, truth.boundary_distance, exact, interfaces, n, 3,
                           bounds)  # fmt: skip
 

@@ -27,10 +27,10 @@ __all__ = ["REACH_SCALE", "relax_image"]
 #: The boundary weight's scale (:func:`~ndboundary.pipeline.integration.boundary_weight_scale`)
 #: of the meshes on which the quads' and hexahedra's ``band_reach`` was measured, by number
 #: of axes (``quads-80`` and ``hex-40`` of ``benchmarks/band.py``, the width forced): an
-#: image's band widens only for a scale below the one its reach already holds. On voxel
-#: balls of 64^3 and 96^3, the band of 12 h lay within 0.009 h of the whole grid's level
-#: set on average and 0.027 h at most (targets 0.01 h and 0.05 h), at half the cost of the
-#: 22.8 h that the grid's own scale (0.43) widens it to for other meshes.
+#: image's band (of the grid's reach, :data:`~ndboundary.domains.image.GRID_BAND_REACH`)
+#: widens only for a scale below the one its reach already holds. The grid's own scale
+#: (0.43 on isotropic voxels) would widen it to 19 h, as ``relax`` widens the band of an
+#: :class:`~ndboundary.ImageGrid`, at about twice the cost.
 REACH_SCALE = {2: 0.94, 3: 0.48}
 
 

@@ -170,7 +170,7 @@ def test_a_grid_whose_band_would_hold_most_of_it_is_relaxed_whole_without_a_band
     # without padding a band
     from ndboundary import Relaxer, relax
 
-    mask = _ball(40, 0.2)
+    mask = _ball(36, 0.2)
     grid = ImageGrid(mask.shape)
     whole = relax(grid, mask.ravel(), on="elements", band=None)
 

@@ -156,7 +156,7 @@ def integration_reach(domain, width):
     >>> from ndboundary.datasets import kuhn_grid
     >>> from ndboundary.pipeline.band import integration_reach
     >>> integration_reach(ImageGrid((4, 4, 4)), 18.0), integration_reach(kuhn_grid(4, 2), 8.0)
-    (6.75, None)
+    (8.1, None)
     """
     reach = domain.integration_reach
     if reach is None:
