@@ -110,10 +110,11 @@ def grid_integration_reach(shape, spacing):
     a band of an image integrates (:attr:`~ndboundary.Domain.integration_reach`):
     :data:`INTEGRATION_STEPS` steps along the coarsest axis.
 
-    On a 96^3 voxel ball the level set then lies as near the whole grid's as when the
-    whole band of 13.1 h is integrated, 0.0077 h against 0.0080 h on average, in half the
-    integration's time. Counted in ``h``, 6 h would span under three of the prostate's
-    4 mm slices (``h`` 1.7 mm), and its regions' volumes moved by 0.17 %.
+    On voxel balls of 96^3 and 128^3 the level set then lies as near the whole grid's as
+    when the whole band is integrated (``benchmarks/band.py --cases voxels-96,voxels-128
+    --integrate-whole-band``), in half the time. Counted in ``h`` instead, the reach would
+    span fewer of a scan's thick slices: on the prostate's 4 mm slices (``h`` 1.7 mm) the
+    regions' volumes moved by 0.17 %.
 
     Examples
     --------

@@ -70,7 +70,7 @@ def relax(
         Relative residual the heat solve must reach
         (:data:`~ndboundary.pipeline.params.DEFAULT_RTOL`: the level set moves by less
         than 1e-4 h from there to 1e-10); the squared-Laplacian integration solves to
-        ``100 rtol``, but no looser than 1e-5
+        ``1000 rtol``, but no looser than 1e-4
         (:func:`~ndboundary.pipeline.params.integration_rtol`), the first-order form to
         ``rtol``. The heat is trusted down to ``max(1e-5, 100 rtol)`` of its maximum;
         below, the field follows the graph distance to zeta.
