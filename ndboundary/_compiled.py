@@ -101,44 +101,27 @@ def _sweep(indptr, indices, data, A, B, start, stop):  # pragma: no cover - comp
 _sweep3_rows, _sweep3_unit_rows, _sweep_rows = _sweep3.jit, _sweep3_unit.jit, _sweep.jit
 
 
-@kernel("i8(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8)")
+#: the row sweeps :func:`_sweep_passes` runs, by ``kind``
+SWEEP, SWEEP3, SWEEP3_UNIT = 0, 1, 2
+
+
+@kernel("i8(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8, b1, i8)")
 @numba.njit(cache=True, nogil=True)
-def _sweeps3(indptr, indices, data, A, B, passes):  # pragma: no cover - compiled
-    """``passes`` sweeps of :func:`_sweep3` over every row, ``A`` and ``B`` swapped after
-    each; returns 0 when the last sweep's rows are in ``A``, 1 when in ``B``.
+def _sweep_passes(indptr, indices, data, A, B, kind, with_self, passes):  # pragma: no cover - compiled
+    """``passes`` sweeps over every row of :func:`_sweep`, :func:`_sweep3` or
+    :func:`_sweep3_unit` (``kind``: :data:`SWEEP`, :data:`SWEEP3`, :data:`SWEEP3_UNIT`,
+    which reads no ``data``), ``A`` and ``B`` swapped after each; returns 0 when the last
+    sweep's rows are in ``A``, 1 when in ``B``.
     """
     n = indptr.size - 1
     for k in range(passes):
-        if k % 2 == 0:
-            _sweep3_rows(indptr, indices, data, A, B, 0, n)
+        src, dst = (A, B) if k % 2 == 0 else (B, A)
+        if kind == SWEEP3_UNIT:
+            _sweep3_unit_rows(indptr, indices, src, dst, with_self, 0, n)
+        elif kind == SWEEP3:
+            _sweep3_rows(indptr, indices, data, src, dst, 0, n)
         else:
-            _sweep3_rows(indptr, indices, data, B, A, 0, n)
-    return passes % 2
-
-
-@kernel("i8(i4[::1], i4[::1], f8[:, ::1], f8[:, ::1], b1, i8)")
-@numba.njit(cache=True, nogil=True)
-def _sweeps3_unit(indptr, indices, A, B, with_self, passes):  # pragma: no cover - compiled
-    """``passes`` sweeps of :func:`_sweep3_unit`, as :func:`_sweeps3`."""
-    n = indptr.size - 1
-    for k in range(passes):
-        if k % 2 == 0:
-            _sweep3_unit_rows(indptr, indices, A, B, with_self, 0, n)
-        else:
-            _sweep3_unit_rows(indptr, indices, B, A, with_self, 0, n)
-    return passes % 2
-
-
-@kernel("i8(i4[::1], i4[::1], f8[::1], f8[:, ::1], f8[:, ::1], i8)")
-@numba.njit(cache=True, nogil=True)
-def _sweeps(indptr, indices, data, A, B, passes):  # pragma: no cover - compiled
-    """``passes`` sweeps of :func:`_sweep`, as :func:`_sweeps3`."""
-    n = indptr.size - 1
-    for k in range(passes):
-        if k % 2 == 0:
-            _sweep_rows(indptr, indices, data, A, B, 0, n)
-        else:
-            _sweep_rows(indptr, indices, data, B, A, 0, n)
+            _sweep_rows(indptr, indices, data, src, dst, 0, n)
     return passes % 2
 
 
@@ -177,11 +160,8 @@ def smooth_rows_compiled(W, X, passes, plus_identity=False):
 
     bounds = row_blocks(indptr)
     if len(bounds) == 2:  # one block: every sweep in one call, without a thread per sweep
-        if unit:
-            last = _sweeps3_unit(indptr, indices, A, B, bool(plus_identity), passes)
-        else:
-            last = (_sweeps3 if d in (2, 3) else _sweeps)(indptr, indices, data, A, B, passes)
-        A = B if last else A
+        kind = SWEEP3_UNIT if unit else SWEEP3 if d in (2, 3) else SWEEP
+        A = B if _sweep_passes(indptr, indices, data, A, B, kind, bool(plus_identity), passes) else A
         return A[:, :d].copy() if d == 2 else A
     blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
     for _ in range(passes):

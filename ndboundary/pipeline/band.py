@@ -210,12 +210,13 @@ def inner_phi(domain, phi_inner, vertices, distance, side, reach):
     [-1.3, -0.4, 0.5, 1.4, 2.3, 3.2, 4.1]
     """
     vertices = np.asarray(vertices)
-    d = np.full(domain.n_vertices, 0.0)
+    d = np.zeros(domain.n_vertices)  # the padding's vertices lie on zeta
     d[: distance.size] = distance
-    rate = growth_rate(phi_inner[vertices < distance.size], d[vertices[vertices < distance.size]], reach)
-    full = np.zeros(domain.n_vertices)
-    full[: side.size] = side
-    phi = 0.5 + np.where(full > 0, 1.0, -1.0) * rate * np.where(np.isfinite(d), d, 2 * reach)
+    own = vertices < distance.size
+    rate = growth_rate(phi_inner[own], d[vertices[own]], reach)
+    sign = np.full(domain.n_vertices, -1.0)
+    sign[: side.size][np.asarray(side, dtype=bool)] = 1.0
+    phi = 0.5 + sign * rate * np.where(np.isfinite(d), d, 2 * reach)
     phi[vertices] = phi_inner
     return phi
 
