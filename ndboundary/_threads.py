@@ -8,7 +8,7 @@ import os
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["available_threads", "in_blocks", "shared_pool"]
+__all__ = ["Beside", "available_threads", "in_blocks", "shared_pool"]
 
 
 def available_threads():
@@ -81,3 +81,36 @@ def in_blocks(n, size, compute):
             if i + workers < len(rest):
                 ahead.append(pool.submit(compute, rest[i + workers]))
             yield c, result
+
+
+class Beside:
+    """``compute(*args)`` on a thread of its own, started now, while the caller goes on:
+    :meth:`result` waits for it and returns its value or raises its exception. With one
+    available thread (:func:`available_threads`) it runs when :meth:`result` is called.
+
+    Its own thread rather than :func:`shared_pool`'s: ``compute`` may itself split work
+    over the shared pool and wait for it, which a pool worker must not do with every
+    other worker waiting too.
+
+    Examples
+    --------
+    >>> job = Beside(sum, [1, 2, 3])
+    >>> job.result()
+    6
+    >>> Beside(int, "six").result()
+    Traceback (most recent call last):
+    ...
+    ValueError: invalid literal for int() with base 10: 'six'
+    """
+
+    def __init__(self, compute, *args):
+        self._compute, self._args, self._future = compute, args, None
+        if available_threads() > 1:
+            pool = ThreadPoolExecutor(1, thread_name_prefix="ndboundary-beside")
+            self._future = pool.submit(compute, *args)
+            pool.shutdown(wait=False)  # the thread ends with its one task
+
+    def result(self):
+        if self._future is None:
+            return self._compute(*self._args)
+        return self._future.result()

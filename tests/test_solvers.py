@@ -302,6 +302,34 @@ def _relax_system(n, r):
     return captured
 
 
+def test_a_preconditioner_built_ahead_solves_as_the_one_built_in_the_solve():
+    _skip_unless_available("amg")
+    from ndboundary.solvers.integration import Preconditioner, integration_preconditioner
+
+    captured = _relax_system(12, 0.3)
+    K, mass, S, lam, mu = (captured[k] for k in ("K", "mass", "S", "lam", "mu"))
+    rhs = np.random.default_rng(1).standard_normal(K.shape[0])
+    exact = np.linalg.solve((K @ sp.diags(1 / mass) @ K + mu * K + lam * (S.T @ S)).toarray(), rhs)
+    for sweeps in (1, 2):
+        kw = {"mu": mu, "method": "pcg", "preconditioner": "amg", "sweeps": sweeps}
+        pre = integration_preconditioner(K, mass, S, lam, **kw)
+        assert isinstance(pre, Preconditioner) and pre.method == "pcg-amg" and pre.setup_time > 0
+        ahead, info = solvers.solve_integration(K, mass, S, lam, rhs, rtol=1e-8, **{**kw, "preconditioner": pre})
+        inside, info2 = solvers.solve_integration(K, mass, S, lam, rhs, rtol=1e-8, **kw)
+        assert np.array_equal(ahead, inside) and info.iterations == info2.iterations
+        assert info.setup_time >= pre.setup_time
+        assert _rel(ahead, exact) < 1e-6
+    # one sweep each way keeps the V-cycle symmetric positive definite
+    A = _mesh_operator(8, 3, "sparse")
+    M = np.column_stack([amg.amg_preconditioner(A, sweeps=1)(e) for e in np.eye(A.shape[0])])
+    assert np.abs(M - M.T).max() < 1e-12 * np.abs(M).max() and np.linalg.eigvalsh(M).min() > 0
+    # a system the solve factorises has nothing to build ahead
+    K2, mass2, S2 = _system(12, 2)
+    assert integration_preconditioner(K2, mass2, S2, 1.0) is None
+    with pytest.raises(ValueError, match="Preconditioner"):
+        integration_preconditioner(K, mass, S, lam, preconditioner="jacobi")
+
+
 def test_light_vertices_get_a_jacobi_step_around_the_v_cycle(monkeypatch):
     _skip_unless_available("amg")
     captured = _relax_system(12, 0.3)

@@ -246,6 +246,11 @@ class Domain(IncidenceQueries):
     #: Image grids set it (:class:`~ndboundary.domains.image.ImageGrid`).
     integration_reach = None
 
+    #: Gauss-Seidel sweeps before and after the coarse correction of the AMG V-cycle that
+    #: preconditions the integration (:func:`~ndboundary.solvers.amg.amg_preconditioner`).
+    #: Two on meshes; cubic voxels set one (:class:`~ndboundary.domains.image.ImageGrid`).
+    multigrid_sweeps = 2
+
     @cached_property
     def usual_degree(self) -> float:
         """The number of facet neighbours that 90 % of the elements do not exceed: the degree

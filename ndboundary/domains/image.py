@@ -134,6 +134,36 @@ def _integration_reach(grid) -> float:
     return grid_integration_reach(grid.shape, grid.spacing)
 
 
+#: Spacings whose largest is at most this times the smallest count as cubic for
+#: :func:`grid_multigrid_sweeps`.
+CUBIC_SPACING = 1.25
+
+
+def grid_multigrid_sweeps(spacing):
+    """Gauss-Seidel sweeps each way of the integration's V-cycle on a grid of this spacing
+    (:attr:`~ndboundary.Domain.multigrid_sweeps`): one on cubic voxels (largest spacing
+    at most :data:`CUBIC_SPACING` times the smallest), two otherwise (pixels' systems are
+    factorised, not iterated).
+
+    On the inner bands of voxel balls one sweep each way took 19 iterations instead of
+    17 and 5.3 s instead of 6.3 s at 256^3 (941 K unknowns), 0.81 s instead of 0.92 s
+    at 128^3; on voxels of 1 x 1 x 3 it took 27 iterations instead of 21 for as much
+    time, as on tetrahedral and hexahedral meshes, where two stay.
+
+    Examples
+    --------
+    >>> from ndboundary.domains.image import grid_multigrid_sweeps
+    >>> grid_multigrid_sweeps((1.0, 1.0, 1.0)), grid_multigrid_sweeps((0.6, 0.6, 4.0))
+    (1, 2)
+    """
+    spacing = np.asarray(spacing, dtype=np.float64)
+    return 1 if spacing.size == 3 and spacing.max() <= CUBIC_SPACING * spacing.min() else 2
+
+
+def _multigrid_sweeps(grid) -> int:
+    return grid_multigrid_sweeps(grid.spacing)
+
+
 class ImageGrid:
     """The pixels or voxels of an image as a domain: ``ImageGrid(shape, spacing=, origin=)``.
 
@@ -176,6 +206,7 @@ class ImageGrid:
 
     band_reach = GRID_BAND_REACH
     integration_reach = property(_integration_reach)
+    multigrid_sweeps = property(_multigrid_sweeps)
 
     def __new__(cls, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
         """A :class:`PixelGrid` or :class:`VoxelGrid`, by the number of axes of ``shape``."""
@@ -445,6 +476,7 @@ class GridBand:
 
     band_reach = GRID_BAND_REACH
     integration_reach = property(_integration_reach)
+    multigrid_sweeps = property(_multigrid_sweeps)
 
     def __new__(cls, shape, pixels, **kwargs):
         """A :class:`PixelBand` or :class:`VoxelBand`, by the number of axes of ``shape``."""

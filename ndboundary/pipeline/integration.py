@@ -29,6 +29,7 @@ term flattens it).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,8 +37,17 @@ import scipy.sparse as sp
 
 from ..domains.image import GridBand, ImageGrid
 from ..solvers import solve_gradient_integration, solve_integration
+from ..solvers.integration import integration_preconditioner
 
-__all__ = ["IntegrationSystem", "boundary_weight_scale", "integrate", "integration_system"]
+__all__ = [
+    "IntegrationSystem",
+    "boundary_weight_scale",
+    "integrate",
+    "integration_system",
+    "integration_terms",
+    "prepare",
+    "with_rhs",
+]
 
 
 @dataclass
@@ -46,7 +56,9 @@ class IntegrationSystem:
     or ``(Kh + lam S^T S) phi = rhs`` for ``form="gradient"``.
 
     ``lam`` is the weight used (the given one times ``lam_scale``); ``mass`` is the mass in
-    units of ``h`` (ones for ``form="plain"``).
+    units of ``h`` (ones for ``form="plain"``); ``rhs`` is None until the field is known
+    (:func:`integration_terms`); ``sweeps`` those of the domain's V-cycle
+    (:attr:`~ndboundary.Domain.multigrid_sweeps`).
 
     Examples
     --------
@@ -68,8 +80,9 @@ class IntegrationSystem:
     lam: float
     lam_scale: float
     mu: float
-    rhs: np.ndarray
+    rhs: np.ndarray | None
     form: str = "mass"
+    sweeps: int = 2
 
 
 def boundary_weight_scale(work, h, sources):
@@ -152,23 +165,49 @@ def integration_system(work, Xs, h, padded, sources, *, lam, mu, form):
     >>> system.K.shape, system.rhs.shape
     ((121, 121), (121,))
     """
+    return with_rhs(integration_terms(work, h, padded, sources, lam=lam, mu=mu, form=form), work, Xs, h, padded)
+
+
+def integration_terms(work, h, padded, sources, *, lam, mu, form):
+    """The terms of step 4 that the field does not enter: its :class:`IntegrationSystem`
+    with ``rhs`` None, to be completed by :func:`with_rhs`. The relaxation builds them, and
+    the solver's preconditioner (:func:`prepare`), beside the heat and field steps.
+    """
     k = work.element_dim
     K = work.K.tocsr()
     # K's index arrays shared: a copy of the pattern is half a gigabyte on a large voxel band
     Kh = K if h == 1.0 else sp.csr_matrix((K.data * h ** (2 - k), K.indices, K.indptr), shape=K.shape)
     mh = work.mass / h**k
-    d = work.div(Xs) * h ** (1 - k)
+    sweeps = work.multigrid_sweeps
     if form == "gradient":
-        rhs = d + lam * (padded.S.T @ padded.targets)
-        return IntegrationSystem(Kh, mh, padded.S, lam, 1.0, 0.0, rhs, form)
+        return IntegrationSystem(Kh, mh, padded.S, lam, 1.0, 0.0, None, form, sweeps)
     mh_used = np.ones_like(mh) if form == "plain" else mh
     lam_scale = _lam_scale(work, Kh, mh, sources)
-    lam_used = lam * lam_scale
-    rhs = Kh @ (d / mh_used) + mu * d + lam_used * (padded.S.T @ padded.targets)
-    return IntegrationSystem(Kh, mh_used, padded.S, lam_used, lam_scale, mu, rhs)
+    return IntegrationSystem(Kh, mh_used, padded.S, lam * lam_scale, lam_scale, mu, None, form, sweeps)
 
 
-def integrate(system, *, rtol, solver, cache=None):
+def with_rhs(system, work, Xs, h, padded):
+    """``system`` (:func:`integration_terms`) with the right-hand side of the smoothed
+    field ``Xs``.
+    """
+    d = work.div(Xs) * h ** (1 - work.element_dim)
+    field = d if system.form == "gradient" else system.K @ (d / system.mass) + system.mu * d
+    return dataclasses.replace(system, rhs=field + system.lam * (padded.S.T @ padded.targets))
+
+
+def prepare(system, *, solver, cache=None):
+    """The preconditioner :func:`integrate` will use for ``system``, built before its
+    right-hand side is known (:func:`~ndboundary.solvers.integration.integration_preconditioner`);
+    None when the solve factorises instead, or for the first-order form.
+    """
+    if system.form == "gradient":
+        return None
+    return integration_preconditioner(
+        system.K, system.mass, system.S, system.lam, mu=system.mu, method=solver, sweeps=system.sweeps, cache=cache
+    )
+
+
+def integrate(system, *, rtol, solver, cache=None, preconditioner=None):
     """Solve the integration system: ``(phi, SolveInfo)`` on the padded vertices.
 
     Examples
@@ -200,5 +239,6 @@ def integrate(system, *, rtol, solver, cache=None):
         K, S, lam, rhs = system.K, system.S, system.lam, system.rhs
         return solve_gradient_integration(K, S, lam, rhs, rtol=rtol, method=solver, cache=cache)
     return solve_integration(
-        system.K, system.mass, system.S, system.lam, system.rhs, mu=system.mu, rtol=rtol, method=solver, cache=cache
-    )
+        system.K, system.mass, system.S, system.lam, system.rhs, mu=system.mu, rtol=rtol, method=solver,
+        preconditioner="auto" if preconditioner is None else preconditioner, sweeps=system.sweeps, cache=cache,
+    )  # fmt: skip

@@ -18,6 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .._arrays import held_bytes
+from .._threads import Beside
 from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
@@ -38,7 +39,7 @@ from .boundary import Boundary, element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
 from .heat import diffuse
-from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_system
+from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_terms, prepare, with_rhs
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params, integration_rtol
 from .result import RegionsResult, RelaxResult, keep_band, summed_timings
@@ -190,6 +191,8 @@ class Relaxer:
             zeta = result  # the band would hold (nearly) everything: the whole domain, with its zeta
         boundary, padded = self._padded(key, region1, on, bool(pad), zeta)
         prog.step("pad")
+        # step 4's matrix and preconditioner do not depend on the field: built meanwhile
+        terms = Beside(self._integration_terms, padded, boundary.sources, h, p)
         u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
         groups = None
         if self._sectors is not None:
@@ -197,16 +200,9 @@ class Relaxer:
         Xs = smooth(padded.work, X, p["smoothing"], groups)
         prog.step("smoothing")
         work = padded.work
-        inner = None if self._reach is None else inner_band(work, *self._reach)
-        if inner is None:
-            system = integration_system(work, Xs, h, padded, boundary.sources, lam=p["lam"], mu=p["mu"], form=p["form"])
-        else:
-            sub, kept = work.subdomain(inner)
-            system = integration_system(
-                sub, Xs[inner], h, *_cut_rows(padded, boundary.sources, kept, work.n_vertices),
-                lam=p["lam"], mu=p["mu"], form=p["form"],
-            )  # fmt: skip
-            sub = None
+        system, preconditioner, on_band, inner, kept, constraints = terms.result()
+        system = with_rhs(system, on_band, Xs if inner is None else Xs[inner], h, constraints)
+        on_band = constraints = None
         if not self._keep:
             # the padded operators are not needed by the solve: free them before it
             self.clear()
@@ -216,7 +212,7 @@ class Relaxer:
         # the first-order form (the classifier's) solves to the heat's rtol
         rtol = p["rtol"] if p["form"] == "gradient" else integration_rtol(p["rtol"])
         phi, int_info = integrate(
-            system, rtol=rtol, solver=p["solver"], cache=self._factors if self._keep else self._shared
+            system, rtol=rtol, solver=p["solver"], cache=self._cache, preconditioner=preconditioner
         )
         if inner is not None:
             side = region1 if p["on"] == "vertices" else domain.vertices_of(region1)
@@ -395,6 +391,31 @@ class Relaxer:
         res.timings["pad"] += padding
         res.params.update(band=width, band_vertices=int(vertices.size))
         return res
+
+    @property
+    def _cache(self):
+        """Where the integration keeps its factor or hierarchy for the next solve."""
+        return self._factors if self._keep else self._shared
+
+    def _integration_terms(self, padded, sources, h, p):
+        """Step 4's terms (:func:`~ndboundary.pipeline.integration.integration_terms`) and
+        preconditioner, neither of which the field enters: on the padded domain, or on the
+        inner band of an image's band (``_reach``). Returns ``(system, preconditioner,
+        domain, inner, kept, constraints)``: ``system`` lives on ``domain``, the inner
+        band's ``kept`` vertices of the padded domain (``inner`` its mask; both None for
+        the whole padded domain), with zeta's rows ``constraints``.
+        """
+        work = padded.work
+        inner = kept = None
+        if self._reach is not None:
+            inner = inner_band(work, *self._reach)
+        if inner is None:
+            on, constraints = work, padded
+        else:
+            on, kept = work.subdomain(inner)
+            constraints, sources = _cut_rows(padded, sources, kept, work.n_vertices)
+        system = integration_terms(on, h, constraints, sources, lam=p["lam"], mu=p["mu"], form=p["form"])
+        return system, prepare(system, solver=p["solver"], cache=self._cache), on, inner, kept, constraints
 
     def _lam_scale(self, region1, on, pad, h):
         """``lam_scale`` of the labelling (:func:`boundary_weight_scale`) on this domain (a

@@ -34,7 +34,7 @@ AMG_STRENGTH = 0.1
 LIGHT_VERTEX_SHARE = 0.5
 
 
-def amg_preconditioner(A):
+def amg_preconditioner(A, sweeps=2):
     """One smoothed-aggregation V-cycle approximating ``A^{-1}`` (package pyamg).
 
     The settings were chosen by the wall time (setup plus conjugate gradients) of
@@ -43,11 +43,14 @@ def amg_preconditioner(A):
     pyamg's defaults and other variants; ``benchmarks/solvers.py`` measures them
     (figures in the README).
 
-    * Gauss-Seidel on every level: two forward sweeps before the coarse correction and
-      two backward ones after (the cycle stays symmetric, at half the work of symmetric
-      sweeps, for two more iterations on a 257 K-unknown tetrahedral band, and 13 %
-      less time in a 100 K-sample fit of ``benchmarks/scale.py``). One sweep each way
-      needed more iterations and more time;
+    * Gauss-Seidel on every level: ``sweeps`` forward sweeps before the coarse
+      correction and as many backward ones after (the cycle stays symmetric, at half
+      the work of symmetric sweeps, for two more iterations on a 257 K-unknown
+      tetrahedral band, and 13 % less time in a 100 K-sample fit of
+      ``benchmarks/scale.py``). Two each way by default: on tetrahedral and hexahedral
+      meshes and on slices of voxels one needed a quarter to a third more iterations and
+      as much time or more; on cubic voxels (:attr:`~ndboundary.Domain.multigrid_sweeps`)
+      it needed two more iterations of 17 and saved a sixth of the solve;
       Chebyshev smoothing needed more than twice the iterations (close to the default
       limit of ``maxiter`` on large meshes); a W-cycle took longer for the same
       iterations.
@@ -85,6 +88,8 @@ def amg_preconditioner(A):
     ----------
     A : sparse matrix of shape (n, n)
         Symmetric positive definite, with the constants close to its null space.
+    sweeps : int, default=2
+        Gauss-Seidel sweeps on each level before the coarse correction, and after it.
 
     Returns
     -------
@@ -131,7 +136,7 @@ def amg_preconditioner(A):
 
     # forward sweeps before the coarse correction and backward ones after keep the cycle
     # symmetric at half the fine-level work of symmetric sweeps
-    return _v_cycle(levels, coarse, ("forward",) * 2, ("backward",) * 2, pyamg.amg_core.gauss_seidel)
+    return _v_cycle(levels, coarse, ("forward",) * sweeps, ("backward",) * sweeps, pyamg.amg_core.gauss_seidel)
 
 
 def _v_cycle(levels, coarse, pre, post, gauss_seidel):

@@ -28,6 +28,7 @@ measured by ``benchmarks/solvers.py`` (figures in the README).
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from typing import NamedTuple
@@ -60,6 +61,8 @@ __all__ = [
     "PCG_FACTOR_MAX",
     "PCG_FACTOR_MAX_GRAPHS",
     "SMALL_SYSTEM",
+    "Preconditioner",
+    "integration_preconditioner",
     "solve_gradient_integration",
     "solve_integration",
 ]
@@ -121,6 +124,7 @@ def solve_integration(
     method="auto",
     backend="auto",
     preconditioner="auto",
+    sweeps=2,
     cache=None,
 ):
     """Solve ``(K M^{-1} K + mu K + lam S^T S) phi = rhs``.
@@ -165,12 +169,17 @@ def solve_integration(
         installed). With ``"auto"`` and none of the optional backends installed, a
         direct solve of more than :data:`SMALL_SYSTEM` unknowns warns once per process
         (:class:`~ndboundary.solvers.SolverFallbackWarning`).
-    preconditioner : {"auto", "amg", "cholesky"}, default="auto"
+    preconditioner : {"auto", "amg", "cholesky"} or Preconditioner, default="auto"
         How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) with a
         Jacobi step on the light vertices before and after it
         (:func:`~ndboundary.solvers.amg.light_vertex_jacobi`), or a sparse Cholesky
         factor. ``"auto"``: amg on meshes with denser rows when pyamg is installed (its
-        cost grows linearly, where the factor fills in), cholesky otherwise.
+        cost grows linearly, where the factor fills in), cholesky otherwise. A
+        :class:`Preconditioner` built for this system by
+        :func:`integration_preconditioner` is used as it is.
+    sweeps : int, default=2
+        Gauss-Seidel sweeps of the AMG V-cycle on each level, before the coarse
+        correction and after it (:func:`~ndboundary.solvers.amg.amg_preconditioner`).
     cache : FactorCache, optional
         Where to keep the factorisation / AMG hierarchy for the next solve of the same
         matrix (compared by content) and PARDISO's ordering for the same pattern. None,
@@ -199,10 +208,7 @@ def solve_integration(
     >>> bool(np.allclose(phi2, phi)), info2.method
     (True, 'pcg-cholesky')
     """
-    if method not in ("auto", "pcg", "direct"):
-        raise ValueError(f"method must be 'auto', 'pcg' or 'direct', got {method!r}")
-    if preconditioner not in ("auto", "amg", "cholesky"):
-        raise ValueError(f"preconditioner must be 'auto', 'amg' or 'cholesky', got {preconditioner!r}")
+    _check_choices(method, preconditioner)
     K, S = sp.csr_matrix(K), sp.csr_matrix(S)
     system = _System(K, np.asarray(mass, dtype=np.float64), S, lam, mu, np.asarray(rhs, dtype=np.float64))
     sparse_rows = _is_sparse_rows(K)
@@ -210,7 +216,7 @@ def solve_integration(
         return _solve_direct(system, rtol, refine_single=method == "auto", backend=backend, cache=cache)
     return _solve_pcg(
         system, rtol, maxiter, fall_back=method == "auto", sparse_rows=sparse_rows,
-        backend=backend, preconditioner=preconditioner, cache=cache,
+        backend=backend, preconditioner=preconditioner, sweeps=sweeps, cache=cache,
     )  # fmt: skip
 
 
@@ -274,33 +280,20 @@ def _factor_solve(Q, rhs, backend, cache, iters=0):
 # ----------------------------------------------------------------------------- pcg
 
 
-def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, preconditioner, cache):
-    """The iterative path: conjugate gradients preconditioned by ``(K + D) M^{-1} (K + D)``.
+def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, preconditioner, sweeps, cache):
+    """The iterative path: conjugate gradients preconditioned by ``(K + D) M^{-1} (K + D)``
+    (``preconditioner`` itself when it is a :class:`Preconditioner`).
 
     When the iteration stalls, ``fall_back`` (``method="auto"``) factorises ``Q``, or
     iterates on for systems too large to factorise; otherwise it warns.
     """
     K, mass, S, lam, mu, rhs = system
-    # (K + D) M^{-1} (K + D), D = mu/2 M + C, C M^{-1} C = lam diag(S^T S): mu K and the
-    # constraint's diagonal are matched exactly, the squared Laplacian exactly off it.
     t0 = time.perf_counter()
-    sts = np.asarray(abs(S).T @ abs(S) @ np.ones(S.shape[1])).ravel()
-    d = 0.5 * mu * mass + np.sqrt(lam * sts * mass)
-    A = plus_diagonal(K, d)
-    use_amg = _use_amg(preconditioner, sparse_rows, K.shape[0], K.nnz / max(K.shape[0], 1))
-    name = "pcg-amg" if use_amg else "pcg-cholesky"
-    with one_blas_thread():
-        if use_amg:  # the hierarchy is kept; the light vertices' step is rebuilt from the mass
-            solve = light_vertex_jacobi(A, mass, cached("amg", A, amg_preconditioner, cache))
-        else:
-            solve = cached(
-                ("factor", backend), A,
-                lambda B: factorize_spd(B, backend=backend, orderings=orderings_of(cache)), cache,
-            )  # fmt: skip
-
-    def apply(r):
-        return solve(mass * solve(r))
-
+    if isinstance(preconditioner, Preconditioner):  # built before: its setup counts as this solve's
+        t0 -= preconditioner.setup_time
+    else:
+        preconditioner = _preconditioner(system, sparse_rows, backend, preconditioner, sweeps, cache)
+    apply, name = preconditioner.apply, preconditioner.method
     n = K.shape[0]
     Q = _q_operator(system)
     P = spla.LinearOperator((n, n), matvec=apply, dtype=np.float64)
@@ -324,6 +317,91 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
         phi, iters, res = _iterate_on(Q, P, system, phi, iters, rtol, maxiter)
         t2 = time.perf_counter()
     return phi, SolveInfo(name, iters, res, t1 - t0, t2 - t1)
+
+
+class Preconditioner(NamedTuple):
+    """The preconditioner of :func:`solve_integration`'s conjugate gradients, built by
+    :func:`integration_preconditioner` ahead of the right-hand side.
+
+    ``apply(r)`` applies ``(K + D)^{-1} M (K + D)^{-1}``; ``method`` is the solve's
+    ``"pcg-amg"`` or ``"pcg-cholesky"``; ``setup_time`` the seconds it took to build
+    (reported as the solve's setup).
+    """
+
+    apply: object
+    method: str
+    setup_time: float
+
+
+def integration_preconditioner(
+    K, mass, S, lam, *, mu=0.0, method="auto", backend="auto", preconditioner="auto", sweeps=2, cache=None
+):
+    """Build the preconditioner :func:`solve_integration` would build for this system,
+    before its right-hand side is known: the relaxation builds it beside the steps that
+    compute the field (which only the right-hand side reads). Its arguments are those of
+    :func:`solve_integration`.
+
+    Returns
+    -------
+    Preconditioner or None
+        None when :func:`solve_integration` would factorise ``Q`` instead of iterating
+        (``method="direct"``, or ``"auto"`` on sparse rows).
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> n = 50  # a path held at both ends
+    >>> K = sp.diags([-np.ones(n - 1), np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1)], [-1, 0, 1]).tocsr()
+    >>> S = sp.csr_matrix(([1.0, 1.0], ([0, 1], [0, n - 1])), shape=(2, n))
+    >>> rhs = np.linspace(-1.0, 1.0, n)
+    >>> pre = integration_preconditioner(K, np.ones(n), S, 1.0, method="pcg", preconditioner="cholesky")
+    >>> phi, info = solve_integration(K, np.ones(n), S, 1.0, rhs, method="pcg", preconditioner=pre)
+    >>> ref, _ = solve_integration(K, np.ones(n), S, 1.0, rhs, method="direct")
+    >>> info.method, bool(np.allclose(phi, ref, atol=1e-8))
+    ('pcg-cholesky', True)
+    """
+    _check_choices(method, preconditioner)
+    K, S = sp.csr_matrix(K), sp.csr_matrix(S)
+    system = _System(K, np.asarray(mass, dtype=np.float64), S, lam, mu, None)
+    sparse_rows = _is_sparse_rows(K)
+    if method == "direct" or (method == "auto" and sparse_rows):
+        return None
+    return _preconditioner(system, sparse_rows, backend, preconditioner, sweeps, cache)
+
+
+def _preconditioner(system, sparse_rows, backend, preconditioner, sweeps, cache):
+    """The :class:`Preconditioner` of :func:`_solve_pcg` for ``system``."""
+    K, mass, S, lam, mu, _rhs = system
+    # (K + D) M^{-1} (K + D), D = mu/2 M + C, C M^{-1} C = lam diag(S^T S): mu K and the
+    # constraint's diagonal are matched exactly, the squared Laplacian exactly off it.
+    t0 = time.perf_counter()
+    sts = np.asarray(abs(S).T @ abs(S) @ np.ones(S.shape[1])).ravel()
+    d = 0.5 * mu * mass + np.sqrt(lam * sts * mass)
+    A = plus_diagonal(K, d)
+    use_amg = _use_amg(preconditioner, sparse_rows, K.shape[0], K.nnz / max(K.shape[0], 1))
+    with one_blas_thread():
+        if use_amg:  # the hierarchy is kept; the light vertices' step is rebuilt from the mass
+            build = functools.partial(amg_preconditioner, sweeps=sweeps)
+            solve = light_vertex_jacobi(A, mass, cached(("amg", sweeps), A, build, cache))
+        else:
+            solve = cached(
+                ("factor", backend), A,
+                lambda B: factorize_spd(B, backend=backend, orderings=orderings_of(cache)), cache,
+            )  # fmt: skip
+
+    def apply(r):
+        return solve(mass * solve(r))
+
+    return Preconditioner(apply, "pcg-amg" if use_amg else "pcg-cholesky", time.perf_counter() - t0)
+
+
+def _check_choices(method, preconditioner):
+    if method not in ("auto", "pcg", "direct"):
+        raise ValueError(f"method must be 'auto', 'pcg' or 'direct', got {method!r}")
+    if not isinstance(preconditioner, Preconditioner) and preconditioner not in ("auto", "amg", "cholesky"):
+        raise ValueError(
+            f"preconditioner must be 'auto', 'amg', 'cholesky' or a Preconditioner, got {preconditioner!r}"
+        )
 
 
 def _use_amg(preconditioner, sparse_rows, n, K_rows=0.0):
