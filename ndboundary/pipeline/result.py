@@ -307,7 +307,10 @@ class RelaxResult(_RegionMethods):
     timings : dict
         Seconds per step: ``pad`` (finding zeta, padding, and assembling the stiffness and
         mass of the padded domain when they are not cached yet), ``heat``, ``field``,
-        ``smoothing``, ``integration``, ``total``.
+        ``smoothing``, ``integration``, ``total``. The integration's matrix and
+        preconditioner are built on a second thread during heat, field and smoothing, so
+        the steps share that time; ``solver["integration"].setup_time`` is its
+        preconditioner's.
     solver : dict of SolveInfo
         Per linear solve, its method, iterations and relative residual.
     params : dict
