@@ -109,8 +109,12 @@ class Beside:
             pool = ThreadPoolExecutor(1, thread_name_prefix="ndboundary-beside")
             self._future = pool.submit(compute, *args)
             pool.shutdown(wait=False)  # the thread ends with its one task
+            self._compute = self._args = None  # held by the task until it has run, no longer
 
     def result(self):
+        """The value of ``compute(*args)``; call it once (what it holds is then let go)."""
         if self._future is None:
-            return self._compute(*self._args)
-        return self._future.result()
+            compute, args, self._compute, self._args = self._compute, self._args, None, None
+            return compute(*args)
+        future, self._future = self._future, None
+        return future.result()

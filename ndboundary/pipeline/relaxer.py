@@ -202,7 +202,7 @@ class Relaxer:
         work = padded.work
         system, preconditioner, on_band, inner, kept, constraints = terms.result()
         system = with_rhs(system, on_band, Xs if inner is None else Xs[inner], h, constraints)
-        on_band = constraints = None
+        terms = on_band = constraints = None
         if not self._keep:
             # the padded operators are not needed by the solve: free them before it
             self.clear()
