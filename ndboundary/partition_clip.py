@@ -23,6 +23,7 @@ from math import factorial
 import numpy as np
 import scipy.sparse as sp
 
+from ._compiled_mesh import mixed_facets
 from .levelset import staircase_paths, sorting_parity
 
 
@@ -192,21 +193,7 @@ def interface_facets(points, simplices, regions):
     k = k1 - 1
     if simplices.shape[0] == 0 or k1 < 2:
         return np.zeros((0, k), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64)
-    lo = np.full(n_pts, np.iinfo(np.int64).max)
-    hi = np.full(n_pts, -1)
-    rep = np.repeat(regions, k1)
-    np.minimum.at(lo, simplices.ravel(), rep)
-    np.maximum.at(hi, simplices.ravel(), rep)
-    mixed = lo != hi
-    cells = np.flatnonzero(mixed[simplices].sum(axis=1) >= k)
-    facets, owner, opposite = [], [], []
-    for o in range(k1):
-        f = np.delete(simplices[cells], o, axis=1)
-        keep = mixed[f].all(axis=1)
-        facets.append(f[keep])
-        owner.append(cells[keep])
-        opposite.append(np.full(int(keep.sum()), o))
-    f, owner, opposite = np.concatenate(facets), np.concatenate(owner), np.concatenate(opposite)
+    f, owner, opposite = mixed_facets(simplices, regions, n_pts)
     fs = np.sort(f, axis=1)
     order = np.lexsort(fs.T[::-1])
     fs, owner, opposite = fs[order], owner[order], opposite[order]
@@ -235,12 +222,25 @@ def interface_facets(points, simplices, regions):
     return facet, pairs, cells2
 
 
+#: Room a growing table of the sweep starts with, in multiples of its initial rows (see
+#: :class:`_Rows`).
+ROWS_RESERVE = 2.0
+
+
 class _Rows:
-    """An array that grows along its first axis at amortised constant cost per row."""
+    """An array that grows along its first axis at amortised constant cost per row.
+
+    It starts with room for :data:`ROWS_RESERVE` times its initial rows: memory that is
+    reserved but not written costs nothing until used, where each growth copies every row
+    into memory touched for the first time (on a 128^3 voxel partition of 16 regions the
+    growths took a sixth of the sweep).
+    """
 
     def __init__(self, initial):
-        self.data = np.array(initial)
-        self.n = self.data.shape[0]
+        initial = np.asarray(initial)
+        self.n = initial.shape[0]
+        self.data = np.empty((int(ROWS_RESERVE * self.n) + 1, *initial.shape[1:]), dtype=initial.dtype)
+        self.data[: self.n] = initial
 
     def extend(self, rows):
         need = self.n + rows.shape[0]

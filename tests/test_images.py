@@ -159,6 +159,25 @@ def test_voxel_grid_operators_equal_the_general_hexahedra(spacing, origin, direc
     )
 
 
+@pytest.mark.parametrize("direction", [None, "reflection"])
+def test_a_voxel_refinement_is_the_general_one_to_the_bit(direction):
+    """The voxels' refinement, read off their faces, gives the points, tetrahedra and
+    interpolation of the general polyhedral one, in the same order, on a grid and on a
+    band of it."""
+    from ndboundary.domains.polyhedral_cells import tetrahedral_refinement
+
+    direction = {"reflection": -np.eye(3), None: None}[direction]
+    grid = ImageGrid((4, 5, 6), spacing=(0.5, 1.0, 3.0), origin=(1.0, -2.0, 0.5), direction=direction)
+    band = grid.subdomain(np.random.default_rng(0).random(grid.n_elements) < 0.3)[0]
+    for mesh in (grid, band):
+        (p, t, R), (p0, t0, R0) = mesh.simplicial_refinement(), tetrahedral_refinement(mesh)
+        assert t.shape == (24 * mesh.n_elements, 4)
+        np.testing.assert_array_equal(t, t0)
+        np.testing.assert_array_equal(p, p0)
+        for name in ("indptr", "indices", "data"):
+            np.testing.assert_array_equal(getattr(R, name), getattr(R0.tocsr(), name))
+
+
 def _ball(n, radius):
     x = np.indices((n, n, n)).reshape(3, -1).T - (n - 1) / 2 - 0.2
     return (np.linalg.norm(x, axis=1) < radius * n).reshape(n, n, n)

@@ -34,6 +34,7 @@ from .voxels import (
     voxel_adjacency,
     voxel_edges,
     voxel_faces,
+    voxel_refinement,
     voxel_gradient,
     voxel_stiffness,
 )
@@ -281,6 +282,12 @@ class _Voxels(PolyhedralMesh):
     found when first read: every face of one axis is the same rectangle, so the relaxation,
     which reads none of it, neither computes nor stores an array of it per face.
     """
+
+    def simplicial_refinement(self):
+        """The general refinement (:meth:`PolyhedralMesh.simplicial_refinement`), read off
+        the voxels' faces and corners (:func:`~ndboundary.domains.voxels.voxel_refinement`).
+        """
+        return voxel_refinement(self)
 
     @cached_property
     def box(self):

@@ -27,6 +27,7 @@ __all__ = [
     "voxel_edges",
     "voxel_faces",
     "voxel_gradient",
+    "voxel_refinement",
     "voxel_stiffness",
 ]
 
@@ -235,3 +236,41 @@ def voxel_adjacency(mesh):
     indptr = np.zeros(n + 1, dtype=idx)
     np.cumsum(there.sum(axis=1), out=indptr[1:])
     return sp.csr_matrix((np.ones(int(indptr[-1])), nbr[there], indptr), shape=(n, n))
+
+
+def voxel_refinement(mesh):
+    """:func:`~ndboundary.domains.polyhedral_cells.tetrahedral_refinement` of a mesh of
+    voxels, read off its faces and corners: a point at the centre of every face and of
+    every voxel, and 24 tetrahedra per voxel, (voxel centre, face centre, edge) for the
+    4 edges of each of its 6 faces.
+
+    The same points, tetrahedra and interpolation matrix as the general refinement, in the
+    same order and to the bit (a test compares them), without its tables of every corner
+    of every face of every cell: at an atlas's size (2.2 M voxels that interfaces cross)
+    those held several gigabytes.
+
+    Examples
+    --------
+    >>> from ndboundary import ImageGrid
+    >>> from ndboundary.domains.voxels import voxel_refinement
+    >>> points, tets, R = voxel_refinement(ImageGrid((1, 1, 1)))
+    >>> points.shape, tets.shape, R.shape, points[-1].tolist()
+    ((15, 3), (24, 4), (15, 8), [0.0, 0.0, 0.0])
+    """
+    V, N = mesh.n_vertices, mesh.n_elements
+    fi = mesh.face_indices
+    F = fi.size // 4
+    corners = mesh.cell_vertices[1]  # 8 a voxel, increasing, as the general refinement's rows
+    indptr = np.concatenate([np.arange(V + 1), V + 4 * np.arange(1, F + 1), V + 4 * F + 8 * np.arange(1, N + 1)])
+    indices = np.concatenate([np.arange(V), np.sort(fi.reshape(F, 4), axis=1).ravel(), corners])
+    data = np.concatenate([np.ones(V), np.full(fi.size, 0.25), np.full(corners.size, 0.125)])
+    R = sp.csr_matrix((data, indices, indptr), shape=(V + F + N, V))
+    del indices, data
+    faces = mesh.cell_faces.reshape(N, 6)
+    tets = np.empty((N, 6, 4, 4), dtype=np.int64)
+    tets[..., 0] = (V + F + np.arange(N))[:, None, None]
+    tets[..., 1] = V + faces[:, :, None]
+    ring = fi.reshape(F, 4)
+    tets[..., 2] = ring[faces]
+    tets[..., 3] = ring[:, [1, 2, 3, 0]][faces]
+    return R @ mesh.points, tets.reshape(-1, 4), R
