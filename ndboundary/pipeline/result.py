@@ -248,7 +248,9 @@ class _RegionCuts:
 
     def _partition(self, r):
         """``(partition, j)``: the partition of the simplices storing region ``r``, whose
-        regions are those stored there, ``r`` being its region ``j``.
+        regions are those stored there, ``r`` being its region ``j``; it keeps the cells
+        with a point of region ``j``'s cells only, all that its boundary needs. Region
+        ``r``'s measure is kept for :meth:`measure`.
         """
         c = self.columns
         stored = c.indices[c.indptr[r] : c.indptr[r + 1]]
@@ -264,11 +266,20 @@ class _RegionCuts:
         )
         points, simplices = self.points[used], local.reshape(simplices.shape)
         X, S, regions, parents = sweep_sparse(points, simplices, values)
-        part = Partition(
-            Cells(X, S, regions, None, parents), present.size, lambda: float(simplex_measures(points, simplices).sum())
-        )
         j = int(np.searchsorted(present, r))
-        self._measures[r] = float(part.region_measures()[j])
+        mine = regions == j
+        # the measure of region j's cells alone, summed in the order the whole bincount sums them
+        self._measures[r] = float(np.bincount(np.zeros(int(mine.sum()), dtype=np.intp),
+                                              weights=simplex_measures(X, S[mine]), minlength=1)[0])  # fmt: skip
+        # region j's boundary lies between its cells and cells with a point in common: only
+        # those are kept, so that the interfaces of the other regions are not sought
+        touched = np.zeros(X.shape[0], dtype=bool)
+        touched[S[mine]] = True
+        near = touched[S].any(axis=1)
+        part = Partition(
+            Cells(X, S[near], regions[near], None, parents), present.size,
+            lambda: float(simplex_measures(points, simplices).sum()),
+        )  # fmt: skip
         return part, j
 
     def boundary(self, r):
