@@ -23,7 +23,9 @@ process, iterations, residual, and the relative difference to the first direct s
 Sizes: ``2d:n`` / ``3d:n`` (Kuhn grid of n cells a side, a circle / ball of radius
 0.6), ``3dsmall:n`` (the same grid, a ball of radius 0.3: a band thin against the
 domain), ``ico:k`` (icosphere of subdivision k), ``sphere:f`` (geodesic sphere of
-frequency f, 10 f^2 + 2 vertices: 77 -> 59K, 158 -> 250K, 316 -> 1.0M).
+frequency f, 10 f^2 + 2 vertices: 77 -> 59K, 158 -> 250K, 316 -> 1.0M), ``voxels:n`` (the
+ball of ``images_speed.py`` on n^3 voxels, relaxed by ``relax_image``: the system of its
+inner band).
 
 Choice for the band systems ``relax`` solved by default when it was 12 h wide, medians of 3 (2
 cores shared with another user's work: single runs of one method spread by up to 50 %
@@ -70,6 +72,9 @@ sksparse-minimal and SuperLU, the others on request):
 - ``superlu-direct`` / ``superlu-pcg``: scipy SuperLU, the pure-scipy paths;
 - ``superlu-rcm-direct``: SuperLU on the reverse Cuthill-McKee permuted matrix;
 - ``amg-pcg``: pyamg smoothed aggregation V-cycle for ``(K + D)^{-1}``;
+- ``amg-pcg-sweeps1`` / ``amg-pcg-sweeps2``: the same V-cycle with one / two Gauss-Seidel
+  sweeps each way, solved to the ``rtol`` that ``relax`` solved the captured system to
+  (``multigrid_sweeps``: one on cubic voxels, two elsewhere);
 - ``cholespy-direct`` / ``cholespy-pcg``: cholespy's CHOLMOD;
 - ``sksparse-direct`` / ``sksparse-pcg``: scikit-sparse's CHOLMOD (built against the
   system SuiteSparse);
@@ -120,6 +125,8 @@ ALL_METHODS = [
     "auto-nolight",
     "auto-repeat",
     "pardiso-direct-repeat",
+    "amg-pcg-sweeps1",
+    "amg-pcg-sweeps2",
 ]
 DEFAULT_SIZES = "2d:160,2d:320,3d:16,3d:24,3d:32,ico:6,sphere:77,sphere:158"
 DEFAULT_METHODS = (
@@ -144,6 +151,12 @@ def _domain(spec):
 
     kind, n = spec.split(":")
     n = int(n)
+    if kind == "voxels":  # the ball of images_speed.py, relaxed by relax_image
+        from ndboundary import ImageGrid
+
+        centre = (n - 1) / 2 + np.array([0.17, -0.23, 0.31]) * n / 64
+        x = np.indices((n, n, n)).reshape(3, -1).T - centre
+        return ImageGrid((n, n, n)), (np.linalg.norm(x, axis=1) < 0.32 * n).reshape(n, n, n)
     if kind == "sphere":
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         from table1 import geodesic_sphere
@@ -179,14 +192,19 @@ def build(spec, outdir, band="auto"):
     dom, lab = _domain(spec)
     captured = {}
 
-    def capture(K, mass, S, lam, rhs, *, mu=0.0, **_kw):
-        captured.update(K=sp.csr_matrix(K), S=sp.csr_matrix(S), mass=mass, lam=lam, rhs=rhs, mu=mu)
+    def capture(K, mass, S, lam, rhs, *, mu=0.0, rtol=1e-10, **_kw):
+        captured.update(K=sp.csr_matrix(K), S=sp.csr_matrix(S), mass=mass, lam=lam, rhs=rhs, mu=mu, rtol=rtol)
         raise _Captured
 
     real = step.solve_integration  # the solver the integration step calls
     step.solve_integration = capture
     try:
-        relax(dom, lab, on="elements", band=None if band == "none" else band)
+        if spec.startswith("voxels"):
+            from ndboundary import relax_image
+
+            relax_image(lab, band=None if band == "none" else band)
+        else:
+            relax(dom, lab, on="elements", band=None if band == "none" else band)
     except _Captured:
         pass
     finally:
@@ -196,7 +214,7 @@ def build(spec, outdir, band="auto"):
     arrays = {f"{name}_{a}": getattr(M, a) for name, M in (("K", K), ("S", S)) for a in ("data", "indices", "indptr")}
     np.savez(
         path, **arrays, K_shape=K.shape, S_shape=S.shape, mass=captured["mass"], rhs=captured["rhs"],
-        mu=captured["mu"], lam=captured["lam"], n_domain=dom.n_vertices, Q_nnz=Q.nnz,
+        mu=captured["mu"], lam=captured["lam"], n_domain=dom.n_vertices, Q_nnz=Q.nnz, rtol=captured["rtol"],
     )  # fmt: skip
     return path
 
@@ -292,6 +310,9 @@ def worker(path, method, repeats, factor_threads=None):
         pass
     elif base == "amg":
         kw = {"method": "pcg", "preconditioner": "amg"}
+        if "-sweeps" in method:  # the V-cycle's sweeps each way, to the rtol relax solved to
+            z = np.load(path)
+            kw.update(sweeps=int(method.rsplit("sweeps", 1)[1]), rtol=float(z["rtol"]) if "rtol" in z else 1e-10)
     elif method.endswith(("-direct", "-direct-repeat")):
         kw = {"method": "direct", "backend": base}
     else:

@@ -147,9 +147,11 @@ def grid_multigrid_sweeps(spacing):
     factorised, not iterated).
 
     On the inner bands of voxel balls one sweep each way took 19 iterations instead of
-    17 and 5.3 s instead of 6.3 s at 256^3 (941 K unknowns), 0.81 s instead of 0.92 s
-    at 128^3; on voxels of 1 x 1 x 3 it took 27 iterations instead of 21 for as much
-    time, as on tetrahedral and hexahedral meshes, where two stay.
+    17 and 5.1 s instead of 6.1 s at 256^3 (941 K unknowns), 1.03 s instead of 1.10 s at
+    128^3 (``benchmarks/solvers.py --sizes voxels:128,voxels:256 --methods
+    amg-pcg-sweeps1,amg-pcg-sweeps2``); on voxels of 1 x 1 x 3 it took 27 iterations
+    instead of 21 for as much time, and on tetrahedral and hexahedral meshes more time,
+    where two stay.
 
     Examples
     --------
