@@ -13,7 +13,7 @@ from scipy import ndimage
 from ._validation import check_labels
 from .domains.image import GridBand, ImageGrid, grid_direction, grid_geometry, grid_usual_degree
 from .pipeline import relax, sectors
-from .pipeline.band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_width, growth_rate, integration_reach
+from .pipeline.band import AUTO_BAND_MAX_SHARE, AUTO_BAND_MIN_VERTICES, band_width, growth_rate
 from .pipeline.boundary import Boundary, element_boundary, zeta_facets
 from .pipeline.grid_band import corners_of, grid_mean_edge_length, image_band, region_band
 from .pipeline.integration import grid_scale_hint
@@ -132,7 +132,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         if params.get("verbose"):
             print(f"[ndboundary] {'image band':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
         relaxer = Relaxer(domain, _keep=False, _h=h, _private=True)
-        relaxer._reach = (distance, integration_reach(domain, width))
+        relaxer._band_of_width(domain, width, distance)
         result = relaxer.relax(flat[pixels], on="elements", pad=pad, **{**params, "band": None})
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
         result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}
@@ -225,7 +225,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         locate = time.perf_counter() - tick
         relaxer = Relaxer(band, _keep=False, _h=h, _private=True)
         relaxer._shared = shared
-        relaxer._reach = (dist, integration_reach(domain, width))
+        relaxer._band_of_width(domain, width, dist)
         if sectors.SECTOR_SMOOTHING:
             relaxer._sectors = (band_codes, r)
         res = relaxer.relax(labels, on="elements", pad=pad, verbose=verbose, band=None, **solve)

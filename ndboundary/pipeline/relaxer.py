@@ -344,8 +344,7 @@ class Relaxer:
                 return boundary
             band = relaxer_of(mask)
         _, relaxer, vertices = band
-        reach = integration_reach(domain, width)
-        relaxer._reach = None if reach is None else (dist[vertices], reach)
+        relaxer._band_of_width(domain, width, dist[vertices])
         self._band_relaxer = band if self._keep else None
         self._band = (key, boundary, scale, (width, mask, dist)) if self._keep else None
         locate = time.perf_counter() - tick
@@ -392,6 +391,15 @@ class Relaxer:
         res.params.update(band=width, band_vertices=int(vertices.size))
         return res
 
+    def _band_of_width(self, parent, width, distance):
+        """Relax as the band of ``width`` around zeta, cut from ``parent``, that this
+        relaxer's domain is, its vertices ``distance`` from zeta (units of ``h``, ``inf``
+        beyond the width): set ``_reach`` where ``parent`` integrates an inner band only
+        (:func:`~ndboundary.pipeline.band.integration_reach`).
+        """
+        reach = integration_reach(parent, width)
+        self._reach = None if reach is None else (distance, reach)
+
     @property
     def _cache(self):
         """Where the integration keeps its factor or hierarchy for the next solve."""
@@ -406,9 +414,8 @@ class Relaxer:
         the whole padded domain), with zeta's rows ``constraints``.
         """
         work = padded.work
-        inner = kept = None
-        if self._reach is not None:
-            inner = inner_band(work, *self._reach)
+        kept = None
+        inner = None if self._reach is None else inner_band(work, *self._reach)
         if inner is None:
             on, constraints = work, padded
         else:
