@@ -302,6 +302,39 @@ def _relax_system(n, r):
     return captured
 
 
+def test_blas_limits_entered_on_two_threads_are_restored_when_both_close():
+    """Contexts opened and closed on two threads in turn (the relaxation's solve beside its
+    preconditioner's build) keep the limit while any is open and leave the limits they
+    found."""
+    import threading
+
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+
+    def blas_limits():
+        return sorted(p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas")
+
+    before = blas_limits()
+    if not before:
+        pytest.skip("no BLAS thread pool found")
+    first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
+
+    def first():
+        with common.blas_threads(1):
+            first_in.set()
+            second_in.wait()
+        first_out.set()
+
+    thread = threading.Thread(target=first)
+    thread.start()
+    first_in.wait()
+    with common.blas_threads(1):
+        second_in.set()
+        first_out.wait()  # the first closed while this one is open: the limit holds
+        assert blas_limits() == [1] * len(before)
+    thread.join()
+    assert blas_limits() == before
+
+
 def test_a_preconditioner_built_ahead_solves_as_the_one_built_in_the_solve():
     _skip_unless_available("amg")
     from ndboundary.solvers.integration import Preconditioner, integration_preconditioner

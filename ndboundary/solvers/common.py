@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 import sys
+import threading
 import warnings
 from dataclasses import dataclass, field
 
@@ -151,6 +152,12 @@ def fallback_warning(name, stacklevel):
 def blas_threads(n):
     """A context limiting BLAS to ``n`` threads (threadpoolctl); None sets no limit.
 
+    The limit is the process's, and threads share it: the context entered last among
+    those still open sets it, and the limits found before the first are restored when the
+    last one closes. (threadpoolctl's own contexts, entered and left on two threads at
+    once, would each restore what the other had found: the relaxation builds its
+    integration's preconditioner on a second thread while conjugate gradients run.)
+
     Examples
     --------
     >>> import numpy as np
@@ -158,12 +165,36 @@ def blas_threads(n):
     ...     float(np.ones(3) @ np.ones(3))
     3.0
     """
-    if n is None:
+    controller = None if n is None else _threadpools()
+    if controller is None:  # threadpoolctl ships with scikit-learn
         return contextlib.nullcontext()
-    controller = _threadpools()
-    if controller is None:  # pragma: no cover - threadpoolctl ships with scikit-learn
-        return contextlib.nullcontext()
-    return controller.limit(limits=n, user_api="blas")
+    return _shared_limit(controller, n)
+
+
+#: The open :func:`blas_threads` contexts (newest last), and the limiter that restores the
+#: limits found before the first of them; changed under the lock.
+_open_limits, _first_limiter, _limits_lock = [], [None], threading.Lock()
+
+
+@contextlib.contextmanager
+def _shared_limit(controller, n):
+    token = object()
+    with _limits_lock:
+        limiter = controller.limit(limits=n, user_api="blas")
+        if not _open_limits:
+            _first_limiter[0] = limiter
+        _open_limits.append((token, controller, n))
+    try:
+        yield
+    finally:
+        with _limits_lock:
+            _open_limits[:] = [entry for entry in _open_limits if entry[0] is not token]
+            if _open_limits:
+                _, newest, limit = _open_limits[-1]
+                newest.limit(limits=limit, user_api="blas")
+            else:
+                _first_limiter[0].restore_original_limits()
+                _first_limiter[0] = None
 
 
 _controller = [None, -1]

@@ -336,16 +336,19 @@ class Preconditioner(NamedTuple):
 def integration_preconditioner(
     K, mass, S, lam, *, mu=0.0, method="auto", backend="auto", preconditioner="auto", sweeps=2, cache=None
 ):
-    """Build the preconditioner :func:`solve_integration` would build for this system,
-    before its right-hand side is known: the relaxation builds it beside the steps that
-    compute the field (which only the right-hand side reads). Its arguments are those of
-    :func:`solve_integration`.
+    """Build the AMG preconditioner :func:`solve_integration` would build for this
+    system, before its right-hand side is known: the relaxation builds it beside the steps
+    that compute the field (which only the right-hand side reads). Its arguments are those
+    of :func:`solve_integration`.
 
     Returns
     -------
     Preconditioner or None
-        None when :func:`solve_integration` would factorise ``Q`` instead of iterating
-        (``method="direct"``, or ``"auto"`` on sparse rows).
+        None when :func:`solve_integration` would not iterate with an AMG V-cycle: it
+        factorises ``Q`` (``method="direct"``, or ``"auto"`` on sparse rows), or ``K + D``
+        for the iteration (small systems, ``preconditioner="cholesky"``, or without pyamg).
+        A factor is left to the solve: the factorisations' backends keep options and
+        threads for the whole process, which work on another thread must not change.
 
     Examples
     --------
@@ -354,17 +357,23 @@ def integration_preconditioner(
     >>> K = sp.diags([-np.ones(n - 1), np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1)], [-1, 0, 1]).tocsr()
     >>> S = sp.csr_matrix(([1.0, 1.0], ([0, 1], [0, n - 1])), shape=(2, n))
     >>> rhs = np.linspace(-1.0, 1.0, n)
-    >>> pre = integration_preconditioner(K, np.ones(n), S, 1.0, method="pcg", preconditioner="cholesky")
+    >>> pre = integration_preconditioner(K, np.ones(n), S, 1.0, method="pcg", preconditioner="amg")
     >>> phi, info = solve_integration(K, np.ones(n), S, 1.0, rhs, method="pcg", preconditioner=pre)
     >>> ref, _ = solve_integration(K, np.ones(n), S, 1.0, rhs, method="direct")
     >>> info.method, bool(np.allclose(phi, ref, atol=1e-8))
-    ('pcg-cholesky', True)
+    ('pcg-amg', True)
+    >>> integration_preconditioner(K, np.ones(n), S, 1.0, method="pcg", preconditioner="cholesky") is None
+    True
     """
     _check_choices(method, preconditioner)
     K, S = sp.csr_matrix(K), sp.csr_matrix(S)
     system = _System(K, np.asarray(mass, dtype=np.float64), S, lam, mu, None)
     sparse_rows = _is_sparse_rows(K)
-    if method == "direct" or (method == "auto" and sparse_rows):
+    if method == "direct" or (method == "auto" and sparse_rows) or preconditioner == "cholesky":
+        return None
+    if load_optional("pyamg") is None:  # the solve factorises, and warns of the cost
+        return None
+    if not _use_amg(preconditioner, sparse_rows, K.shape[0], K.nnz / max(K.shape[0], 1)):
         return None
     return _preconditioner(system, sparse_rows, backend, preconditioner, sweeps, cache)
 
