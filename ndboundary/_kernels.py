@@ -31,6 +31,7 @@ KERNEL_MODULES = (
     "ndboundary._compiled",
     "ndboundary._compiled_geometry",
     "ndboundary._compiled_mesh",
+    "ndboundary._compiled_partition",
     "ndboundary._compiled_walk",
     "ndboundary.solvers.amg_hierarchy",
     "ndboundary.io.text_format",

@@ -21,9 +21,9 @@ from functools import cache
 from math import factorial
 
 import numpy as np
-import scipy.sparse as sp
 
 from ._compiled_mesh import mixed_facets
+from ._compiled_partition import sweep_sparse_compiled
 from .levelset import staircase_paths, sorting_parity
 
 
@@ -222,161 +222,20 @@ def interface_facets(points, simplices, regions):
     return facet, pairs, cells2
 
 
-class _Rows:
-    """An array that grows along its first axis at amortised constant cost per row."""
-
-    def __init__(self, initial):
-        self.data = np.array(initial)
-        self.n = self.data.shape[0]
-
-    def extend(self, rows):
-        need = self.n + rows.shape[0]
-        if need > self.data.shape[0]:
-            grown = np.empty((max(need, 2 * self.data.shape[0]), *self.data.shape[1:]), dtype=self.data.dtype)
-            grown[: self.n] = self.data[: self.n]
-            self.data = grown
-        self.data[self.n : need] = rows
-        self.n = need
-
-    @property
-    def view(self):
-        return self.data[: self.n]
-
-
-class _SparseComplex:
-    """The sweep of :class:`_Complex` where each region is stored at some points only.
-
-    ``values`` is a CSR matrix (points x regions) of values shifted to be at least 1; a
-    region not stored at an input point is 0 there, below every stored value, so it can
-    win only near the points that store it. Region ``r`` is resolved on the cells that
-    descend from an input simplex with a point storing it: the work of a region follows
-    where it is stored, not the size of the complex. Its values at new points are
-    interpolated from their parent edges, as the dense sweep does, so that every cell
-    sharing an edge computes the same crossing there and the complex stays conforming.
-    """
-
-    def __init__(self, points, simplices, values):
-        V, N = points.shape[0], simplices.shape[0]
-        self.n_input = V
-        self.X = _Rows(points)
-        self.M = _Rows(np.zeros(V))  # the envelope of the regions resolved so far; 0 below all
-        self.parents = _Rows(np.stack([np.arange(V), np.arange(V)], axis=1))
-        self.t = _Rows(np.zeros(V))
-        self.S = _Rows(simplices)
-        self.region = _Rows(np.full(N, -1, dtype=np.int64))
-        self.origin = _Rows(np.arange(N))
-        self.alive = _Rows(np.ones(N, dtype=bool))
-        self.columns = values.tocsc()
-        self.columns.sort_indices()
-        k1 = simplices.shape[1]
-        self.incidence = sp.csr_matrix(
-            (np.ones(N * k1, dtype=np.int8), (simplices.ravel(), np.repeat(np.arange(N), k1))), shape=(V, N)
-        )
-        # the value of the region being resolved, valid where stamped with it
-        self.value = _Rows(np.zeros(V))
-        self.stamp = _Rows(np.full(V, -1, dtype=np.int64))
-        self.point_slot = _Rows(np.zeros(V, dtype=np.int64))  # scratch of :func:`_distinct`
-        self.cell_slot = np.zeros(N, dtype=np.int64)
-        self._index = None  # (cells sorted by origin, their origins, number of cells indexed)
-
-    def _cells_of(self, origins):
-        """The live cells descending from the input simplices ``origins`` (sorted)."""
-        n = self.S.n
-        if self._index is None or n - self._index[2] > self._index[2]:
-            live = np.flatnonzero(self.alive.view)
-            order = live[np.argsort(self.origin.view[live], kind="stable")]
-            self._index = (order, self.origin.view[order], n)
-        order, sorted_origin, indexed = self._index
-        lo = np.searchsorted(sorted_origin, origins, "left")
-        hi = np.searchsorted(sorted_origin, origins, "right")
-        counts = hi - lo
-        starts = np.repeat(lo - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
-        found = order[starts + np.arange(counts.sum())]
-        recent = indexed + np.flatnonzero(np.isin(self.origin.view[indexed:], origins))
-        cells = np.concatenate([found, recent])
-        return cells[self.alive.view[cells]]
-
-    def _evaluate(self, r, points):
-        """Set ``value`` to region ``r``'s value at the new ``points`` (not stamped yet)."""
-        a, b = self.parents.view[points].T
-        need = np.unique(np.concatenate([a, b]))
-        need = need[self.stamp.view[need] != r]
-        fresh = need[need < self.n_input]
-        self.value.view[fresh] = 0.0  # not stored at this input point
-        self.stamp.view[fresh] = r
-        later = need[need >= self.n_input]
-        if later.size:
-            self._evaluate(r, later)
-        value = self.value.view
-        value[points] = value[a] + self.t.view[points] * (value[b] - value[a])
-        self.stamp.view[points] = r
-
-    def add(self, r):
-        """Resolve region ``r`` against the envelope of the regions before it."""
-        c = self.columns
-        stored = c.indices[c.indptr[r] : c.indptr[r + 1]]
-        if stored.size == 0:
-            return
-        self.value.view[stored] = c.data[c.indptr[r] : c.indptr[r + 1]]
-        self.stamp.view[stored] = r
-        origins = np.sort(_distinct(self.incidence[stored].indices, self.cell_slot))
-        cells = self._cells_of(origins)
-        S = self.S.view[cells]
-        pts = np.sort(_distinct(S.ravel(), self.point_slot.view))
-        later = pts[(pts >= self.n_input) & (self.stamp.view[pts] != r)]
-        if later.size:
-            self._evaluate(r, later)
-        zero = pts[self.stamp.view[pts] != r]  # input points that do not store r
-        self.value.view[zero] = 0.0
-        self.stamp.view[zero] = r
-        # the cut runs on local point ids, increasing with the global ones (the
-        # staircase rule reads their order)
-        self.point_slot.view[pts] = np.arange(pts.size)
-        local = self.point_slot.view[S]
-        M, value = self.M.view, self.value.view
-        f = value[pts]
-        d = f - M[pts]
-        sg = np.sign(d).astype(np.int64)
-        s = sg[local]
-        pos, neg = (s > 0).any(axis=1), (s < 0).any(axis=1)
-        cut = pos & neg
-        region = self.region.view
-        region[cells[pos & ~neg]] = r
-        M[pts] = np.maximum(M[pts], f)
-        if not cut.any():
-            return
-        cut_cells = cells[cut]
-        new, regions, sources, ea, eb, t = _pieces(local[cut], sg, d, region[cut_cells], r, pts.size)
-        n = self.X.n
-        new = np.where(new < pts.size, pts[np.minimum(new, pts.size - 1)], new - pts.size + n)
-        ea, eb = pts[ea], pts[eb]
-        X = self.X.view
-        Fn = value[ea] + t * (value[eb] - value[ea])
-        self.X.extend(X[ea] + t[:, None] * (X[eb] - X[ea]))
-        self.parents.extend(np.stack([ea, eb], axis=1))
-        self.t.extend(t)
-        self.M.extend(Fn)  # the crossing is on the cut: d == 0 there
-        self.value.extend(Fn)
-        self.stamp.extend(np.full(t.size, r))
-        self.point_slot.extend(np.zeros(t.size, dtype=np.int64))
-        self.alive.view[cut_cells] = False
-        self.S.extend(new)
-        self.region.extend(regions)
-        self.origin.extend(self.origin.view[cut_cells][sources])
-        self.alive.extend(np.ones(new.shape[0], dtype=bool))
-
-
-def _distinct(ids, slot):
-    """The distinct values of ``ids`` (in no particular order), with ``slot`` a scratch
-    array indexed by them: a pass over ``ids`` instead of a sort or a hash of them all.
-    """
-    slot[ids] = np.arange(ids.size)
-    return ids[slot[ids] == np.arange(ids.size)]
-
-
 def sweep_sparse(points, simplices, values):
     """:func:`sweep` for a sparse ``values`` (CSR, every value at least 1; a region not
     stored at a point is 0 there). Returns points, simplices, regions and parents.
+
+    Each region is stored at some points only, where it may win: a region not stored at
+    an input point is 0 there, below every stored value, so it can win only near the
+    points that store it. Region ``r`` is resolved on the cells that descend from an
+    input simplex with a point storing it, so the work of a region follows where it is
+    stored, not the size of the complex. Its values at new points are interpolated from
+    their parent edges, as the dense sweep does, so that every cell sharing an edge
+    computes the same crossing there and the complex stays conforming; the points a
+    region's cuts make are numbered in the order of their edges, as :func:`sweep`
+    numbers them, and the same input gives both sweeps the same points and cells
+    (:mod:`ndboundary._compiled_partition`).
 
     Examples
     --------
@@ -387,11 +246,7 @@ def sweep_sparse(points, simplices, values):
     >>> X.tolist(), S.tolist(), regions.tolist()
     ([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]], [[0, 2], [2, 1]], [0, 1])
     """
-    c = _SparseComplex(points, simplices, values)
-    for r in range(values.shape[1]):
-        c.add(r)
-    live = c.alive.view
-    regions = c.region.view[live]
+    X, S, regions, parents = sweep_sparse_compiled(points, simplices, values)
     if (regions < 0).any():  # pragma: no cover - every input simplex stores a region at a point
         raise AssertionError("a cell was left without a region")
-    return c.X.view.copy(), c.S.view[live], regions, c.parents.view.copy()
+    return X, S, regions, parents

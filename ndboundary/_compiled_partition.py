@@ -1,0 +1,388 @@
+"""The compiled sweep of :func:`ndboundary.partition_clip.sweep_sparse`: regions resolved
+one at a time against the envelope of those before them, on the cells that descend from
+the input simplices where each region is stored.
+
+The vectorised sweep sorts and concatenates tables of every cell a region touches, several
+times per region, and copies the growing complex at every step; here each region is one
+pass over its cells with a few scalars of state per cell: the cells of an input simplex
+are a chain, crossings are found again through a table keyed by their edge, and the arrays
+grow by doubling.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numba
+import numpy as np
+
+from ._kernels import kernel
+
+__all__ = ["sweep_sparse_compiled", "template_tables"]
+
+
+@cache
+def template_tables(k1):
+    """The pieces of every sign pattern of a cut ``(k1 - 1)``-simplex, as flat tables.
+
+    Returns ``(ptr, slots, side)``: the pieces of pattern ``code`` (base 3 over the sorted
+    vertices: 0 negative, 1 zero, 2 positive; see
+    :func:`ndboundary.partition_clip._templates`) are rows ``ptr[code]:ptr[code + 1]`` of
+    ``slots`` (n, k1, 2) and ``side`` (n,): 0 on the negative side, 1 on the positive one.
+    """
+    from .partition_clip import _templates
+
+    ptr, slots, side = [0], [], []
+    for code in range(3**k1):
+        digits = [(code // 3**i) % 3 for i in range(k1)]
+        pieces = _templates(code, k1) if 0 in digits and 2 in digits else ()
+        for s, T in enumerate(pieces):
+            slots.append(T)
+            side.append(np.full(T.shape[0], s, dtype=np.int64))
+        ptr.append(ptr[-1] + sum(T.shape[0] for T in pieces))
+    return (
+        np.array(ptr, dtype=np.int64),
+        np.ascontiguousarray(np.concatenate(slots), dtype=np.int64),
+        np.concatenate(side),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _grown(a, n):  # pragma: no cover - compiled
+    """``a`` with room for at least ``n`` rows (twice as many rows when it must grow)."""
+    if a.shape[0] >= n:
+        return a
+    out = np.empty((max(n, 2 * a.shape[0]),) + a.shape[1:], dtype=a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _permute(a, p0, order):  # pragma: no cover - compiled
+    """Rows ``p0 + order`` of ``a`` moved to ``p0, p0 + 1, ...``."""
+    b = a[p0 : p0 + order.size].copy()
+    for i in range(order.size):
+        a[p0 + i] = b[order[i]]
+
+
+@numba.njit(cache=True, nogil=True)
+def _renumber(X, M, value, parents, t, S, p0, p1, c0, c1):  # pragma: no cover - compiled
+    """Number the points ``p0:p1`` a pass made in the order of their edges' ids, as every
+    sweep does (the staircase rule of later cuts reads it), in the cells ``c0:c1``.
+    """
+    m = p1 - p0
+    keys = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        keys[i] = parents[p0 + i, 0] * 2147483648 + parents[p0 + i, 1]
+    order = np.argsort(keys)
+    rank = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        rank[order[i]] = i
+    _permute(X, p0, order)
+    _permute(parents, p0, order)
+    _permute(M, p0, order)
+    _permute(value, p0, order)
+    _permute(t, p0, order)
+    for c in range(c0, c1):
+        for i in range(S.shape[1]):
+            if S[c, i] >= p0:
+                S[c, i] = p0 + rank[S[c, i] - p0]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sign(x):  # pragma: no cover - compiled
+    return 1 if x > 0 else (-1 if x < 0 else 0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _incidence(simplices, V):  # pragma: no cover - compiled
+    """The input simplices at every point, as CSR ``(indptr, simplex ids)``."""
+    N, k1 = simplices.shape
+    indptr = np.zeros(V + 1, dtype=np.int64)
+    for f in range(N):
+        for i in range(k1):
+            indptr[simplices[f, i] + 1] += 1
+    for p in range(V):
+        indptr[p + 1] += indptr[p]
+    fill = indptr[:-1].copy()
+    ids = np.empty(N * k1, dtype=np.int64)
+    for f in range(N):
+        for i in range(k1):
+            p = simplices[f, i]
+            ids[fill[p]] = f
+            fill[p] += 1
+    return indptr, ids
+
+
+@numba.njit(cache=True, nogil=True)
+def _live_cells(r, stored, inc_ptr, inc, visited, head, chain, alive, cells):  # pragma: no cover - compiled
+    """The live cells of the input simplices with a point in ``stored`` into ``cells``
+    (grown as needed): ``(cells, count)``. Dead cells leave their chain as it is walked.
+    """
+    n = 0
+    for p in stored:
+        for e in range(inc_ptr[p], inc_ptr[p + 1]):
+            f = inc[e]
+            if visited[f] == r:
+                continue
+            visited[f] = r
+            prev = -1
+            c = head[f]
+            while c >= 0:
+                nxt = chain[c]
+                if alive[c]:
+                    if n == cells.size:
+                        cells = _grown(cells, n + 1)
+                    cells[n] = c
+                    n += 1
+                    prev = c
+                elif prev < 0:
+                    head[f] = nxt
+                else:
+                    chain[prev] = nxt
+                c = nxt
+    return cells, n
+
+
+@numba.njit(cache=True, nogil=True)
+def _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack):  # pragma: no cover - compiled
+    """Region ``r``'s value at the points of the cells: 0 at an input point that does not
+    store it, and interpolated along the parent edge at a point a cut made, its parents
+    first. Returns the scratch ``stack`` (grown as needed).
+    """
+    for s in range(n_sel):
+        for i in range(S.shape[1]):
+            p = S[cells[s], i]
+            if stamp[p] == r:
+                continue
+            if p < V:
+                value[p] = 0.0
+                stamp[p] = r
+                continue
+            stack[0] = p
+            top = 1
+            while top > 0:
+                x = stack[top - 1]
+                if stamp[x] == r:  # reached through another child first
+                    top -= 1
+                    continue
+                a, b = parents[x, 0], parents[x, 1]
+                ready = True
+                for y in (a, b):
+                    if stamp[y] == r:
+                        continue
+                    if y < V:
+                        value[y] = 0.0
+                        stamp[y] = r
+                    else:
+                        if top == stack.size:
+                            stack = _grown(stack, top + 1)
+                        stack[top] = y
+                        top += 1
+                        ready = False
+                if ready:
+                    value[x] = value[a] + t[x] * (value[b] - value[a])
+                    stamp[x] = r
+                    top -= 1
+    return stack
+
+
+@numba.njit(cache=True, nogil=True)
+def _classify(r, cells, n_sel, S, value, M, region, cut):  # pragma: no cover - compiled
+    """Cells wholly above the envelope (somewhere strictly) go to ``r``; those ``r``
+    crosses are listed in ``cut`` (grown as needed): ``(cut, count)``. A cell where ``r``
+    ties the envelope throughout keeps its earlier region.
+    """
+    n_cut = 0
+    for s in range(n_sel):
+        c = cells[s]
+        pos = False
+        neg = False
+        for i in range(S.shape[1]):
+            p = S[c, i]
+            d = value[p] - M[p]
+            pos = pos or d > 0
+            neg = neg or d < 0
+        if pos and neg:
+            if n_cut == cut.size:
+                cut = _grown(cut, n_cut + 1)
+            cut[n_cut] = c
+            n_cut += 1
+        elif pos:
+            region[c] = r
+    return cut, n_cut
+
+
+@numba.njit(cache=True, nogil=True)
+def _cut(r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side, pts, cells, n_pts, n_cells):  # pragma: no cover - compiled
+    """Split the cells ``cut`` into the pieces of their sign patterns' templates: the
+    pieces are new cells, oriented as their parents, whose crossings are new points, one
+    per edge. Returns the numbers of points and cells.
+    """
+    X, M, value, stamp, parents, t = pts
+    S, region, alive, origin, chain, head = cells
+    k1, D = S.shape[1], X.shape[1]
+    max_edges = (k1 // 2) * ((k1 + 1) // 2)
+    size = 1
+    while size < 2 * n_cut * max_edges:
+        size *= 2
+    keys = np.full(size, -1, dtype=np.int64)  # a table of the crossings by their edge
+    ids = np.empty(size, dtype=np.int64)
+    srt = np.empty(k1, dtype=np.int64)
+    for s in range(n_cut):
+        c = cut[s]
+        for i in range(k1):
+            srt[i] = S[c, i]
+        odd = False  # insertion sort, counting the swaps' parity
+        for i in range(1, k1):
+            j = i
+            while j > 0 and srt[j - 1] > srt[j]:
+                srt[j - 1], srt[j] = srt[j], srt[j - 1]
+                odd = not odd
+                j -= 1
+        code = 0
+        base = 1
+        for i in range(k1):
+            code += (_sign(value[srt[i]] - M[srt[i]]) + 1) * base
+            base *= 3
+        old, f = region[c], origin[c]
+        for piece in range(tpl_ptr[code], tpl_ptr[code + 1]):
+            n = n_cells
+            n_cells += 1
+            for i in range(k1):
+                u, v = tpl_slots[piece, i, 0], tpl_slots[piece, i, 1]
+                a = srt[u]
+                if u == v:
+                    S[n, i] = a
+                    continue
+                b = srt[v]  # the crossing on the edge from negative a to positive b
+                key = a * 2147483648 + b
+                h = ((key * 6364136223846793005) >> 32) & (size - 1)
+                while keys[h] != -1 and keys[h] != key:
+                    h = (h + 1) & (size - 1)
+                if keys[h] == -1:
+                    keys[h] = key
+                    ids[h] = n_pts
+                    da, db = value[a] - M[a], value[b] - M[b]
+                    w = da / (da - db)
+                    for j in range(D):
+                        X[n_pts, j] = X[a, j] + w * (X[b, j] - X[a, j])
+                    fa = value[a] + w * (value[b] - value[a])
+                    value[n_pts] = fa
+                    M[n_pts] = fa  # the crossing is on the cut: d == 0 there
+                    stamp[n_pts] = r
+                    parents[n_pts, 0] = a
+                    parents[n_pts, 1] = b
+                    t[n_pts] = w
+                    n_pts += 1
+                S[n, i] = ids[h]
+            if odd:
+                S[n, 0], S[n, 1] = S[n, 1], S[n, 0]
+            region[n] = old if tpl_side[piece] == 0 else r
+            alive[n] = True
+            origin[n] = f
+            chain[n] = head[f]
+            head[f] = n
+        alive[c] = False
+    return n_pts, n_cells
+
+
+@kernel(
+    "Tuple((f8[:, ::1], i8[:, ::1], i8[::1], i8[:, ::1]))"
+    "(f8[:, ::1], i8[:, ::1], i8[::1], i8[::1], f8[::1], i8[::1], i8[:, :, ::1], i8[::1])"
+)
+@numba.njit(cache=True, nogil=True)
+def _sweep(points, simplices, col_ptr, col_idx, col_val, tpl_ptr, tpl_slots, tpl_side):  # pragma: no cover - compiled
+    V, D = points.shape
+    N, k1 = simplices.shape
+    inc_ptr, inc = _incidence(simplices, V)
+    # points: coordinates, envelope, the value of the region being resolved (valid where
+    # stamped with it), parent edge and crossing parameter
+    X = np.empty((V + V // 4 + 16, D))
+    X[:V] = points
+    M = np.zeros(X.shape[0])
+    value = np.zeros(X.shape[0])
+    stamp = np.full(X.shape[0], -1, dtype=np.int64)
+    parents = np.empty((X.shape[0], 2), dtype=np.int64)
+    for p in range(V):
+        parents[p, 0] = p
+        parents[p, 1] = p
+    t = np.zeros(X.shape[0])
+    n_pts = V
+    # cells: vertices, region, whether live, input simplex, the next cell of its chain;
+    # and the first cell of every input simplex's chain
+    S = np.empty((N + N // 4 + 16, k1), dtype=np.int64)
+    S[:N] = simplices
+    region = np.full(S.shape[0], -1, dtype=np.int64)
+    alive = np.zeros(S.shape[0], dtype=np.bool_)
+    alive[:N] = True
+    origin = np.empty(S.shape[0], dtype=np.int64)
+    origin[:N] = np.arange(N)
+    chain = np.full(S.shape[0], -1, dtype=np.int64)
+    head = np.arange(N)
+    n_cells = N
+    visited = np.full(N, -1, dtype=np.int64)
+    cells = np.empty(16, dtype=np.int64)
+    cut = np.empty(16, dtype=np.int64)
+    stack = np.empty(16, dtype=np.int64)
+    max_edges = (k1 // 2) * ((k1 + 1) // 2)
+    max_pieces = 1
+    for c in range(tpl_ptr.size - 1):
+        max_pieces = max(max_pieces, tpl_ptr[c + 1] - tpl_ptr[c])
+    for r in range(col_ptr.size - 1):
+        stored = col_idx[col_ptr[r] : col_ptr[r + 1]]
+        if stored.size == 0:
+            continue
+        for q in range(col_ptr[r], col_ptr[r + 1]):
+            value[col_idx[q]] = col_val[q]
+            stamp[col_idx[q]] = r
+        cells, n_sel = _live_cells(r, stored, inc_ptr, inc, visited, head, chain, alive, cells)
+        stack = _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack)
+        cut, n_cut = _classify(r, cells, n_sel, S, value, M, region, cut)
+        if n_cut:
+            need = n_pts + n_cut * max_edges
+            if need > X.shape[0]:
+                X, M, value = _grown(X, need), _grown(M, need), _grown(value, need)
+                stamp, parents, t = _grown(stamp, need), _grown(parents, need), _grown(t, need)
+            need = n_cells + n_cut * max_pieces
+            if need > S.shape[0]:
+                S, region, alive = _grown(S, need), _grown(region, need), _grown(alive, need)
+                origin, chain = _grown(origin, need), _grown(chain, need)
+            n_pts0, n_cells0 = n_pts, n_cells
+            n_pts, n_cells = _cut(
+                r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side,
+                (X, M, value, stamp, parents, t), (S, region, alive, origin, chain, head), n_pts, n_cells,
+            )  # fmt: skip
+            _renumber(X, M, value, parents, t, S, n_pts0, n_pts, n_cells0, n_cells)
+        for s in range(n_sel):  # the envelope takes r where r is above it
+            for i in range(k1):
+                p = S[cells[s], i]
+                if value[p] > M[p]:
+                    M[p] = value[p]
+    live = np.flatnonzero(alive[:n_cells])
+    S_out = np.empty((live.size, k1), dtype=np.int64)
+    regions = np.empty(live.size, dtype=np.int64)
+    for j in range(live.size):
+        S_out[j] = S[live[j]]
+        regions[j] = region[live[j]]
+    return X[:n_pts].copy(), S_out, regions, parents[:n_pts].copy()
+
+
+def sweep_sparse_compiled(points, simplices, values):
+    """:func:`ndboundary.partition_clip.sweep_sparse`, compiled: points, simplices,
+    regions and parents, from the CSR ``values`` (points x regions, every value at least 1).
+    """
+    columns = values.tocsc()
+    columns.sort_indices()
+    k1 = simplices.shape[1]
+    ptr, slots, side = template_tables(k1)
+    return _sweep(
+        np.ascontiguousarray(points, dtype=np.float64),
+        np.ascontiguousarray(simplices, dtype=np.int64),
+        columns.indptr.astype(np.int64),
+        columns.indices.astype(np.int64),
+        np.ascontiguousarray(columns.data, dtype=np.float64),
+        ptr,
+        slots,
+        side,
+    )
