@@ -26,7 +26,6 @@ __all__ = [
     "edge_length_graph",
     "facet_adjacency",
     "facet_neighbours",
-    "mixed_facets",
     "stencil_stiffness",
     "stiffness_matrix",
 ]
@@ -128,84 +127,6 @@ def _adjacency_rows(across, indptr, indices):  # pragma: no cover - compiled
         n += count
         indptr[e + 1] = n
     return True
-
-
-@kernel("void(i8[:, ::1], i8[::1], u1[::1])")
-@numba.njit(cache=True, nogil=True)
-def _mixed_points(simplices, regions, mixed):  # pragma: no cover - compiled
-    n = mixed.size
-    lo = np.empty(n, dtype=np.int64)
-    hi = np.empty(n, dtype=np.int64)
-    for p in range(n):
-        lo[p] = np.iinfo(np.int64).max
-        hi[p] = -1
-    for c in range(simplices.shape[0]):
-        r = regions[c]
-        for j in range(simplices.shape[1]):
-            p = simplices[c, j]
-            if r < lo[p]:
-                lo[p] = r
-            if r > hi[p]:
-                hi[p] = r
-    for p in range(n):
-        mixed[p] = lo[p] != hi[p]
-
-
-@kernel("i8(i8[:, ::1], u1[::1], i8[:, ::1], i8[::1], i8[::1])")
-@numba.njit(cache=True, nogil=True)
-def _mixed_facets(simplices, mixed, facets, owner, opposite):  # pragma: no cover - compiled
-    k1 = simplices.shape[1]
-    fill = facets.shape[0] > 0
-    m = 0
-    for c in range(simplices.shape[0]):
-        count = 0
-        for j in range(k1):
-            count += mixed[simplices[c, j]]
-        if count < k1 - 1:
-            continue
-        for o in range(k1):
-            if count < k1 and mixed[simplices[c, o]]:
-                continue  # the one vertex not mixed must be the one left out
-            if fill:
-                q = 0
-                for j in range(k1):
-                    if j != o:
-                        facets[m, q] = simplices[c, j]
-                        q += 1
-                owner[m] = c
-                opposite[m] = o
-            m += 1
-    return m
-
-
-def mixed_facets(simplices, regions, n_points):
-    """The facets of the cells ``simplices`` (regions ``regions``) all of whose vertices
-    lie in cells of two regions or more: ``(facets, owner, opposite)``, each facet its
-    cell's vertices but the one at column ``opposite`` (in order), ``owner`` that cell.
-    Every facet between cells of different regions is among them, each once per cell.
-
-    Two passes over the cells, where the vectorised version gathers the vertices' flags
-    for every cell and copies the cells once per left-out column.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ndboundary._compiled_mesh import mixed_facets
-    >>> simplices = np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4]])
-    >>> facets, owner, opposite = mixed_facets(simplices, np.array([1, 0, 0]), 5)
-    >>> facets.tolist(), owner.tolist(), opposite.tolist()
-    ([[0, 2], [0, 2]], [0, 1], [1, 2])
-    """
-    simplices = np.ascontiguousarray(simplices, dtype=np.int64)
-    mixed = np.empty(n_points, dtype=np.uint8)
-    _mixed_points(simplices, np.ascontiguousarray(regions, dtype=np.int64), mixed)
-    k1 = simplices.shape[1]
-    empty = np.empty((0, k1 - 1), dtype=np.int64)
-    m = _mixed_facets(simplices, mixed, empty, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
-    facets = np.empty((m, k1 - 1), dtype=np.int64)
-    owner, opposite = np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64)
-    _mixed_facets(simplices, mixed, facets, owner, opposite)
-    return facets, owner, opposite
 
 
 def facet_adjacency(across):

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._kernels import kernel
 
-__all__ = ["sweep_sparse_compiled", "template_tables"]
+__all__ = ["region_facets", "sweep_sparse_compiled", "template_tables"]
 
 
 @cache
@@ -386,3 +386,113 @@ def sweep_sparse_compiled(points, simplices, values):
         slots,
         side,
     )
+
+
+@numba.njit(cache=True, nogil=True)
+def _sorted_facet(simplices, c, o, out):  # pragma: no cover - compiled
+    """The vertices of cell ``c`` but its ``o``-th, sorted, into ``out``."""
+    q = 0
+    for j in range(simplices.shape[1]):
+        if j == o:
+            continue
+        v = simplices[c, j]
+        i = q
+        while i > 0 and out[i - 1] > v:
+            out[i] = out[i - 1]
+            i -= 1
+        out[i] = v
+        q += 1
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _candidate(lo, hi, simplices, c, o, count):  # pragma: no cover - compiled
+    """Whether facet ``o`` of cell ``c`` (``count`` of whose vertices lie on cells of two
+    regions or more) has all its vertices there: only then can it lie between regions.
+    """
+    p = simplices[c, o]
+    return count == simplices.shape[1] or (count == simplices.shape[1] - 1 and lo[p] == hi[p])
+
+
+@kernel("i8[:, ::1](i8[:, ::1], i8[::1], i8)")
+@numba.njit(cache=True, nogil=True)
+def _region_facets(simplices, regions, n_points):  # pragma: no cover - compiled
+    """The facets between cells of different regions, as rows ``(cell, its left-out
+    column, other cell, its left-out column)``, the first cell the lower.
+
+    A facet between regions has all its vertices on cells of two regions or more: only
+    those facets are sought. They are grouped by their lowest vertex (a counting sort)
+    and matched within each group, where a sort of every facet would read them all many
+    times.
+    """
+    n_cells, k1 = simplices.shape
+    lo = np.full(n_points, n_cells, dtype=np.int64)  # the lowest and highest region at every point
+    hi = np.full(n_points, -1, dtype=np.int64)
+    for c in range(n_cells):
+        for j in range(k1):
+            p = simplices[c, j]
+            lo[p] = min(lo[p], regions[c])
+            hi[p] = max(hi[p], regions[c])
+    mixed = np.zeros(n_cells, dtype=np.int8)  # vertices on cells of two regions or more
+    start = np.zeros(n_points + 1, dtype=np.int64)
+    facet = np.empty(k1 - 1, dtype=np.int64)
+    for c in range(n_cells):
+        count = 0
+        for j in range(k1):
+            count += lo[simplices[c, j]] != hi[simplices[c, j]]
+        mixed[c] = count
+        for o in range(k1):
+            if _candidate(lo, hi, simplices, c, o, count):
+                _sorted_facet(simplices, c, o, facet)
+                start[facet[0] + 1] += 1
+    for p in range(n_points):
+        start[p + 1] += start[p]
+    fill = start[:-1].copy()
+    rows = np.empty((start[-1], k1 + 1), dtype=np.int64)  # (cell, column, sorted vertices)
+    for c in range(n_cells):
+        for o in range(k1):
+            if _candidate(lo, hi, simplices, c, o, mixed[c]):
+                _sorted_facet(simplices, c, o, facet)
+                q = fill[facet[0]]
+                fill[facet[0]] += 1
+                rows[q, 0] = c
+                rows[q, 1] = o
+                rows[q, 2:] = facet
+    out = np.empty((16, 4), dtype=np.int64)
+    n = 0
+    for p in range(n_points):
+        for i in range(start[p], start[p + 1]):
+            if rows[i, 0] < 0:  # matched already
+                continue
+            for j in range(i + 1, start[p + 1]):
+                same = rows[j, 0] >= 0
+                for q in range(3, k1 + 1):
+                    same = same and rows[i, q] == rows[j, q]
+                if not same:
+                    continue
+                if regions[rows[i, 0]] != regions[rows[j, 0]]:
+                    if n == out.shape[0]:
+                        out = _grown(out, n + 1)
+                    out[n, 0], out[n, 1] = rows[i, 0], rows[i, 1]
+                    out[n, 2], out[n, 3] = rows[j, 0], rows[j, 1]
+                    n += 1
+                rows[j, 0] = -1
+                break
+    return out[:n].copy()
+
+
+def region_facets(simplices, regions, n_points):
+    """The facets between cells of different regions: ``(cells, opposite)``, each (n, 2),
+    the two cells of each facet (the lower first) and the column each leaves out.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_partition import region_facets
+    >>> cells, opposite = region_facets(np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4]]), np.array([1, 0, 0]), 5)
+    >>> cells.tolist(), opposite.tolist()
+    ([[0, 1]], [[1, 2]])
+    """
+    rows = _region_facets(
+        np.ascontiguousarray(simplices, dtype=np.int64), np.ascontiguousarray(regions, dtype=np.int64), int(n_points)
+    )
+    return rows[:, [0, 2]], rows[:, [1, 3]]

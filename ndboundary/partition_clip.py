@@ -22,8 +22,7 @@ from math import factorial
 
 import numpy as np
 
-from ._compiled_mesh import mixed_facets
-from ._compiled_partition import sweep_sparse_compiled
+from ._compiled_partition import region_facets, sweep_sparse_compiled
 from .levelset import staircase_paths, sorting_parity
 
 
@@ -193,17 +192,8 @@ def interface_facets(points, simplices, regions):
     k = k1 - 1
     if simplices.shape[0] == 0 or k1 < 2:
         return np.zeros((0, k), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64)
-    f, owner, opposite = mixed_facets(simplices, regions, n_pts)
-    fs = np.sort(f, axis=1)
-    order = np.lexsort(fs.T[::-1])
-    fs, owner, opposite = fs[order], owner[order], opposite[order]
-    same = np.all(fs[1:] == fs[:-1], axis=1)
-    i = np.flatnonzero(same)
-    c0, c1 = owner[i], owner[i + 1]
-    o0, o1 = opposite[i], opposite[i + 1]
+    (c0, c1), (o0, o1) = (a.T for a in region_facets(simplices, regions, n_pts))
     r0, r1 = regions[c0], regions[c1]
-    differ = r0 != r1
-    c0, c1, o0, o1, r0, r1 = c0[differ], c1[differ], o0[differ], o1[differ], r0[differ], r1[differ]
     swap = r0 > r1
     cs = np.where(swap, c1, c0)
     os_ = np.where(swap, o1, o0)
