@@ -18,7 +18,7 @@ import numpy as np
 
 from ._kernels import kernel
 
-__all__ = ["region_facets", "sweep_sparse_compiled", "template_tables"]
+__all__ = ["oriented_region_facets", "sweep_sparse_compiled", "template_tables"]
 
 
 @cache
@@ -480,19 +480,85 @@ def _region_facets(simplices, regions, n_points):  # pragma: no cover - compiled
     return out[:n].copy()
 
 
-def region_facets(simplices, regions, n_points):
-    """The facets between cells of different regions: ``(cells, opposite)``, each (n, 2),
-    the two cells of each facet (the lower first) and the column each leaves out.
+@numba.njit(cache=True, nogil=True)
+def _orientation(points, simplices, c, E):  # pragma: no cover - compiled
+    """The sign of the determinant of cell ``c``'s edge vectors (a full-dimensional
+    simplex), by elimination with partial pivoting, as LAPACK's LU computes it.
+    """
+    k = E.shape[0]
+    for i in range(k):
+        for j in range(k):
+            E[i, j] = points[simplices[c, i + 1], j] - points[simplices[c, 0], j]
+    sign = 1.0
+    for col in range(k):
+        pivot = col
+        for i in range(col + 1, k):
+            if abs(E[i, col]) > abs(E[pivot, col]):
+                pivot = i
+        if E[pivot, col] == 0.0:
+            return 0.0
+        if pivot != col:
+            sign = -sign
+            for j in range(k):
+                E[col, j], E[pivot, j] = E[pivot, j], E[col, j]
+        if E[col, col] < 0:
+            sign = -sign
+        for i in range(col + 1, k):
+            f = E[i, col] / E[col, col]
+            for j in range(col, k):
+                E[i, j] -= f * E[col, j]
+    return sign
+
+
+@kernel("Tuple((i8[:, ::1], i8[:, ::1], i8[:, ::1]))(f8[:, ::1], i8[:, ::1], i8[::1], i8[:, ::1])")
+@numba.njit(cache=True, nogil=True)
+def _oriented_facets(points, simplices, regions, rows):  # pragma: no cover - compiled
+    """The facets of :func:`_region_facets`'s ``rows``, taken from the cell of the lower
+    region and oriented away from it: ``(facets, region pairs, cells)``.
+    """
+    n, k1 = rows.shape[0], simplices.shape[1]
+    k = k1 - 1
+    full = k == points.shape[1]
+    E = np.empty((k, k))
+    facets = np.empty((n, k), dtype=np.int64)
+    pairs = np.empty((n, 2), dtype=np.int64)
+    cells = np.empty((n, 2), dtype=np.int64)
+    for i in range(n):
+        first = regions[rows[i, 0]] < regions[rows[i, 2]]
+        c, o = (rows[i, 0], rows[i, 1]) if first else (rows[i, 2], rows[i, 3])
+        cells[i, 0], cells[i, 1] = (rows[i, 0], rows[i, 2]) if first else (rows[i, 2], rows[i, 0])
+        pairs[i, 0], pairs[i, 1] = regions[cells[i, 0]], regions[cells[i, 1]]
+        q = 0
+        for j in range(k1):
+            if j != o:
+                facets[i, q] = simplices[c, j]
+                q += 1
+        # the normal points out of the cell: (-1)^(k-1) (-1)^o times the cell's orientation
+        sign = -1.0 if (k - 1 + o) % 2 else 1.0
+        if full:
+            sign *= _orientation(points, simplices, c, E)
+        if k >= 2 and sign < 0:
+            facets[i, 0], facets[i, 1] = facets[i, 1], facets[i, 0]
+    return facets, pairs, cells
+
+
+def oriented_region_facets(points, simplices, regions):
+    """The facets between cells of different regions, each taken from the cell of the
+    lower region and oriented away from it: ``(facets, region pairs, cells)``, the pairs
+    and cells lower region first (see :func:`ndboundary.partition_clip.interface_facets`).
 
     Examples
     --------
     >>> import numpy as np
-    >>> from ndboundary._compiled_partition import region_facets
-    >>> cells, opposite = region_facets(np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4]]), np.array([1, 0, 0]), 5)
-    >>> cells.tolist(), opposite.tolist()
-    ([[0, 1]], [[1, 2]])
+    >>> from ndboundary._compiled_partition import oriented_region_facets
+    >>> points = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [2, 1]])
+    >>> simplices = np.array([[0, 1, 2], [0, 2, 3], [1, 4, 2]])
+    >>> facets, pairs, cells = oriented_region_facets(points, simplices, np.array([1, 0, 0]))
+    >>> facets.tolist(), pairs.tolist(), cells.tolist()
+    ([[2, 0], [1, 2]], [[0, 1], [0, 1]], [[1, 0], [2, 0]])
     """
-    rows = _region_facets(
-        np.ascontiguousarray(simplices, dtype=np.int64), np.ascontiguousarray(regions, dtype=np.int64), int(n_points)
-    )
-    return rows[:, [0, 2]], rows[:, [1, 3]]
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    simplices = np.ascontiguousarray(simplices, dtype=np.int64)
+    regions = np.ascontiguousarray(regions, dtype=np.int64)
+    rows = _region_facets(simplices, regions, points.shape[0])
+    return _oriented_facets(points, simplices, regions, rows)

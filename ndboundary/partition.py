@@ -140,9 +140,21 @@ class Interfaces:
         self.pairs = pairs
         self.cells = cells
         self.point_ids = point_ids
+        self._by_region = None
 
     def __len__(self):
         return int(self.simplices.shape[0])
+
+    def of_region(self, r) -> np.ndarray:
+        """The indices of the simplices bounding region ``r``, increasing."""
+        if self._by_region is None:
+            flat = self.pairs.ravel()
+            n = int(flat.max()) + 1 if flat.size else 0
+            self._by_region = (np.argsort(flat, kind="stable") // 2, np.searchsorted(np.sort(flat), np.arange(n + 1)))
+        order, start = self._by_region
+        if not 0 <= r < start.size - 1:
+            return order[:0]
+        return order[start[r] : start[r + 1]]
 
     def simplex_measures(self) -> np.ndarray:
         """Length / area / volume of each interface simplex (ones for k = 1)."""
@@ -223,8 +235,8 @@ class Partition:
         if self._interfaces is None:
             c = self.cells
             facets, pairs, cells = interface_facets(c.points, c.simplices, c.regions)
-            used, simp = np.unique(facets, return_inverse=True)
-            self._interfaces = Interfaces(c.points[used], simp.reshape(facets.shape), pairs, cells, used)
+            used, simp = _compact(facets, c.points.shape[0])
+            self._interfaces = Interfaces(c.points[used], simp, pairs, cells, used)
         return self._interfaces
 
     def region_boundary(self, r) -> LevelSet:
@@ -241,17 +253,30 @@ class Partition:
         (LevelSet(value=0.0, n_points=6, n_simplices=5), False)
         """
         f = self.interfaces()
-        mine = np.flatnonzero((f.pairs == r).any(axis=1))
-        T = f.simplices[mine].copy()
+        mine = f.of_region(r)
+        T = f.simplices[mine]
         flip = f.pairs[mine, 1] == r
         if T.shape[1] >= 2:
             T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
-        used, simp = np.unique(T, return_inverse=True)
+        used, simp = _compact(T, f.points.shape[0])
         ids = f.point_ids[used]
-        return LevelSet(f.points[used], simp.reshape(T.shape), self.cells.parents[ids], 0.0)
+        return LevelSet(f.points[used], simp, self.cells.parents[ids], 0.0)
 
     def __repr__(self):
         return f"Partition(n_regions={self.n_regions}, n_cells={len(self.cells)})"
+
+
+def _compact(simplices, n_points):
+    """``np.unique(simplices, return_inverse=True)`` (the points used, increasing, and the
+    simplices renumbered on them) for point ids below ``n_points``, by a table of the
+    points instead of a sort of the simplices.
+    """
+    used = np.zeros(n_points, dtype=bool)
+    used[simplices.ravel()] = True
+    used = np.flatnonzero(used)
+    local = np.empty(n_points, dtype=np.int64)
+    local[used] = np.arange(used.size)
+    return used, local[simplices]
 
 
 def partition(points, simplices, values) -> Partition:

@@ -22,7 +22,7 @@ from math import factorial
 
 import numpy as np
 
-from ._compiled_partition import region_facets, sweep_sparse_compiled
+from ._compiled_partition import oriented_region_facets, sweep_sparse_compiled
 from .levelset import staircase_paths, sorting_parity
 
 
@@ -188,28 +188,11 @@ def interface_facets(points, simplices, regions):
     >>> facets.tolist(), pairs.tolist(), cells.tolist()
     ([[2, 0]], [[0, 1]], [[1, 0]])
     """
-    n_pts, k1 = points.shape[0], simplices.shape[1]
+    k1 = simplices.shape[1]
     k = k1 - 1
     if simplices.shape[0] == 0 or k1 < 2:
         return np.zeros((0, k), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 2), dtype=np.int64)
-    (c0, c1), (o0, o1) = (a.T for a in region_facets(simplices, regions, n_pts))
-    r0, r1 = regions[c0], regions[c1]
-    swap = r0 > r1
-    cs = np.where(swap, c1, c0)
-    os_ = np.where(swap, o1, o0)
-    pairs = np.stack([np.minimum(r0, r1), np.maximum(r0, r1)], axis=1)
-    cells2 = np.stack([cs, np.where(swap, c0, c1)], axis=1)
-    mask = np.arange(k1)[None, :] != os_[:, None]
-    facet = simplices[cs][mask].reshape(-1, k)
-    # normal from the cell outwards: (-1)^(k-1) (-1)^o times the cell's own orientation
-    sign = (-1.0) ** (k - 1) * (-1.0) ** os_
-    if k == points.shape[1]:
-        X = points[simplices[cs]]
-        sign = sign * np.sign(np.linalg.det(X[:, 1:, :] - X[:, :1, :]))
-    if k >= 2:
-        flip = sign < 0
-        facet[flip, 0], facet[flip, 1] = facet[flip, 1].copy(), facet[flip, 0].copy()
-    return facet, pairs, cells2
+    return oriented_region_facets(points, simplices, regions)
 
 
 def sweep_sparse(points, simplices, values):
