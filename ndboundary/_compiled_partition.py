@@ -66,14 +66,15 @@ def _permute(a, p0, order):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _renumber(X, M, value, parents, t, S, p0, p1, c0, c1):  # pragma: no cover - compiled
+def _renumber(X, M, value, parents, t, S, p0, p1, c0, c1, cut, n_cut):  # pragma: no cover - compiled
     """Number the points ``p0:p1`` a pass made in the order of their edges' ids, as every
-    sweep does (the staircase rule of later cuts reads it), in the cells ``c0:c1``.
+    sweep does (the staircase rule of later cuts reads it), in the cells ``c0:c1`` and
+    the cells ``cut`` (whose slots hold a piece each).
     """
     m = p1 - p0
     keys = np.empty(m, dtype=np.int64)
     for i in range(m):
-        keys[i] = parents[p0 + i, 0] * 2147483648 + parents[p0 + i, 1]
+        keys[i] = np.int64(parents[p0 + i, 0]) * 2147483648 + parents[p0 + i, 1]
     order = np.argsort(keys)
     rank = np.empty(m, dtype=np.int64)
     for i in range(m):
@@ -83,10 +84,17 @@ def _renumber(X, M, value, parents, t, S, p0, p1, c0, c1):  # pragma: no cover -
     _permute(M, p0, order)
     _permute(value, p0, order)
     _permute(t, p0, order)
+    for s in range(n_cut):
+        _renumber_cell(S, cut[s], p0, rank)
     for c in range(c0, c1):
-        for i in range(S.shape[1]):
-            if S[c, i] >= p0:
-                S[c, i] = p0 + rank[S[c, i] - p0]
+        _renumber_cell(S, c, p0, rank)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _renumber_cell(S, c, p0, rank):  # pragma: no cover - compiled
+    for i in range(S.shape[1]):
+        if S[c, i] >= p0:
+            S[c, i] = p0 + rank[S[c, i] - p0]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -105,7 +113,7 @@ def _incidence(simplices, V):  # pragma: no cover - compiled
     for p in range(V):
         indptr[p + 1] += indptr[p]
     fill = indptr[:-1].copy()
-    ids = np.empty(N * k1, dtype=np.int64)
+    ids = np.empty(N * k1, dtype=np.int32)
     for f in range(N):
         for i in range(k1):
             p = simplices[f, i]
@@ -115,9 +123,9 @@ def _incidence(simplices, V):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _live_cells(r, stored, inc_ptr, inc, visited, head, chain, alive, cells):  # pragma: no cover - compiled
-    """The live cells of the input simplices with a point in ``stored`` into ``cells``
-    (grown as needed): ``(cells, count)``. Dead cells leave their chain as it is walked.
+def _region_cells(r, stored, inc_ptr, inc, visited, head, chain, cells):  # pragma: no cover - compiled
+    """The cells of the input simplices with a point in ``stored`` (each input simplex's
+    cells are a chain) into ``cells``, grown as needed: ``(cells, count)``.
     """
     n = 0
     for p in stored:
@@ -126,29 +134,22 @@ def _live_cells(r, stored, inc_ptr, inc, visited, head, chain, alive, cells):  #
             if visited[f] == r:
                 continue
             visited[f] = r
-            prev = -1
             c = head[f]
             while c >= 0:
-                nxt = chain[c]
-                if alive[c]:
-                    if n == cells.size:
-                        cells = _grown(cells, n + 1)
-                    cells[n] = c
-                    n += 1
-                    prev = c
-                elif prev < 0:
-                    head[f] = nxt
-                else:
-                    chain[prev] = nxt
-                c = nxt
+                if n == cells.size:
+                    cells = _grown(cells, n + 1)
+                cells[n] = c
+                n += 1
+                c = chain[c]
     return cells, n
 
 
 @numba.njit(cache=True, nogil=True)
-def _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack):  # pragma: no cover - compiled
-    """Region ``r``'s value at the points of the cells: 0 at an input point that does not
-    store it, and interpolated along the parent edge at a point a cut made, its parents
-    first. Returns the scratch ``stack`` (grown as needed).
+def _evaluate(r, cells, n_sel, S, V, parents, t, value, M, stamp, d, stack):  # pragma: no cover - compiled
+    """Region ``r``'s value at the points of the cells, and ``d``, its excess over the
+    envelope: 0 at an input point that does not store it, and interpolated along the
+    parent edge at a point a cut made, its parents first. Returns the scratch ``stack``
+    (grown as needed).
     """
     for s in range(n_sel):
         for i in range(S.shape[1]):
@@ -158,6 +159,7 @@ def _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack):  # pragma
             if p < V:
                 value[p] = 0.0
                 stamp[p] = r
+                d[p] = -M[p]
                 continue
             stack[0] = p
             top = 1
@@ -174,6 +176,7 @@ def _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack):  # pragma
                     if y < V:
                         value[y] = 0.0
                         stamp[y] = r
+                        d[y] = -M[y]
                     else:
                         if top == stack.size:
                             stack = _grown(stack, top + 1)
@@ -183,15 +186,17 @@ def _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack):  # pragma
                 if ready:
                     value[x] = value[a] + t[x] * (value[b] - value[a])
                     stamp[x] = r
+                    d[x] = value[x] - M[x]
                     top -= 1
     return stack
 
 
 @numba.njit(cache=True, nogil=True)
-def _classify(r, cells, n_sel, S, value, M, region, cut):  # pragma: no cover - compiled
+def _classify(r, cells, n_sel, S, d, value, M, region, cut):  # pragma: no cover - compiled
     """Cells wholly above the envelope (somewhere strictly) go to ``r``; those ``r``
     crosses are listed in ``cut`` (grown as needed): ``(cut, count)``. A cell where ``r``
-    ties the envelope throughout keeps its earlier region.
+    ties the envelope throughout keeps its earlier region. The envelope takes ``r``'s
+    value where it is above (``d``, read by the cuts, keeps the excess over the old one).
     """
     n_cut = 0
     for s in range(n_sel):
@@ -200,9 +205,10 @@ def _classify(r, cells, n_sel, S, value, M, region, cut):  # pragma: no cover - 
         neg = False
         for i in range(S.shape[1]):
             p = S[c, i]
-            d = value[p] - M[p]
-            pos = pos or d > 0
-            neg = neg or d < 0
+            pos = pos or d[p] > 0
+            neg = neg or d[p] < 0
+            if value[p] > M[p]:
+                M[p] = value[p]
         if pos and neg:
             if n_cut == cut.size:
                 cut = _grown(cut, n_cut + 1)
@@ -216,11 +222,11 @@ def _classify(r, cells, n_sel, S, value, M, region, cut):  # pragma: no cover - 
 @numba.njit(cache=True, nogil=True)
 def _cut(r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side, pts, cells, n_pts, n_cells):  # pragma: no cover - compiled
     """Split the cells ``cut`` into the pieces of their sign patterns' templates: the
-    pieces are new cells, oriented as their parents, whose crossings are new points, one
-    per edge. Returns the numbers of points and cells.
+    pieces, oriented as their parents, take the cut cell's slot and new ones; their
+    crossings are new points, one per edge. Returns the numbers of points and cells.
     """
-    X, M, value, stamp, parents, t = pts
-    S, region, alive, origin, chain, head = cells
+    X, M, value, stamp, d, parents, t = pts
+    S, region, origin, chain, head = cells
     k1, D = S.shape[1], X.shape[1]
     max_edges = (k1 // 2) * ((k1 + 1) // 2)
     size = 1
@@ -243,12 +249,18 @@ def _cut(r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side, pts, cells, n_pts, n_cells
         code = 0
         base = 1
         for i in range(k1):
-            code += (_sign(value[srt[i]] - M[srt[i]]) + 1) * base
+            code += (_sign(d[srt[i]]) + 1) * base
             base *= 3
         old, f = region[c], origin[c]
         for piece in range(tpl_ptr[code], tpl_ptr[code + 1]):
-            n = n_cells
-            n_cells += 1
+            if piece == tpl_ptr[code]:
+                n = c
+            else:
+                n = n_cells
+                n_cells += 1
+                origin[n] = f
+                chain[n] = head[f]
+                head[f] = n
             for i in range(k1):
                 u, v = tpl_slots[piece, i, 0], tpl_slots[piece, i, 1]
                 a = srt[u]
@@ -263,13 +275,13 @@ def _cut(r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side, pts, cells, n_pts, n_cells
                 if keys[h] == -1:
                     keys[h] = key
                     ids[h] = n_pts
-                    da, db = value[a] - M[a], value[b] - M[b]
-                    w = da / (da - db)
+                    w = d[a] / (d[a] - d[b])
                     for j in range(D):
                         X[n_pts, j] = X[a, j] + w * (X[b, j] - X[a, j])
                     fa = value[a] + w * (value[b] - value[a])
                     value[n_pts] = fa
                     M[n_pts] = fa  # the crossing is on the cut: d == 0 there
+                    d[n_pts] = 0.0
                     stamp[n_pts] = r
                     parents[n_pts, 0] = a
                     parents[n_pts, 1] = b
@@ -279,11 +291,6 @@ def _cut(r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side, pts, cells, n_pts, n_cells
             if odd:
                 S[n, 0], S[n, 1] = S[n, 1], S[n, 0]
             region[n] = old if tpl_side[piece] == 0 else r
-            alive[n] = True
-            origin[n] = f
-            chain[n] = head[f]
-            head[f] = n
-        alive[c] = False
     return n_pts, n_cells
 
 
@@ -296,34 +303,34 @@ def _sweep(points, simplices, col_ptr, col_idx, col_val, tpl_ptr, tpl_slots, tpl
     V, D = points.shape
     N, k1 = simplices.shape
     inc_ptr, inc = _incidence(simplices, V)
-    # points: coordinates, envelope, the value of the region being resolved (valid where
-    # stamped with it), parent edge and crossing parameter
-    X = np.empty((V + V // 4 + 16, D))
+    # points: coordinates, envelope, the value of the region being resolved and its
+    # excess over the envelope (valid where stamped with it), parent edge and crossing
+    # parameter
+    X = np.empty((2 * V + 16, D))
     X[:V] = points
     M = np.zeros(X.shape[0])
     value = np.zeros(X.shape[0])
-    stamp = np.full(X.shape[0], -1, dtype=np.int64)
-    parents = np.empty((X.shape[0], 2), dtype=np.int64)
+    d = np.zeros(X.shape[0])
+    stamp = np.full(X.shape[0], -1, dtype=np.int32)
+    parents = np.empty((X.shape[0], 2), dtype=np.int32)
     for p in range(V):
         parents[p, 0] = p
         parents[p, 1] = p
     t = np.zeros(X.shape[0])
     n_pts = V
-    # cells: vertices, region, whether live, input simplex, the next cell of its chain;
-    # and the first cell of every input simplex's chain
-    S = np.empty((N + N // 4 + 16, k1), dtype=np.int64)
+    # cells: vertices, region, input simplex, the next cell of its chain; and the first
+    # cell of every input simplex's chain
+    S = np.empty((2 * N + 16, k1), dtype=np.int32)
     S[:N] = simplices
-    region = np.full(S.shape[0], -1, dtype=np.int64)
-    alive = np.zeros(S.shape[0], dtype=np.bool_)
-    alive[:N] = True
-    origin = np.empty(S.shape[0], dtype=np.int64)
+    region = np.full(S.shape[0], -1, dtype=np.int32)
+    origin = np.empty(S.shape[0], dtype=np.int32)
     origin[:N] = np.arange(N)
-    chain = np.full(S.shape[0], -1, dtype=np.int64)
-    head = np.arange(N)
+    chain = np.full(S.shape[0], -1, dtype=np.int32)
+    head = np.arange(N).astype(np.int32)
     n_cells = N
-    visited = np.full(N, -1, dtype=np.int64)
-    cells = np.empty(16, dtype=np.int64)
-    cut = np.empty(16, dtype=np.int64)
+    visited = np.full(N, -1, dtype=np.int32)
+    cells = np.empty(16, dtype=np.int32)
+    cut = np.empty(16, dtype=np.int32)
     stack = np.empty(16, dtype=np.int64)
     max_edges = (k1 // 2) * ((k1 + 1) // 2)
     max_pieces = 1
@@ -334,58 +341,30 @@ def _sweep(points, simplices, col_ptr, col_idx, col_val, tpl_ptr, tpl_slots, tpl
         if stored.size == 0:
             continue
         for q in range(col_ptr[r], col_ptr[r + 1]):
-            value[col_idx[q]] = col_val[q]
-            stamp[col_idx[q]] = r
-        cells, n_sel = _live_cells(r, stored, inc_ptr, inc, visited, head, chain, alive, cells)
-        stack = _evaluate(r, cells, n_sel, S, V, parents, t, value, stamp, stack)
-        cut, n_cut = _classify(r, cells, n_sel, S, value, M, region, cut)
-        if n_cut:
-            need = n_pts + n_cut * max_edges
-            if need > X.shape[0]:
-                X, M, value = _grown(X, need), _grown(M, need), _grown(value, need)
-                stamp, parents, t = _grown(stamp, need), _grown(parents, need), _grown(t, need)
-            need = n_cells + n_cut * max_pieces
-            if need > S.shape[0]:
-                S, region, alive = _grown(S, need), _grown(region, need), _grown(alive, need)
-                origin, chain = _grown(origin, need), _grown(chain, need)
-            n_pts0, n_cells0 = n_pts, n_cells
-            n_pts, n_cells = _cut(
-                r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side,
-                (X, M, value, stamp, parents, t), (S, region, alive, origin, chain, head), n_pts, n_cells,
-            )  # fmt: skip
-            _renumber(X, M, value, parents, t, S, n_pts0, n_pts, n_cells0, n_cells)
-        for s in range(n_sel):  # the envelope takes r where r is above it
-            for i in range(k1):
-                p = S[cells[s], i]
-                if value[p] > M[p]:
-                    M[p] = value[p]
-    live = np.flatnonzero(alive[:n_cells])
-    S_out = np.empty((live.size, k1), dtype=np.int64)
-    regions = np.empty(live.size, dtype=np.int64)
-    for j in range(live.size):
-        S_out[j] = S[live[j]]
-        regions[j] = region[live[j]]
-    return X[:n_pts].copy(), S_out, regions, parents[:n_pts].copy()
-
-
-def sweep_sparse_compiled(points, simplices, values):
-    """:func:`ndboundary.partition_clip.sweep_sparse`, compiled: points, simplices,
-    regions and parents, from the CSR ``values`` (points x regions, every value at least 1).
-    """
-    columns = values.tocsc()
-    columns.sort_indices()
-    k1 = simplices.shape[1]
-    ptr, slots, side = template_tables(k1)
-    return _sweep(
-        np.ascontiguousarray(points, dtype=np.float64),
-        np.ascontiguousarray(simplices, dtype=np.int64),
-        columns.indptr.astype(np.int64),
-        columns.indices.astype(np.int64),
-        np.ascontiguousarray(columns.data, dtype=np.float64),
-        ptr,
-        slots,
-        side,
-    )
+            p = col_idx[q]
+            value[p] = col_val[q]
+            stamp[p] = r
+            d[p] = value[p] - M[p]
+        cells, n_sel = _region_cells(r, stored, inc_ptr, inc, visited, head, chain, cells)
+        stack = _evaluate(r, cells, n_sel, S, V, parents, t, value, M, stamp, d, stack)
+        cut, n_cut = _classify(r, cells, n_sel, S, d, value, M, region, cut)
+        if n_cut == 0:
+            continue
+        need = n_pts + n_cut * max_edges
+        if need > X.shape[0]:
+            X, M, value, d = _grown(X, need), _grown(M, need), _grown(value, need), _grown(d, need)
+            stamp, parents, t = _grown(stamp, need), _grown(parents, need), _grown(t, need)
+        need = n_cells + n_cut * (max_pieces - 1)
+        if need > S.shape[0]:
+            S, region, origin, chain = _grown(S, need), _grown(region, need), _grown(origin, need), _grown(chain, need)
+        n_pts0, n_cells0 = n_pts, n_cells
+        n_pts, n_cells = _cut(
+            r, cut, n_cut, tpl_ptr, tpl_slots, tpl_side,
+            (X, M, value, stamp, d, parents, t), (S, region, origin, chain, head), n_pts, n_cells,
+        )  # fmt: skip
+        _renumber(X, M, value, parents, t, S, n_pts0, n_pts, n_cells0, n_cells, cut, n_cut)
+    regions = region[:n_cells].astype(np.int64)
+    return X[:n_pts].copy(), S[:n_cells].astype(np.int64), regions, parents[:n_pts].astype(np.int64)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -562,3 +541,27 @@ def oriented_region_facets(points, simplices, regions):
     regions = np.ascontiguousarray(regions, dtype=np.int64)
     rows = _region_facets(simplices, regions, points.shape[0])
     return _oriented_facets(points, simplices, regions, rows)
+
+
+def sweep_sparse_compiled(points, simplices, values):
+    """:func:`ndboundary.partition_clip.sweep_sparse`, compiled: points, simplices,
+    regions and parents, from the CSR ``values`` (points x regions, every value at least 1).
+    """
+    if max(points.shape[0], simplices.shape[0]) >= 1 << 29:
+        raise ValueError(
+            f"a partition of {simplices.shape[0]} simplices on {points.shape[0]} points is too large to cut "
+            f"(at most {(1 << 29) - 1} of each)"
+        )
+    columns = values.tocsc()
+    columns.sort_indices()
+    ptr, slots, side = template_tables(simplices.shape[1])
+    return _sweep(
+        np.ascontiguousarray(points, dtype=np.float64),
+        np.ascontiguousarray(simplices, dtype=np.int64),
+        columns.indptr.astype(np.int64),
+        columns.indices.astype(np.int64),
+        np.ascontiguousarray(columns.data, dtype=np.float64),
+        ptr,
+        slots,
+        side,
+    )
