@@ -13,7 +13,13 @@ import numpy as np
 
 from ._kernels import kernel
 
-__all__ = ["longest_edges", "small_simplex_geometry_compiled", "small_simplex_volumes", "stiffness_terms_compiled"]
+__all__ = [
+    "full_simplex_volumes",
+    "longest_edges",
+    "small_simplex_geometry_compiled",
+    "small_simplex_volumes",
+    "stiffness_terms_compiled",
+]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -184,6 +190,49 @@ def small_simplex_geometry_compiled(points, simplices, rtol):
     grads = np.empty((E, points.shape[1], k1))
     _geometry_pass(k1, points.shape[1])(points, simplices, float(rtol), grads, vol, True)
     return grads, vol
+
+
+@kernel("void(f8[:, ::1], i8[:, ::1], f8[::1])")
+@numba.njit(cache=True, nogil=True)
+def _full_volumes(points, simplices, out):  # pragma: no cover - compiled
+    k = simplices.shape[1] - 1
+    for s in range(simplices.shape[0]):
+        x0 = simplices[s, 0]
+        if k == 1:
+            out[s] = abs(points[simplices[s, 1], 0] - points[x0, 0])
+        elif k == 2:
+            a0, a1 = points[simplices[s, 1], 0] - points[x0, 0], points[simplices[s, 1], 1] - points[x0, 1]
+            b0, b1 = points[simplices[s, 2], 0] - points[x0, 0], points[simplices[s, 2], 1] - points[x0, 1]
+            out[s] = abs(a0 * b1 - a1 * b0) / 2.0
+        else:
+            p0, p1, p2 = points[x0, 0], points[x0, 1], points[x0, 2]
+            x1, x2, x3 = simplices[s, 1], simplices[s, 2], simplices[s, 3]
+            a0, a1, a2 = points[x1, 0] - p0, points[x1, 1] - p1, points[x1, 2] - p2
+            b0, b1, b2 = points[x2, 0] - p0, points[x2, 1] - p1, points[x2, 2] - p2
+            c0, c1, c2 = points[x3, 0] - p0, points[x3, 1] - p1, points[x3, 2] - p2
+            out[s] = abs(a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)) / 6.0
+
+
+def full_simplex_volumes(points, simplices):
+    """Unsigned volumes ``|det E| / k!`` of full-dimensional simplices (``k == dim <= 3``)
+    in one pass, where the vectorised version gathers every simplex's edge matrix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_geometry import full_simplex_volumes
+    >>> tet = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 3]])
+    >>> full_simplex_volumes(tet, np.array([[0, 1, 2, 3], [1, 0, 2, 3]])).tolist()
+    [0.5, 0.5]
+    """
+    simplices = np.ascontiguousarray(simplices, dtype=np.int64)
+    if not simplices.shape[1] - 1 == points.shape[1] <= 3:
+        raise ValueError(
+            f"full_simplex_volumes takes k == dim <= 3, got {simplices.shape[1]} vertices in {points.shape[1]}-D"
+        )
+    out = np.empty(simplices.shape[0])
+    _full_volumes(np.ascontiguousarray(points, dtype=np.float64), simplices, out)
+    return out
 
 
 @kernel("void(f8[:, ::1], i8[:, ::1], f8[::1])")

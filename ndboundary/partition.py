@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ._arrays import used_vertices
 from .levelset import LevelSet
 from .partition_clip import interface_facets, simplex_measures, sweep, sweep_sparse
 
@@ -235,7 +236,8 @@ class Partition:
         if self._interfaces is None:
             c = self.cells
             facets, pairs, cells = interface_facets(c.points, c.simplices, c.regions)
-            used, simp = _compact(facets, c.points.shape[0])
+            used, remap = used_vertices(facets, c.points.shape[0])
+            simp = remap[facets]
             self._interfaces = Interfaces(c.points[used], simp, pairs, cells, used)
         return self._interfaces
 
@@ -258,25 +260,13 @@ class Partition:
         flip = f.pairs[mine, 1] == r
         if T.shape[1] >= 2:
             T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
-        used, simp = _compact(T, f.points.shape[0])
+        used, remap = used_vertices(T, f.points.shape[0])
+        simp = remap[T]
         ids = f.point_ids[used]
         return LevelSet(f.points[used], simp, self.cells.parents[ids], 0.0)
 
     def __repr__(self):
         return f"Partition(n_regions={self.n_regions}, n_cells={len(self.cells)})"
-
-
-def _compact(simplices, n_points):
-    """``np.unique(simplices, return_inverse=True)`` (the points used, increasing, and the
-    simplices renumbered on them) for point ids below ``n_points``, by a table of the
-    points instead of a sort of the simplices.
-    """
-    used = np.zeros(n_points, dtype=bool)
-    used[simplices.ravel()] = True
-    used = np.flatnonzero(used)
-    local = np.empty(n_points, dtype=np.int64)
-    local[used] = np.arange(used.size)
-    return used, local[simplices]
 
 
 def partition(points, simplices, values) -> Partition:

@@ -22,6 +22,7 @@ from math import factorial
 
 import numpy as np
 
+from ._compiled_geometry import full_simplex_volumes
 from ._compiled_partition import oriented_region_facets, sweep_sparse_compiled
 from .levelset import staircase_paths, sorting_parity
 
@@ -162,6 +163,8 @@ def simplex_measures(points, simplices):
     [1.0, 1.0]
     """
     k = simplices.shape[1] - 1
+    if k == points.shape[1] <= 3:
+        return full_simplex_volumes(points, simplices)
     out = np.empty(simplices.shape[0])
     for lo in range(0, simplices.shape[0], 1 << 18):
         X = points[simplices[lo : lo + (1 << 18)]]

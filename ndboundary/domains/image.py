@@ -428,6 +428,16 @@ class _Voxels(PolyhedralMesh):
             out |= vertices[corners[:, c]]
         return out
 
+    def element_centroids(self):
+        """Vertex means of the voxels, shape (n_elements, 3): their corners summed in
+        order, as the general mean sums them, without the (voxel, corner) table.
+        """
+        corners, points = _corners_of(self), self.points
+        out = points[corners[:, 0]]
+        for c in range(1, 8):
+            out += points[corners[:, c]]
+        return out / 8.0
+
     def element_max(self, f):
         """Per voxel, the largest value of the vertex function ``f`` at its corners."""
         f, corners = np.asarray(f), _corners_of(self)

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from .._arrays import unique_values
 from ..domains.image import GridBand
 from ..levelset import LevelSet, marching_simplices
 from ..partition import Cells, Partition, partition
@@ -244,6 +245,7 @@ class _RegionCuts:
             (np.ones(n * k1, dtype=np.int8), (simplices.ravel(), np.repeat(np.arange(n), k1))),
             shape=(points.shape[0], n),
         )
+        self._slot = np.empty(points.shape[0], dtype=np.int64)
         self._measures = {}
 
     def _partition(self, r):
@@ -257,14 +259,15 @@ class _RegionCuts:
         if stored.size == 0:  # the region wins in none of these simplices
             self._measures[r] = 0.0
             return partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2))), 0
-        simplices = self.simplices[np.unique(self.incidence[stored].indices)]
-        used, local = np.unique(simplices, return_inverse=True)
+        simplices = self.simplices[unique_values(self.incidence[stored].indices)]
+        used = unique_values(simplices)
+        self._slot[used] = np.arange(used.size)  # a scratch table of the points, read at these only
         values = self.values[used]
-        present = np.unique(values.indices)
+        present = unique_values(values.indices)
         values = sp.csr_matrix(
             (values.data, np.searchsorted(present, values.indices), values.indptr), shape=(used.size, present.size)
         )
-        points, simplices = self.points[used], local.reshape(simplices.shape)
+        points, simplices = self.points[used], self._slot[simplices]
         X, S, regions, parents = sweep_sparse(points, simplices, values)
         j = int(np.searchsorted(present, r))
         mine = regions == j

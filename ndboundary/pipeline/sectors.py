@@ -73,7 +73,9 @@ def region_sectors(domain, codes, region):
     cols = A.indices
     keep = inside[rows] & (rows != cols)
     rows, cols = rows[keep], cols[keep]
-    nodes = np.union1d(np.flatnonzero(inside), cols)
+    nodes = inside.copy()
+    nodes[cols] = True
+    nodes = np.flatnonzero(nodes)
     local = np.full(codes.shape, -1, dtype=np.int64)
     local[nodes] = np.arange(nodes.size)
     c = domain.element_centroids()[nodes]
