@@ -297,7 +297,8 @@ def partition(points, simplices, values) -> Partition:
     pair crosses, and only those are split, into the two pieces of the hyperplane cut,
     each triangulated by the staircase rule in the global vertex order (so it agrees on
     shared faces). A cut point is keyed by its edge's two (global) point ids. The work
-    follows the interfaces of the partial partitions, vectorised per sign pattern.
+    follows the interfaces of the partial partitions: vectorised per sign pattern for
+    dense values, one compiled pass per region for sparse ones.
 
     Examples
     --------

@@ -310,6 +310,28 @@ def test_sparse_values_store_only_the_regions_that_can_win(case):
         assert all(part.region_boundary(r).is_closed() for r in range(L) if part.region_measures()[r] > 0)
 
 
+@pytest.mark.parametrize("dim, n, L", [(2, 20, 7), (3, 6, 6), (4, 3, 5)])
+def test_sparse_sweep_cuts_as_the_dense_one(dim, n, L):
+    """Every region stored at every vertex, the sparse sweep (compiled, region by region
+    on the cells it is stored at) makes the points of the dense one, from the same edges
+    in the same order (to rounding: the sparse values are shifted), and the same cells
+    with the same regions and orientations."""
+    rng = np.random.default_rng(dim)
+    mesh = kuhn_grid(n, dim, jitter=0.2, random_state=dim)
+    P, S = mesh.points, mesh.simplices
+    values = voronoi_values(P, rng.uniform(-1, 1, (L, dim))) + 0.02 * rng.normal(size=(len(P), L))
+    dense, sparse = partition(P, S, values), partition(P, S, sp.csr_matrix(values))
+    assert len(dense.cells) > 1.5 * len(S)  # many cuts
+    np.testing.assert_array_equal(sparse.cells.parents, dense.cells.parents)
+    np.testing.assert_allclose(sparse.cells.points, dense.cells.points, rtol=0, atol=1e-12)
+
+    def rows(c):  # cells with their region, as a sorted table (their order may differ)
+        table = np.column_stack([c.simplices, c.regions])
+        return table[np.lexsort(table.T[::-1])]
+
+    np.testing.assert_array_equal(rows(sparse.cells), rows(dense.cells))
+
+
 def test_sparse_values_need_a_region_at_every_vertex():
     points, simplices = [[0, 0], [1, 0], [0, 1]], [[0, 1, 2]]
     values = sp.csr_matrix(([0.0, 1.0, 2.0], ([0, 1, 1], [0, 0, 1])), shape=(3, 2))
