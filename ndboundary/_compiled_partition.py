@@ -466,7 +466,7 @@ def _region_facets(simplices, regions, n_points):  # pragma: no cover - compiled
 @numba.njit(cache=True, nogil=True)
 def _orientation(points, simplices, c, E):  # pragma: no cover - compiled
     """The sign of the determinant of cell ``c``'s edge vectors (a full-dimensional
-    simplex), by elimination with partial pivoting, as LAPACK's LU computes it.
+    simplex), by elimination with partial pivoting; 0 for a singular one.
     """
     k = E.shape[0]
     for i in range(k):
