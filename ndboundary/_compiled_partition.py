@@ -443,11 +443,11 @@ def _region_facets(simplices, regions, n_points):  # pragma: no cover - compiled
     out = np.empty((16, 4), dtype=np.int64)
     n = 0
     for p in range(n_points):
+        # each facet is paired with the next cell that holds it (a facet of three cells or
+        # more, in a complex that is not a manifold, pairs them in turn)
         for i in range(start[p], start[p + 1]):
-            if rows[i, 0] < 0:  # matched already
-                continue
             for j in range(i + 1, start[p + 1]):
-                same = rows[j, 0] >= 0
+                same = True
                 for q in range(3, k1 + 1):
                     same = same and rows[i, q] == rows[j, q]
                 if not same:
@@ -458,7 +458,6 @@ def _region_facets(simplices, regions, n_points):  # pragma: no cover - compiled
                     out[n, 0], out[n, 1] = rows[i, 0], rows[i, 1]
                     out[n, 2], out[n, 3] = rows[j, 0], rows[j, 1]
                     n += 1
-                rows[j, 0] = -1
                 break
     return out[:n].copy()
 
