@@ -2,15 +2,15 @@
 :func:`ndboundary.partition_clip.sweep_sparse`, and the facets between its regions.
 
 The sweep resolves the regions one at a time against the envelope of those before them,
-on the cells that descend from the input simplices where each region is stored. The
-vectorised sweep sorted and concatenated tables of every cell a region touched, several
-times per region, and copied the growing complex at every step; here each region is one
+on the cells that descend from the input simplices where each region is stored. A
+vectorised sweep sorts and concatenates tables of every cell a region touches, several
+times per region, and copies the growing complex at every step; here each region is one
 pass over its cells with a few scalars of state per cell: the cells of an input simplex
 are a chain, a cut cell's first piece takes its slot, crossings are found again through a
 table keyed by their edge, and the arrays grow by doubling.
 
 The facets between regions are matched within groups by their lowest vertex, where a sort
-of every facet's vertices read the cells many times.
+of every facet's vertices would read the cells many times.
 """
 
 from __future__ import annotations
