@@ -151,7 +151,8 @@ class Interfaces:
         if self._by_region is None:
             flat = self.pairs.ravel()
             n = int(flat.max()) + 1 if flat.size else 0
-            self._by_region = (np.argsort(flat, kind="stable") // 2, np.searchsorted(np.sort(flat), np.arange(n + 1)))
+            start = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=n))])
+            self._by_region = (np.argsort(flat, kind="stable") // 2, start)
         order, start = self._by_region
         if not 0 <= r < start.size - 1:
             return order[:0]

@@ -332,6 +332,18 @@ def test_sparse_sweep_cuts_as_the_dense_one(dim, n, L):
     np.testing.assert_array_equal(rows(sparse.cells), rows(dense.cells))
 
 
+def test_interfaces_of_a_region():
+    """``of_region(r)`` lists, increasing, the interface simplices with ``r`` on a side,
+    and none for a region with no interface or out of range."""
+    mesh = kuhn_grid(16, 2, jitter=0.2, random_state=1)
+    values = voronoi_values(mesh.points, np.random.default_rng(3).uniform(-1, 1, (6, 2)))
+    values = np.column_stack([values, np.full(len(mesh.points), -100.0)])  # a region that never wins
+    faces = partition(mesh.points, mesh.simplices, values).interfaces()
+    for r in range(8):
+        np.testing.assert_array_equal(faces.of_region(r), np.flatnonzero((faces.pairs == r).any(axis=1)))
+    assert faces.of_region(6).size == 0 and faces.of_region(7).size == 0 and faces.of_region(0).size > 0
+
+
 def test_sparse_values_need_a_region_at_every_vertex():
     points, simplices = [[0, 0], [1, 0], [0, 1]], [[0, 1, 2]]
     values = sp.csr_matrix(([0.0, 1.0, 2.0], ([0, 1, 1], [0, 0, 1])), shape=(3, 2))
