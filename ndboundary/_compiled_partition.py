@@ -22,7 +22,7 @@ import numpy as np
 
 from ._kernels import kernel
 
-__all__ = ["oriented_region_facets", "sweep_sparse_compiled", "template_tables"]
+__all__ = ["oriented_region_facets", "point_simplices", "sweep_sparse_compiled", "template_tables"]
 
 
 @cache
@@ -124,6 +124,30 @@ def _incidence(simplices, V):  # pragma: no cover - compiled
             ids[fill[p]] = f
             fill[p] += 1
     return indptr, ids
+
+
+@kernel("Tuple((i8[::1], i4[::1]))(i8[:, ::1], i8)")
+@numba.njit(cache=True, nogil=True)
+def _point_simplices(simplices, V):  # pragma: no cover - compiled
+    return _incidence(simplices, V)
+
+
+def point_simplices(simplices, n_points):
+    """The simplices at every point, as CSR ``(indptr, simplex ids)`` (int64, int32), built
+    by counting, without the tables of every (point, simplex) pair a sparse matrix's
+    construction sorts.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_partition import point_simplices
+    >>> indptr, ids = point_simplices(np.array([[0, 1, 2], [1, 3, 2]]), 4)
+    >>> indptr.tolist(), ids.tolist()
+    ([0, 1, 3, 5, 6], [0, 0, 1, 0, 1, 1])
+    """
+    if simplices.shape[0] >= 1 << 31:
+        raise ValueError(f"{simplices.shape[0]} simplices are too many to index with 32-bit ids")
+    return _point_simplices(np.ascontiguousarray(simplices, dtype=np.int64), int(n_points))
 
 
 @numba.njit(cache=True, nogil=True)

@@ -7,7 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from .._arrays import unique_values
+from .._arrays import expand_ranges, unique_values
+from .._compiled_partition import point_simplices
 from ..domains.image import GridBand
 from ..levelset import LevelSet, marching_simplices
 from ..partition import Cells, Partition, partition
@@ -240,11 +241,7 @@ class _RegionCuts:
         self.values.sum_duplicates()
         self.values.data = self.values.data - self.values.data.min() + 1.0
         self.columns = self.values.tocsc()
-        n, k1 = simplices.shape
-        self.incidence = sp.csr_matrix(
-            (np.ones(n * k1, dtype=np.int8), (simplices.ravel(), np.repeat(np.arange(n), k1))),
-            shape=(points.shape[0], n),
-        )
+        self._at_point = point_simplices(simplices, points.shape[0])
         self._slot = np.empty(points.shape[0], dtype=np.int64)
         self._measures = {}
 
@@ -259,7 +256,10 @@ class _RegionCuts:
         if stored.size == 0:  # the region wins in none of these simplices
             self._measures[r] = 0.0
             return partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2))), 0
-        simplices = self.simplices[unique_values(self.incidence[stored].indices)]
+        indptr, ids = self._at_point
+        simplices = self.simplices[
+            unique_values(ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])])
+        ]
         used = unique_values(simplices)
         self._slot[used] = np.arange(used.size)  # a scratch table of the points, read at these only
         values = self.values[used]
