@@ -466,23 +466,29 @@ def _region_facets(simplices, regions, n_points):  # pragma: no cover - compiled
                 rows[q, 2:] = facet
     out = np.empty((16, 4), dtype=np.int64)
     n = 0
+    done = np.zeros(rows.shape[0], dtype=np.bool_)  # paired with the cell before it already
     for p in range(n_points):
-        # each facet is paired with the next cell that holds it (a facet of three cells or
-        # more, in a complex that is not a manifold, pairs them in turn)
+        # each facet is paired with the next cell that holds it, that one with the next (a
+        # facet of three cells or more, in a complex that is not a manifold, pairs them in
+        # turn); a cell paired already starts no search of its own
         for i in range(start[p], start[p + 1]):
+            if done[i]:
+                continue
+            current = i
             for j in range(i + 1, start[p + 1]):
-                same = True
+                same = not done[j]
                 for q in range(3, k1 + 1):
-                    same = same and rows[i, q] == rows[j, q]
+                    same = same and rows[current, q] == rows[j, q]
                 if not same:
                     continue
-                if regions[rows[i, 0]] != regions[rows[j, 0]]:
+                if regions[rows[current, 0]] != regions[rows[j, 0]]:
                     if n == out.shape[0]:
                         out = _grown(out, n + 1)
-                    out[n, 0], out[n, 1] = rows[i, 0], rows[i, 1]
+                    out[n, 0], out[n, 1] = rows[current, 0], rows[current, 1]
                     out[n, 2], out[n, 3] = rows[j, 0], rows[j, 1]
                     n += 1
-                break
+                done[j] = True
+                current = j
     return out[:n].copy()
 
 

@@ -332,6 +332,20 @@ def test_sparse_sweep_cuts_as_the_dense_one(dim, n, L):
     np.testing.assert_array_equal(rows(sparse.cells), rows(dense.cells))
 
 
+def test_a_facet_of_three_cells_pairs_them_in_turn():
+    """Three triangles on one edge (not a manifold): the edge lies between the first and
+    the second cell and between the second and the third, where their regions differ."""
+    from ndboundary.partition_clip import interface_facets
+
+    points = np.array([[0.0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]])
+    book = np.array([[0, 1, 2], [0, 1, 3], [0, 1, 4]])
+    facets, pairs, cells = interface_facets(points, book, np.array([0, 1, 2]))
+    assert sorted(map(tuple, np.sort(facets, axis=1))) == [(0, 1), (0, 1)]
+    assert pairs.tolist() == [[0, 1], [1, 2]] and cells.tolist() == [[0, 1], [1, 2]]
+    facets, pairs, cells = interface_facets(points, book, np.array([0, 0, 1]))
+    assert pairs.tolist() == [[0, 1]] and cells.tolist() == [[1, 2]]
+
+
 def test_interfaces_of_a_region():
     """``of_region(r)`` lists, increasing, the interface simplices with ``r`` on a side,
     and none for a region with no interface or out of range."""
