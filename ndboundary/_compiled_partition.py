@@ -15,40 +15,12 @@ of every facet's vertices would read the cells many times.
 
 from __future__ import annotations
 
-from functools import cache
-
 import numba
 import numpy as np
 
 from ._kernels import kernel
 
-__all__ = ["oriented_region_facets", "point_simplices", "sweep_sparse_compiled", "template_tables"]
-
-
-@cache
-def template_tables(k1):
-    """The pieces of every sign pattern of a cut ``(k1 - 1)``-simplex, as flat tables.
-
-    Returns ``(ptr, slots, side)``: the pieces of pattern ``code`` (base 3 over the sorted
-    vertices: 0 negative, 1 zero, 2 positive; see
-    :func:`ndboundary.partition_clip._templates`) are rows ``ptr[code]:ptr[code + 1]`` of
-    ``slots`` (n, k1, 2) and ``side`` (n,): 0 on the negative side, 1 on the positive one.
-    """
-    from .partition_clip import _templates
-
-    ptr, slots, side = [0], [], []
-    for code in range(3**k1):
-        digits = [(code // 3**i) % 3 for i in range(k1)]
-        pieces = _templates(code, k1) if 0 in digits and 2 in digits else ()
-        for s, T in enumerate(pieces):
-            slots.append(T)
-            side.append(np.full(T.shape[0], s, dtype=np.int64))
-        ptr.append(ptr[-1] + sum(T.shape[0] for T in pieces))
-    return (
-        np.array(ptr, dtype=np.int64),
-        np.ascontiguousarray(np.concatenate(slots), dtype=np.int64),
-        np.concatenate(side),
-    )
+__all__ = ["oriented_region_facets", "point_simplices", "sweep_sparse_compiled"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -576,9 +548,10 @@ def oriented_region_facets(points, simplices, regions):
     return _oriented_facets(points, simplices, regions, rows)
 
 
-def sweep_sparse_compiled(points, simplices, values):
+def sweep_sparse_compiled(points, simplices, values, tables):
     """:func:`ndboundary.partition_clip.sweep_sparse`, compiled: points, simplices,
-    regions and parents, from the CSR ``values`` (points x regions, every value at least 1).
+    regions and parents, from the CSR ``values`` (points x regions, every value at least 1)
+    and the cut templates ``tables`` (:func:`ndboundary.partition_clip.template_tables`).
     """
     if max(points.shape[0], simplices.shape[0]) >= 1 << 29:
         raise ValueError(
@@ -587,7 +560,7 @@ def sweep_sparse_compiled(points, simplices, values):
         )
     columns = values.tocsc()
     columns.sort_indices()
-    ptr, slots, side = template_tables(simplices.shape[1])
+    ptr, slots, side = tables
     return _sweep(
         np.ascontiguousarray(points, dtype=np.float64),
         np.ascontiguousarray(simplices, dtype=np.int64),

@@ -65,6 +65,30 @@ def _templates(code, k1):
     return tuple(out)
 
 
+@cache
+def template_tables(k1):
+    """The pieces of every sign pattern of a cut ``(k1 - 1)``-simplex, as flat tables.
+
+    Returns ``(ptr, slots, side)``: the pieces of pattern ``code`` (base 3 over the sorted
+    vertices: 0 negative, 1 zero, 2 positive; see
+    :func:`_templates`) are rows ``ptr[code]:ptr[code + 1]`` of
+    ``slots`` (n, k1, 2) and ``side`` (n,): 0 on the negative side, 1 on the positive one.
+    """
+    ptr, slots, side = [0], [], []
+    for code in range(3**k1):
+        digits = [(code // 3**i) % 3 for i in range(k1)]
+        pieces = _templates(code, k1) if 0 in digits and 2 in digits else ()
+        for s, T in enumerate(pieces):
+            slots.append(T)
+            side.append(np.full(T.shape[0], s, dtype=np.int64))
+        ptr.append(ptr[-1] + sum(T.shape[0] for T in pieces))
+    return (
+        np.array(ptr, dtype=np.int64),
+        np.ascontiguousarray(np.concatenate(slots), dtype=np.int64),
+        np.concatenate(side),
+    )
+
+
 class _Complex:
     """Mutable state of the sweep: points, their values, the envelope, cells and regions."""
 
@@ -222,7 +246,7 @@ def sweep_sparse(points, simplices, values):
     >>> X.tolist(), S.tolist(), regions.tolist()
     ([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]], [[0, 2], [2, 1]], [0, 1])
     """
-    X, S, regions, parents = sweep_sparse_compiled(points, simplices, values)
+    X, S, regions, parents = sweep_sparse_compiled(points, simplices, values, template_tables(simplices.shape[1]))
     if (regions < 0).any():  # pragma: no cover - every input simplex stores a region at a point
         raise AssertionError("a cell was left without a region")
     return X, S, regions, parents

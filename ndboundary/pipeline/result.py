@@ -256,10 +256,9 @@ class _RegionCuts:
         if stored.size == 0:  # the region wins in none of these simplices
             self._measures[r] = 0.0
             return partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2))), 0
-        indptr, ids = self._at_point
-        simplices = self.simplices[
-            unique_values(ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])])
-        ]
+        indptr, ids = self._at_point  # the simplices at the points storing r
+        at = ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])]
+        simplices = self.simplices[unique_values(at)]
         used = unique_values(simplices)
         self._slot[used] = np.arange(used.size)  # a scratch table of the points, read at these only
         values = self.values[used]
@@ -271,9 +270,7 @@ class _RegionCuts:
         X, S, regions, parents = sweep_sparse(points, simplices, values)
         j = int(np.searchsorted(present, r))
         mine = regions == j
-        # the measure of region j's cells alone, summed in the order the whole bincount sums them
-        self._measures[r] = float(np.bincount(np.zeros(int(mine.sum()), dtype=np.intp),
-                                              weights=simplex_measures(X, S[mine]), minlength=1)[0])  # fmt: skip
+        self._measures[r] = float(simplex_measures(X, S[mine]).sum())
         # region j's boundary lies between its cells and cells with a point in common: only
         # those are kept, so that the interfaces of the other regions are not sought
         touched = np.zeros(X.shape[0], dtype=bool)
