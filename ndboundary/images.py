@@ -104,7 +104,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     >>> result = relax_image(disc, spacing=0.5)
     >>> curve = result.level_set()
     >>> curve.n_components(), round(curve.measure() / (2 * np.pi * 3.0), 2)
-    (1, 1.0)
+    (1, 0.99)
     """
     labels = np.asarray(labels)
     if labels.ndim not in (2, 3):
@@ -226,6 +226,7 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         relaxer = Relaxer(band, _keep=False, _h=h, _private=True)
         relaxer._shared = shared
         relaxer._band_of_width(domain, width, dist)
+        relaxer._vertex_pins = True
         if sectors.SECTOR_SMOOTHING:
             relaxer._sectors = (band_codes, r)
         res = relaxer.relax(labels, on="elements", pad=pad, verbose=verbose, band=None, **solve)

@@ -6,6 +6,7 @@ from _checks import assert_stiffness_kernel_is_constants
 
 from ndboundary import ImageGrid, relax_image
 from ndboundary.domains import PixelGrid, VoxelGrid
+from ndboundary.metrics import level_set_distance
 
 
 @pytest.mark.parametrize(
@@ -313,10 +314,66 @@ def test_grid_usual_degree_is_the_adjacencys():
         assert grid_usual_degree(shape) == np.percentile(degrees, 90)
 
 
+@pytest.mark.parametrize("band", [False, True], ids=["grid", "band"])
+@pytest.mark.parametrize("shape", [(9, 11), (7, 8, 9)], ids=["2d", "3d"])
+def test_grid_facets_are_the_interface_facets_oriented_out_of_region_1(shape, band):
+    """The facets found from the pixels' indices are the mesh's own between the labels,
+    their normals point out of region 1, and their opposite corners are those of the two
+    pixels they part."""
+    from scipy.spatial import cKDTree
+
+    from ndboundary.domains.image import grid_facets
+    from ndboundary.metrics import as_complex
+
+    grid = ImageGrid(shape, spacing=(0.5, 1.0, 2.0)[: len(shape)])
+    x = grid.element_centroids()
+    region1 = np.linalg.norm(x - x.mean(axis=0), axis=1) < 2.5
+    if band:
+        keep = np.random.default_rng(0).random(grid.n_elements) < 0.8
+        grid, region1 = grid.subdomain(keep)[0], region1[keep]
+    facets, normals, areas, inner, outer = grid_facets(grid, region1)
+    mesh = grid.interface_facets(region1)
+    assert np.array_equal(np.unique(facets), np.unique(mesh))
+    assert areas.sum() == pytest.approx(as_complex(grid.points, mesh).measure())
+    centres = cKDTree(grid.element_centroids())
+    middle = grid.points[facets].mean(axis=1)
+    step = 0.1 * min(grid.spacing)
+    assert (~region1[centres.query(middle + step * normals)[1]]).all() and region1[centres.query(middle - step * normals)[1]].all()
+    for corners, side in ((inner, True), (outer, False)):
+        centre = grid.points[np.hstack([facets, corners])].mean(axis=1)
+        dist, pixel = centres.query(centre)
+        assert np.allclose(dist, 0.0) and (region1[pixel] == side).all()
+
+
+def test_a_shallow_staircase_is_straightened_between_its_risers():
+    """A line of slope 0.13 across the pixels: its treads lie up to half a pixel off it,
+    the centres of its risers within 0.07. Pinned at the facets by how much they turn from
+    the staircase around them, the relaxed line keeps within 0.06 pixel of the true one on
+    average (0.084 with every vertex of the staircase pinned alike)."""
+    n, normal, c = 128, np.array([-0.13, 1.0]) / np.hypot(0.13, 1.0), np.array([0.37, 0.21])
+    centres = np.stack(np.indices((n, n)), axis=-1).reshape(-1, 2) - (n - 1) / 2
+    result = relax_image(((centres - c) @ normal < 0).reshape(n, n))
+    x = result.level_set().points - (n - 1) / 2
+    d = np.abs((x[np.all(np.abs(x) < n / 2 - 16, axis=1)] - c) @ normal)
+    assert d.mean() < 0.06 and d.max() < 0.16
+
+
+def test_a_face_of_treads_keeps_between_its_pixel_centres():
+    """A rectangle's sides run along the pixels: no riser holds them, and the level set
+    keeps within a fifth of a pixel of them, between the centres of the pixels they part
+    (the integration lifts the pins of a facet whose pixels' centres it crossed)."""
+    image = np.zeros((60, 50), dtype=bool)
+    image[15:45, 15:35] = True
+    x = relax_image(image).level_set().points
+    top = (np.abs(x[:, 1] - 24.5) < 5) & (x[:, 0] < 30)
+    side = (np.abs(x[:, 0] - 29.5) < 8) & (x[:, 1] > 25)
+    assert np.abs(x[top, 0] - 14.5).max() < 0.2 and np.abs(x[side, 1] - 34.5).max() < 0.2
+
+
 def test_a_large_image_with_a_small_boundary_is_relaxed_on_its_band_by_default():
     """band="auto": the band of the pixels' reach, cut when it holds under 70 % of the
-    pixels; the relaxed disc is as faithful as on the whole grid, and its measures count
-    the pixels outside the band."""
+    pixels; the relaxed disc is the whole grid's within the band's targets (mean 0.01 h,
+    max 0.05 h), and its measures count the pixels outside the band."""
     from ndboundary.domains.image import GridBand
 
     i, j = np.indices((300, 300))
@@ -328,7 +385,9 @@ def test_a_large_image_with_a_small_boundary_is_relaxed_on_its_band_by_default()
     assert curve.is_closed() and curve.n_components() == 1 and d.mean() < 0.1
     np.testing.assert_allclose(result.region_measures(), [disc.size - np.pi * 400, np.pi * 400], rtol=0.01)
     whole = relax_image(disc, band=None)
-    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-4)
+    gaps = [level_set_distance(a, b) for a, b in ((curve, whole.level_set()), (whole.level_set(), curve))]
+    assert max(g.mean() for g in gaps) < 0.01 and max(g.max() for g in gaps) < 0.05
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-3)
 
 
 @pytest.mark.parametrize(

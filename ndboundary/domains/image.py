@@ -39,7 +39,7 @@ from .voxels import (
     voxel_stiffness,
 )
 
-__all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid"]
+__all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "VoxelGrid", "grid_facets"]
 
 
 def grid_geometry(shape, spacing, origin):
@@ -593,6 +593,86 @@ def _grid_subdomain(mesh, mask):
     band.usual_degree = mesh.usual_degree
     corners = getattr(mesh, "corners", None)
     return band, (band.corners if corners is None else np.searchsorted(corners, band.corners))
+
+
+def grid_facets(grid, region1, near=None):
+    """The facets between the pixels of ``region1`` and the others, on an image grid or band.
+
+    Parameters
+    ----------
+    grid : ImageGrid or GridBand
+    region1 : ndarray of bool of shape (grid.n_elements,)
+    near : ndarray of bool of shape (grid.n_elements,), optional
+        The pixels to look around (every pixel by default): the facets of the pixels of
+        ``region1`` among them are found. Those that touch the jagged boundary hold every
+        facet, so that the search follows the boundary rather than the grid.
+
+    Returns
+    -------
+    facets : ndarray of int of shape (n_facets, 2 ** (dim - 1))
+        Each facet's corners, as vertices of ``grid``, in cyclic order.
+    normals : ndarray of shape (n_facets, dim)
+        Each facet's unit normal, pointing out of ``region1`` (in world coordinates).
+    areas : ndarray of shape (n_facets,)
+        Each facet's length (2-D) or area (3-D).
+    inner, outer : ndarray of int of shape (n_facets, 2 ** (dim - 1))
+        The corners of the face opposite the facet in the pixel of ``region1`` and in the
+        other pixel: with the facet's, the pixel's corners, whose mean is the value at
+        its centre.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary import ImageGrid
+    >>> from ndboundary.domains.image import grid_facets
+    >>> grid = ImageGrid((3, 4), spacing=(1.0, 0.5))
+    >>> region1 = np.zeros((3, 4), dtype=bool)
+    >>> region1[1, 1:3] = True  # two pixels side by side along the second axis
+    >>> facets, normals, areas, inner, outer = grid_facets(grid, region1.ravel())
+    >>> facets.shape, normals.sum(axis=0).tolist(), float(areas.sum())  # perimeter 2 x (1 + 1)
+    ((6, 2), [0.0, 0.0], 4.0)
+    >>> centres = grid.points[np.hstack([facets, inner])].mean(axis=1)  # the pixels of region 1
+    >>> np.unique(centres, axis=0).tolist()
+    [[1.0, 0.5], [1.0, 1.0]]
+    """
+    shape, dim = grid.shape, len(grid.shape)
+    pixels = getattr(grid, "pixels", None)
+    corners = getattr(grid, "corners", None)
+    mine = np.flatnonzero(region1 if near is None else region1 & near)
+    held = mine if pixels is None else pixels[mine]
+    index = np.unravel_index(held, shape)
+    cshape = tuple(n + 1 for n in shape)
+    pstrides = np.cumprod((1,) + shape[:0:-1])[::-1]
+    cstrides = np.cumprod((1,) + cshape[:0:-1])[::-1]
+    lowest = np.ravel_multi_index(index, cshape)
+    axes = np.eye(dim) if grid.direction is None else grid.direction.T
+    facets, normals, areas, inner_c, outer_c = [], [], [], [], []
+
+    def vertices(c):
+        return c if corners is None else np.searchsorted(corners, c)
+
+    for a in range(dim):
+        # the facet's corners: the pixel's lowest corner (one step along a for the facet
+        # above it), and every combination of one step along the other axes, in turn
+        offsets = np.zeros(1, dtype=np.int64)
+        for b in [b for b in range(dim) if b != a]:
+            offsets = np.concatenate([offsets, offsets[::-1] + cstrides[b]])
+        area = np.prod([grid.spacing[b] for b in range(dim) if b != a])
+        for side in (1, -1):
+            inner = np.flatnonzero(index[a] < shape[a] - 1 if side == 1 else index[a] > 0)
+            other = held[inner] + side * pstrides[a]
+            if pixels is not None:  # the band's element of each neighbour, where the band holds it
+                at = np.minimum(np.searchsorted(pixels, other), pixels.size - 1)
+                kept = pixels[at] == other
+                inner, other = inner[kept], at[kept]
+            inner = inner[~region1[other]]
+            facet = lowest[inner, None] + (cstrides[a] if side == 1 else 0) + offsets[None, :]
+            facets.append(vertices(facet))
+            inner_c.append(vertices(facet - side * cstrides[a]))
+            outer_c.append(vertices(facet + side * cstrides[a]))
+            normals.append(np.broadcast_to(side * axes[a], (inner.size, dim)))
+            areas.append(np.full(inner.size, area))
+    return tuple(np.concatenate(x) for x in (facets, normals, areas, inner_c, outer_c))
 
 
 def _lowest_corners(shape, pixels):

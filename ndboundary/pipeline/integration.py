@@ -47,6 +47,7 @@ __all__ = [
     "integration_terms",
     "prepare",
     "with_rhs",
+    "within_slabs",
 ]
 
 
@@ -207,7 +208,7 @@ def prepare(system, *, solver, cache=None):
     )
 
 
-def integrate(system, *, rtol, solver, cache=None, preconditioner=None):
+def integrate(system, *, rtol, solver, cache=None, preconditioner=None, x0=None):
     """Solve the integration system: ``(phi, SolveInfo)`` on the padded vertices.
 
     Examples
@@ -241,4 +242,34 @@ def integrate(system, *, rtol, solver, cache=None, preconditioner=None):
     return solve_integration(
         system.K, system.mass, system.S, system.lam, system.rhs, mu=system.mu, rtol=rtol, method=solver,
         preconditioner="auto" if preconditioner is None else preconditioner, sweeps=system.sweeps, cache=cache,
+        x0=x0,
     )  # fmt: skip
+
+
+def within_slabs(system, S, targets, slabs, phi, *, rtol, solver, cache=None, preconditioner=None):
+    """``(phi, info, lifted)``: ``phi`` solved again where the level set passed the centre
+    of a pixel next to a facet pin (:func:`~ndboundary.pipeline.boundary.facet_pins`),
+    those pins lifted to an even pin's weight; ``info`` None and ``lifted`` 0 when it
+    kept every such centre on the side its label gives it.
+
+    ``S``, ``targets`` and ``slabs`` are the rows of ``system`` as
+    :class:`~ndboundary.pipeline.padding.Padded` holds them (``slabs`` None: no facet
+    pins). The second solve starts from ``phi``.
+    """
+    if slabs is None or system.form == "gradient":
+        return phi, None, 0
+    inside, outside, lift = slabs
+    root = 2.0 * targets
+    known = (inside.min(axis=1) >= 0) & (outside.min(axis=1) >= 0)
+    lifted = np.zeros(root.size, dtype=bool)
+    lifted[known] = (phi[inside[known]].mean(axis=1) < 0.5) | (phi[outside[known]].mean(axis=1) > 0.5)
+    lifted &= lift > root
+    if not lifted.any():
+        return phi, None, 0
+    scale = np.ones(root.size)
+    scale[lifted] = lift[lifted] / root[lifted]
+    S2 = sp.diags(scale) @ S
+    rhs = system.rhs + system.lam * (S2.T @ (scale * targets) - S.T @ targets)
+    system = dataclasses.replace(system, S=S2.tocsr(), rhs=rhs)
+    phi, info = integrate(system, rtol=rtol, solver=solver, cache=cache, preconditioner=preconditioner, x0=phi)
+    return phi, info, int(lifted.sum())

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .boundary import Boundary, pinned_rows
+from ..domains.image import GridBand, ImageGrid
+from .boundary import Boundary, facet_pins, pinned_rows
 
 __all__ = ["Padded", "pad"]
 
@@ -41,7 +42,13 @@ class Padded:
         The constraint rows of the integration: zeta's points, and one row per vertex of
         a domain component that zeta does not reach.
     targets : ndarray of shape (n_rows,)
-        Their values: 1/2 on zeta, 1/2 -/+ 1 on the components without boundary.
+        Their values: 1/2 on zeta, 1/2 -/+ 1 on the components without boundary (times
+        the rows' weights, on image grids).
+    slabs : tuple of three ndarrays, or None
+        On image grids, what the facet pins' slabs are checked on
+        (:func:`~ndboundary.pipeline.boundary.facet_pins`): each row's two pixels' corners
+        (-1 for rows that are not facets) and the scale its row takes where the level set
+        passes one of their centres.
 
     Examples
     --------
@@ -63,9 +70,10 @@ class Padded:
     flat: np.ndarray
     S: sp.csr_matrix
     targets: np.ndarray
+    slabs: tuple | None = None
 
 
-def pad(domain, region1, boundary: Boundary, on, enabled=True):
+def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=False):
     """Split the elements all of whose vertices receive heat, and carry the labels over.
 
     Parameters
@@ -78,6 +86,13 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
     enabled : bool, default=True
         False leaves the domain as it is: the flat elements take their neighbours' field
         (:attr:`Padded.flat`).
+    vertex_pins : bool, default=False
+        Pin zeta's vertices alike on an image grid too, instead of its facets weighted
+        by how they turn from the boundary (:func:`~ndboundary.pipeline.boundary.facet_pins`).
+        A partition of three regions or more does: its largest function decides between
+        regions, and on a face all of treads, such as a frame one pixel thick, the
+        lighter pins let a neighbour's function overtake the frame's at the image's
+        border (``tests/test_images.py``).
 
     Returns
     -------
@@ -117,6 +132,14 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True):
         elem_region1 = domain.elements_at(region1)[parent]
         straddle = straddle[parent]
         vert_region1 = region1
-    S, targets = pinned_rows(domain, boundary.S, vert_region1)
+    slabs = None
+    if on == "elements" and not vertex_pins and isinstance(domain, (ImageGrid, GridBand)):
+        S, targets, (inside, outside, lift) = facet_pins(domain, region1, boundary.sources)
+        S, targets = pinned_rows(domain, S, vert_region1, targets)
+        more = S.shape[0] - lift.size  # the rows of parts that zeta does not reach
+        slabs = tuple(np.concatenate([a, np.full((more,) + a.shape[1:], -1)]) for a in (inside, outside))
+        slabs += (np.concatenate([lift, np.zeros(more)]),)
+    else:
+        S, targets = pinned_rows(domain, boundary.S, vert_region1)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()
-    return Padded(work, split, parent, elem_region1, straddle, left, S, targets)
+    return Padded(work, split, parent, elem_region1, straddle, left, S, targets, slabs)

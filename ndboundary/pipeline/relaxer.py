@@ -39,7 +39,15 @@ from .boundary import Boundary, element_boundary, vertex_boundary
 from .checks import check_element_shapes
 from .field import initial_field
 from .heat import diffuse
-from .integration import boundary_weight_scale, grid_scale_hint, integrate, integration_terms, prepare, with_rhs
+from .integration import (
+    boundary_weight_scale,
+    grid_scale_hint,
+    integrate,
+    integration_terms,
+    prepare,
+    with_rhs,
+    within_slabs,
+)
 from .padding import pad as pad_domain
 from .params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params, integration_rtol
 from .result import RegionsResult, RelaxResult, keep_band, summed_timings
@@ -118,6 +126,7 @@ class Relaxer:
         self._fill = True  # False: phi outside the band is filled when first read (many regions)
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
         self._sectors = None  # (every element's region, this region): smooth within sectors
+        self._vertex_pins = False  # True: zeta's vertices pinned on image grids too (many regions)
         # on the band of an image grid: (its vertices' graph distance from zeta, inf beyond
         # the band's width, and the integration's reach), both in units of h: the far
         # field's direction (field.initial_field) and the integration's inner band
@@ -202,6 +211,7 @@ class Relaxer:
         work = padded.work
         system, preconditioner, on_band, inner, kept, constraints = terms.result()
         system = with_rhs(system, on_band, Xs if inner is None else Xs[inner], h, constraints)
+        rows = (constraints.S, constraints.targets, constraints.slabs)  # the pins, for within_slabs
         terms = on_band = constraints = None
         if not self._keep:
             # the padded operators are not needed by the solve: free them before it
@@ -214,6 +224,16 @@ class Relaxer:
         phi, int_info = integrate(
             system, rtol=rtol, solver=p["solver"], cache=self._cache, preconditioner=preconditioner
         )
+        phi, again, lifted = within_slabs(
+            system, *rows, phi, rtol=rtol, solver=p["solver"], cache=self._cache, preconditioner=preconditioner
+        )
+        if again is not None:
+            int_info = dataclasses.replace(
+                again,
+                iterations=int_info.iterations + again.iterations,
+                solve_time=int_info.solve_time + again.solve_time,
+            )
+        lam_scale, system, rows = system.lam_scale, None, None
         if inner is not None:
             side = region1 if p["on"] == "vertices" else domain.vertices_of(region1)
             phi = inner_phi(work, phi, kept, self._reach[0], side, self._reach[1])
@@ -227,7 +247,7 @@ class Relaxer:
             print(f"[ndboundary] {'total':<12s} {timings['total']:8.3f} s", file=sys.stderr, flush=True)
         V = domain.n_vertices
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "on")}
-        params.update(lam_scale=system.lam_scale, pad=bool(pad), h=h)
+        params.update(lam_scale=lam_scale, pad=bool(pad), h=h)
         return RelaxResult(
             phi=phi[:V].copy(),
             u=u[:V].copy(),
@@ -254,6 +274,7 @@ class Relaxer:
             relaxer._distances = distances  # the band's searches serve every region
             relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
             relaxer._shared = shared
+            relaxer._vertex_pins = True
             if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
                 relaxer._sectors = (codes, r)
             results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
@@ -352,6 +373,7 @@ class Relaxer:
             print(f"[ndboundary] {'locate':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
         sub_labels = labels_of(mask, vertices)
         relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
+        relaxer._vertex_pins = self._vertex_pins
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
         elements = np.flatnonzero(mask)
 
@@ -444,7 +466,7 @@ class Relaxer:
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
         check_element_shapes(domain, stacklevel=5)
-        padded = pad_domain(domain, region1, boundary, on, pad)
+        padded = pad_domain(domain, region1, boundary, on, pad, vertex_pins=self._vertex_pins)
         _ = padded.work.K, padded.work.mass  # assembled (and timed) with the padding
         if self._keep or keep:
             self._labelling = (key, boundary, padded)
@@ -477,7 +499,11 @@ def _cut_rows(padded, sources, kept, n):
     cut = S[:, kept].tocsr()
     whole = np.diff(cut.indptr) == np.diff(S.indptr)
     sources = local[sources]
-    return dataclasses.replace(padded, S=cut[whole], targets=padded.targets[whole]), sources[sources >= 0]
+    slabs = None
+    if padded.slabs is not None:  # the pixels' corners in the inner band's numbering, -1 where it has none
+        inside, outside, lift = (a[whole] for a in padded.slabs)
+        slabs = (np.where(inside < 0, -1, local[inside]), np.where(outside < 0, -1, local[outside]), lift)
+    return dataclasses.replace(padded, S=cut[whole], targets=padded.targets[whole], slabs=slabs), sources[sources >= 0]
 
 
 def _forget(domain, names):

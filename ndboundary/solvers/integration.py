@@ -126,6 +126,7 @@ def solve_integration(
     preconditioner="auto",
     sweeps=2,
     cache=None,
+    x0=None,
 ):
     """Solve ``(K M^{-1} K + mu K + lam S^T S) phi = rhs``.
 
@@ -184,6 +185,9 @@ def solve_integration(
         Where to keep the factorisation / AMG hierarchy for the next solve of the same
         matrix (compared by content) and PARDISO's ordering for the same pattern. None,
         the default, keeps nothing: a one-shot solve holds no memory once it returns.
+    x0 : ndarray of shape (n,), optional
+        Where conjugate gradients start (the solution of a nearby system); a direct
+        solve has no use for it.
 
     Returns
     -------
@@ -216,7 +220,7 @@ def solve_integration(
         return _solve_direct(system, rtol, refine_single=method == "auto", backend=backend, cache=cache)
     return _solve_pcg(
         system, rtol, maxiter, fall_back=method == "auto", sparse_rows=sparse_rows,
-        backend=backend, preconditioner=preconditioner, sweeps=sweeps, cache=cache,
+        backend=backend, preconditioner=preconditioner, sweeps=sweeps, cache=cache, x0=x0,
     )  # fmt: skip
 
 
@@ -280,7 +284,7 @@ def _factor_solve(Q, rhs, backend, cache, iters=0):
 # ----------------------------------------------------------------------------- pcg
 
 
-def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, preconditioner, sweeps, cache):
+def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, preconditioner, sweeps, cache, x0=None):
     """The iterative path: conjugate gradients preconditioned by ``(K + D) M^{-1} (K + D)``
     (``preconditioner`` itself when it is a :class:`Preconditioner`).
 
@@ -298,7 +302,7 @@ def _solve_pcg(system, rtol, maxiter, *, fall_back, sparse_rows, backend, precon
     Q = _q_operator(system)
     P = spla.LinearOperator((n, n), matvec=apply, dtype=np.float64)
     t1 = time.perf_counter()
-    phi, iters, info = cg(Q, rhs, P, rtol, maxiter)
+    phi, iters, info = cg(Q, rhs, P, rtol, maxiter, x0=x0)
     res = relres(Q, phi, rhs)
     t2 = time.perf_counter()
     if info != 0 and res > 10 * rtol:
