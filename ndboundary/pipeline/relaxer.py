@@ -227,11 +227,12 @@ class Relaxer:
         phi, again, lifted = within_slabs(
             system, *rows, phi, rtol=rtol, solver=p["solver"], cache=self._cache, preconditioner=preconditioner
         )
-        if again is not None:
+        if again is not None:  # the second solve's time and iterations added to the first's
             int_info = dataclasses.replace(
-                again,
+                int_info,
                 iterations=int_info.iterations + again.iterations,
-                solve_time=int_info.solve_time + again.solve_time,
+                residual=int_info.residual if np.isnan(again.residual) else again.residual,
+                solve_time=int_info.solve_time + again.setup_time + again.solve_time,
             )
         lam_scale, system, rows = system.lam_scale, None, None
         if inner is not None:
