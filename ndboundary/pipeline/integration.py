@@ -299,15 +299,18 @@ def within_slabs(system, S, targets, slabs, phi, *, rtol, solver, cache=None, pr
 
 
 def _rings(K, seeds, rings):
-    """The vertices within ``rings`` steps of ``seeds`` along the pattern of ``K``, increasing."""
-    A = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)
+    """The vertices within ``rings`` steps of ``seeds`` along the pattern of ``K``,
+    increasing: grown from the last ring's rows alone, so that the cost follows them.
+    """
     mask = np.zeros(K.shape[0], dtype=bool)
     mask[seeds] = True
+    ring = np.asarray(seeds)
     for _ in range(rings):
-        grown = mask | (A @ mask.astype(np.float64) > 0)
-        if grown.sum() == mask.sum():
+        reached = K[ring].indices
+        ring = np.unique(reached[~mask[reached]])
+        if ring.size == 0:
             break
-        mask = grown
+        mask[ring] = True
     return np.flatnonzero(mask)
 
 
@@ -317,11 +320,12 @@ def _corrected_near(system, phi, near):
     system's block.
     """
     K, mass, S, lam, mu = system.K, system.mass, system.S, system.lam, system.mu
-    Kx = K @ phi
-    residual = system.rhs - (K @ (Kx / mass) + mu * Kx + lam * (S.T @ (S @ phi)))
-    rows = K[near]
-    Sn = S[:, near]
+    rows, Sn = K[near], S[:, near]
+    around = np.unique(rows.indices)  # K phi is read on the rows' columns only
+    Kx = np.zeros(phi.size)
+    Kx[around] = K[around] @ phi
+    residual = system.rhs[near] - (rows @ (Kx / mass) + mu * Kx[near] + lam * (Sn.T @ (S @ phi)))
     block = rows @ sp.diags(1.0 / mass) @ rows.T + mu * rows[:, near] + lam * (Sn.T @ Sn)
     out = phi.copy()
-    out[near] += factorize_spd(((block + block.T) * 0.5).tocsc())(residual[near])
+    out[near] += factorize_spd(((block + block.T) * 0.5).tocsc())(residual)
     return out
