@@ -272,3 +272,46 @@ def test_few_labels_beat_label_spreading_and_laplace_learning():
     assert np.mean(ours) > 0.85
     assert np.mean(ours) > np.mean(spreading) + 0.05
     assert np.mean(ours) > np.mean(laplace) + 0.02
+
+
+def test_held_out_extension_leaves_the_sample_out_of_its_neighbours_gradients():
+    """``held_out`` equals the extension rebuilt on a cloud whose stencils lack the
+    sample: its neighbours' gradients refitted without it (checked against an explicit
+    least-squares fit), their clamp ranges without its value."""
+    from ndboundary.domains.pointcloud_extension import _weighted_mean
+
+    X, y = make_moons(150, noise=0.3, random_state=1)
+    clf = LevelSetClassifier(extension_power=0.0).fit(X, y)
+    ext, cloud = clf.extension_, clf.domain_
+    i = 7
+    u = cloud.unique_inverse[i]
+    k, nxt = ext._sizes(1)
+    ind, dist = cloud.neighbors[u, : k + nxt][None], cloud.distances[u, : k + nxt][None]
+    x = cloud.points[i][None]
+    _, taper, log_ratio = ext._from_neighbors(x, ind, dist, k, nxt)
+    phi = ext._phi_u[:, 0]
+    vals = []
+    for j in ind[0, :k]:
+        stencil = cloud.neighbors[j]
+        keep = stencil != u
+        Z = (cloud.unique_points[stencil[keep]] - cloud.unique_points[j]) @ cloud.frames[j]
+        grad = np.linalg.lstsq(Z, phi[stencil[keep]] - phi[j], rcond=None)[0]
+        value = phi[j] + grad @ (cloud.frames[j].T @ (x[0] - cloud.unique_points[j]))
+        around = np.concatenate([[phi[j]], phi[stencil[keep]]])
+        vals.append(np.clip(value, around.min(), around.max()))
+    expected = _weighted_mean(np.array(vals)[None, :, None], taper, log_ratio, 0.0)[0, 0]
+    assert ext.held_out(np.array([i]))[0, 0] == pytest.approx(expected, abs=1e-6)
+
+
+def test_classes_nested_by_radius_take_the_kernel_fit():
+    """Classes nested by radius in 8 dimensions: the neighbours of an outer point are
+    mostly inner samples, and the kernel ridge fit of phi carries the decision."""
+    from sklearn.datasets import make_gaussian_quantiles
+
+    X, y = make_gaussian_quantiles(n_samples=800, n_features=8, n_classes=2, random_state=0)
+    clf = LevelSetClassifier().fit(X[:400], y[:400])
+    knn = KNeighborsClassifier(15).fit(X[:400], y[:400])
+    assert clf.kernel_weight_ > 0.0 and clf.kernel_extension_ is not None
+    assert clf.score(X[400:], y[400:]) > knn.score(X[400:], y[400:]) + 0.15
+    proba = clf.predict_proba(X[400:])
+    assert np.array_equal(clf.classes_[proba.argmax(axis=1)], clf.predict(X[400:]))

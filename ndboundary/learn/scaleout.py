@@ -137,6 +137,8 @@ def for_prediction(est):
     lean.domain_ = lean.phi_ = lean.transduction_ = lean.landmarks_ = None
     if getattr(est, "extension_", None) is not None and hasattr(est.extension_, "for_queries"):
         lean.extension_ = est.extension_.for_queries()
+    if getattr(est, "kernel_extension_", None) is not None:
+        lean.kernel_extension_ = est.kernel_extension_.for_queries()
     return lean
 
 
