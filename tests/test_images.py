@@ -370,6 +370,25 @@ def test_a_face_of_treads_keeps_between_its_pixel_centres():
     assert np.abs(x[top, 0] - 14.5).max() < 0.2 and np.abs(x[side, 1] - 34.5).max() < 0.2
 
 
+def test_lifted_pins_are_solved_for_near_them_as_over_the_band(monkeypatch):
+    """A ball cut flat: where the level set passed a pixel centre by the flat face, the
+    pins there are lifted, and the correction solved on their neighbourhood alone lies
+    within 0.01 voxel of the one solved over the band."""
+    import ndboundary.pipeline.integration as integration
+
+    i, j, k = np.indices((48, 48, 48))
+    c = 24 + np.array([0.13, -0.21, 0.07])
+    ball = ((i - c[0]) ** 2 + (j - c[1]) ** 2 + (k - c[2]) ** 2 < 18**2) & (k < c[2] + 14)
+    surfaces = []
+    for share in (1.0, 0.0):  # every correction near the pins, then every one over the band
+        monkeypatch.setattr(integration, "SLAB_LOCAL_SHARE", share)
+        result = relax_image(ball)
+        assert result.params["lifted_pins"] > 0
+        surfaces.append(result.level_set())
+    gaps = [level_set_distance(a, b) for a, b in (surfaces, surfaces[::-1])]
+    assert max(g.max() for g in gaps) < 0.01
+
+
 def test_a_large_image_with_a_small_boundary_is_relaxed_on_its_band_by_default():
     """band="auto": the band of the pixels' reach, cut when it holds under 70 % of the
     pixels; the relaxed disc is the whole grid's within the band's targets (mean 0.01 h,

@@ -248,7 +248,7 @@ class Relaxer:
             print(f"[ndboundary] {'total':<12s} {timings['total']:8.3f} s", file=sys.stderr, flush=True)
         V = domain.n_vertices
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "on")}
-        params.update(lam_scale=lam_scale, pad=bool(pad), h=h)
+        params.update(lam_scale=lam_scale, pad=bool(pad), h=h, lifted_pins=lifted)
         return RelaxResult(
             phi=phi[:V].copy(),
             u=u[:V].copy(),

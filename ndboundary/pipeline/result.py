@@ -326,7 +326,9 @@ class RelaxResult(_RegionMethods):
         Per linear solve, its method, iterations and relative residual.
     params : dict
         The parameters used; ``lam_scale`` is the factor applied to ``lam`` (see
-        :mod:`ndboundary.pipeline.integration`).
+        :mod:`ndboundary.pipeline.integration`); ``lifted_pins`` the facet pins of an
+        image whose weight was lifted where the level set crossed a pixel centre (see
+        :func:`~ndboundary.pipeline.integration.within_slabs`; 0 elsewhere).
 
     Examples
     --------
