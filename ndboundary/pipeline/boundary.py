@@ -121,6 +121,13 @@ def vertex_boundary(domain, region1):
 FACET_PIN_PASSES = 3
 FACET_PIN_FLOOR = 0.03
 
+#: A facet counts as a riser when it turns more than this from the staircase around it
+#: (``1 - |n . m|``: a riser of a staircase of slope ``s`` turns about ``1 - s``; every
+#: facet of a 45 degree staircase, or along a box's edge, 0.29), and a tread is light only
+#: with a riser within this many times :data:`FACET_PIN_PASSES` passes of it.
+FACET_PIN_RISER = 0.5
+FACET_PIN_REACH = 4
+
 
 def facet_pins(grid, region1, sources):
     """Zeta's constraint rows on an image grid: one per facet between the labels, at its
@@ -145,12 +152,15 @@ def facet_pins(grid, region1, sources):
     of the whole grid's (``benchmarks/band.py``): with 0.005 a disc's strayed 0.014 pixel
     on average, against 0.0096 with 0.03.
 
-    A tread is light only while the level set keeps between the centres of the two pixels
-    it parts, as the labels say it does: a face all of treads (a flat face along the
-    grid's axes, as where a region meets the image's border) has no risers to hold it,
-    and the field may carry it off. The integration checks the pixels' centres and, where
-    the level set passed one, gives the facet the weight of an even pin and solves again
-    (:func:`~ndboundary.pipeline.integration.within_slabs`).
+    A face all of treads (a flat face along the grid's axes: a box's side, a region cut by
+    the image's border) has no risers to hold it, and the field would carry it off: a
+    tread with no riser within :data:`FACET_PIN_REACH` times the passes takes a riser's
+    weight (a box of 12 x 12 x 8 voxels on the image's border gained 9.7 % of its
+    volume without this, 1.9 % with it, and 0.9 % with every vertex pinned alike). A
+    tread is also light only while the level set keeps between the centres of the two
+    pixels it parts, as the labels say it does: the integration checks the pixels'
+    centres and, where the level set passed one, gives the facet the weight of an even
+    pin and solves again (:func:`~ndboundary.pipeline.integration.within_slabs`).
 
     Returns
     -------
@@ -184,19 +194,25 @@ def facet_pins(grid, region1, sources):
     B = sp.csr_matrix((np.ones(facets.size), (np.repeat(np.arange(n), k), facets.ravel())), shape=(n, grid.n_vertices))
     passes = int(np.ceil(FACET_PIN_PASSES * (max(grid.spacing) / min(grid.spacing)) ** 2))
 
-    def around(values):
-        """``values`` (one row per facet) summed over the facets around each, ``passes`` times."""
-        for _ in range(passes):
+    def around(values, times):
+        """``values`` (one row per facet) summed over the facets around each, ``times`` times."""
+        for _ in range(times):
             values = B @ (B.T @ values)
             values /= max(float(np.abs(values).max(initial=0.0)), 1e-300)  # only ratios count
         return values
 
-    mean = around(normals * areas[:, None])
+    mean = around(normals * areas[:, None], passes)
     norm = np.linalg.norm(mean, axis=1)
     turned = np.ones(n)
     some = norm > 1e-12 * max(float(norm.max(initial=0.0)), 1e-300)
     turned[some] = 1.0 - np.abs(np.einsum("ij,ij->i", normals[some], mean[some]) / norm[some])
     turned = np.maximum(turned, FACET_PIN_FLOOR)
+    # a tread with no riser within reach lies on a face along the axes (a box's side, a
+    # region cut by the image's border): its facets are where the boundary is
+    near = (turned > FACET_PIN_RISER).astype(np.float64)
+    for _ in range(FACET_PIN_REACH * passes):
+        near = (B @ (B.T @ near) > 0.0).astype(np.float64)
+    turned = np.where(near > 0.0, turned, 1.0)
     root = np.sqrt(turned * n_pins / turned.sum())
     S = sp.csr_matrix((np.repeat(root / k, k), facets.ravel(), np.arange(0, facets.size + 1, k)), shape=B.shape)
     return S, 0.5 * root, (np.hstack([facets, inner]), np.hstack([facets, outer]), np.full(n, np.sqrt(n_pins / n)))
