@@ -226,11 +226,7 @@ class NeighborExtension:
             c = slice(a, min(rows.size, a + _CHUNK))
             u = dom.unique_inverse[rows[c]]
             X = dom.points[rows[c]]
-            if k + nxt <= dom.neighbors.shape[1]:
-                ind, dist = dom.neighbors[u, : k + nxt], dom.distances[u, : k + nxt]
-            else:
-                ind, dist = dom.kneighbors(X, k + nxt + 1)
-                ind, dist = ind[:, 1:], dist[:, 1:]
+            ind, dist = self._others(rows[c], X, k + nxt)
             _, taper, log_ratio = self._from_neighbors(X, ind, dist, k, nxt)
             ind = ind[:, :k]
             off = dom.tangent_offsets(X, ind)  # (b, k, m)
@@ -305,11 +301,7 @@ class NeighborExtension:
 
         def block(c):
             u = dom.unique_inverse[rows[c]]
-            if need <= dom.neighbors.shape[1]:
-                ind, dist = dom.neighbors[u, :need], dom.distances[u, :need]
-            else:
-                ind, dist = dom.kneighbors(X[c], need + 1)
-                ind, dist = ind[:, 1:], dist[:, 1:]  # the sample itself comes first
+            ind, dist = self._others(rows[c], X[c], need)
             left_out = self._from_neighbors(X[c], ind[:, : k1 + nxt1], dist[:, : k1 + nxt1], k1, nxt1)
             with_self = np.concatenate([u[:, None], ind], axis=1)[:, : k0 + nxt0]
             zero = np.concatenate([np.zeros((u.size, 1)), dist], axis=1)[:, : k0 + nxt0]
@@ -338,13 +330,22 @@ class NeighborExtension:
         k, nxt = self._sizes(own)
         for a in range(0, X.shape[0], _CHUNK):
             c = slice(a, min(X.shape[0], a + _CHUNK))
-            if rows is not None and k + nxt <= dom.neighbors.shape[1]:
-                u = dom.unique_inverse[rows[c]]
-                ind, dist = dom.neighbors[u, : k + nxt], dom.distances[u, : k + nxt]
+            if rows is None:
+                ind, dist = dom.kneighbors(X[c], k + nxt)
             else:
-                ind, dist = dom.kneighbors(X[c], k + nxt + own)
-                ind, dist = ind[:, own:], dist[:, own:]
+                ind, dist = self._others(rows[c], X[c], k + nxt)
             yield (c, *self._from_neighbors(X[c], ind, dist, k, nxt))
+
+    def _others(self, rows, X, count):
+        """``(ind, dist)``: the ``count`` nearest other samples of the training samples
+        ``rows`` (at ``X``), from the graph when it holds that many neighbours.
+        """
+        dom = self.cloud
+        if count <= dom.neighbors.shape[1]:
+            u = dom.unique_inverse[rows]
+            return dom.neighbors[u, :count], dom.distances[u, :count]
+        ind, dist = dom.kneighbors(X, count + 1)
+        return ind[:, 1:], dist[:, 1:]  # the sample itself comes first
 
     def _locally_scaled(self, ind, dist):
         """The distances ``dist`` to the neighbours ``ind`` in units of each neighbour's

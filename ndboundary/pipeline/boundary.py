@@ -194,14 +194,10 @@ def facet_pins(grid, region1, sources):
     B = sp.csr_matrix((np.ones(facets.size), (np.repeat(np.arange(n), k), facets.ravel())), shape=(n, grid.n_vertices))
     passes = int(np.ceil(FACET_PIN_PASSES * (max(grid.spacing) / min(grid.spacing)) ** 2))
 
-    def around(values, times):
-        """``values`` (one row per facet) summed over the facets around each, ``times`` times."""
-        for _ in range(times):
-            values = B @ (B.T @ values)
-            values /= max(float(np.abs(values).max(initial=0.0)), 1e-300)  # only ratios count
-        return values
-
-    mean = around(normals * areas[:, None], passes)
+    mean = normals * areas[:, None]  # summed over the facets around each, pass by pass
+    for _ in range(passes):
+        mean = B @ (B.T @ mean)
+        mean /= max(float(np.abs(mean).max(initial=0.0)), 1e-300)  # only its direction counts
     norm = np.linalg.norm(mean, axis=1)
     turned = np.ones(n)
     some = norm > 1e-12 * max(float(norm.max(initial=0.0)), 1e-300)
