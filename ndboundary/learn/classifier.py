@@ -12,8 +12,9 @@ New points get ``phi`` from the fitted function alone, through the domain's
 :meth:`~ndboundary.Domain.extension` (a continuous neighbour-weighted first-order
 extension on a kNN graph, :mod:`ndboundary.domains.pointcloud_extension`; barycentric
 interpolation on a Delaunay complex, :mod:`ndboundary.domains.delaunay`), on a kNN graph
-mixed with a kernel ridge regression of ``phi`` over the whole sample
-(:mod:`ndboundary.learn.kernel_extension`, weight chosen by held-out accuracy), so the
+mixed with a kernel ridge regression of ``phi`` over the whole sample (for three
+classes or more, of the differences of the classes' functions, pair by pair:
+:mod:`ndboundary.learn.kernel_extension`; weight chosen by held-out accuracy), so the
 prediction of a point never depends on the other points predicted with it.
 
 Three rules keep degenerate inputs classified as a user expects:
@@ -42,7 +43,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from .band import classifier_band
 from .extrema import relax_classes
 from .graph import build_graph
-from .kernel_extension import KernelExtension
+from .kernel_extension import kernel_extension
 from .params import check_classifier_params
 from .poisson import poisson_labels
 from .probability import logistic_slope, probabilities
@@ -72,8 +73,9 @@ INTEGRATION_FORM = "gradient"
 #: kernel fit alone serves classes nested on the scale of the whole sample. The
 #: neighbour extension alone is not a candidate: the choice between it and the mix
 #: rests on a few held-out samples either way, and with it among the candidates the mean
-#: accuracy of ``benchmarks/classify.py`` was 0.9011, 0.9020 (``--cv-seed 1``) and 0.8465
-#: (``--sets other``) against 0.9019, 0.9020 and 0.8477 without it.
+#: accuracy of ``benchmarks/classify.py`` fell on three of its four runs (the ten sets and
+#: ``--sets other``, each on two draws of folds), as it did with the weights 1/4 and 3/4
+#: added.
 KERNEL_WEIGHTS = (0.5, 1.0)
 
 
@@ -200,10 +202,12 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         The evaluator of ``phi_`` at new points (in the coordinates of ``domain_``),
         given by the domain (:meth:`~ndboundary.Domain.extension`); None when one class
         was seen.
-    kernel_extension_ : KernelExtension or None
+    kernel_extension_ : KernelExtension or PairwiseKernelExtension or None
         Kernel ridge regression of ``phi_`` on a Gaussian kernel of about the data's
         spread (:mod:`ndboundary.learn.kernel_extension`), a global estimate of ``phi``
-        at new points; None where it has weight 0.
+        at new points; for three classes or more, one fit of ``phi_i - phi_j`` per pair
+        of classes on their samples, combined into one function per class. None where
+        it has weight 0.
     kernel_weight_ : float
         Its weight in the decision function, ``(1 - w)`` times ``extension_`` plus ``w``
         times ``kernel_extension_``: one of :data:`KERNEL_WEIGHTS`, the one whose mix
@@ -379,7 +383,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         if few:
             return self.extension_.leave_one_out(rows)
         local = self.extension_.held_out(rows)
-        kernel = KernelExtension(X, self.phi_)
+        kernel = kernel_extension(X, self.phi_, codes)
         kernel_loo = kernel.leave_one_out(rows)
         own_local, own_kernel = self.extension_.at_samples(rows), kernel.fitted[rows]
         lab = codes[rows]

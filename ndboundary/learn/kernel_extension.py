@@ -17,18 +17,44 @@ grows linearly with the number of samples. The kernel's width and the ridge are 
 by the exact leave-one-out error of the regression (the hat matrix of a ridge gives it
 in closed form, Allen 1974), among the widths :data:`GAMMA_FACTORS` times
 scikit-learn's scale and the ridges :data:`RIDGES`.
+
+With three classes or more, one regression per class against the rest must represent a
+class whose region is a shell between two others by a function that rises and falls
+again, which a smooth fit of a few hundred samples does poorly. The relaxed partition's
+boundaries are pairwise, where two classes' functions tie, so
+:class:`PairwiseKernelExtension` fits each difference ``phi_i - phi_j`` on the samples of
+those two classes only (one boundary, as a support vector machine's one-versus-one
+classifiers do), and gives class ``i`` the function ``1/2 + min_j (phi_i - phi_j) / 2``:
+above 1/2 exactly where class ``i`` wins against every other. The pairs share one pool
+of landmarks, :data:`N_LANDMARKS` split among the classes (at least
+:data:`MIN_CLASS_LANDMARKS` each), and a pair's features come from its two classes'
+landmarks: a new point's distances are computed once for every pair.
 """
 
 from __future__ import annotations
+
+from itertools import combinations
 
 import numpy as np
 
 from ..solvers.common import blas_threads
 
-__all__ = ["GAMMA_FACTORS", "N_LANDMARKS", "RIDGES", "KernelExtension"]
+__all__ = [
+    "GAMMA_FACTORS",
+    "MIN_CLASS_LANDMARKS",
+    "N_LANDMARKS",
+    "RIDGES",
+    "KernelExtension",
+    "PairwiseKernelExtension",
+    "kernel_extension",
+]
 
 #: Landmarks of the Nyström features: the kernel's rank is kept to this many.
 N_LANDMARKS = 200
+
+#: Landmarks of each class in the pool the pairs of classes share, at least (or all of
+#: the class's samples, if fewer).
+MIN_CLASS_LANDMARKS = 10
 
 #: Kernel widths tried, as factors of ``1 / (n_features Var X)`` (scikit-learn's
 #: ``gamma="scale"`` for the support vector machine): that width and wider ones.
@@ -37,13 +63,90 @@ GAMMA_FACTORS = (0.25, 0.5, 1.0)
 #: Ridges tried, per sample (the ridge is ``n_samples`` times one of them).
 RIDGES = tuple(np.logspace(-6.0, -1.0, 11).tolist())
 
+#: The constant feature beside the kernel's: the kernel ``k + BIAS**2``, whose
+#: constant part (ridged like the rest) lets the fit settle away from the samples'
+#: mean far from the landmarks.
+BIAS = 1.0
+
 _CHUNK = 8192
+
+
+def _gamma_scale(X):
+    """scikit-learn's ``gamma="scale"``: ``1 / (n_features Var X)`` (1 for constant ``X``)."""
+    var = float(X.var())
+    return 1.0 / (X.shape[1] * var) if var > 0.0 else 1.0
+
+
+def kernel_extension(X, phi, codes):
+    """The kernel fit of ``phi`` (n_samples, n_functions) for samples of class ``codes``:
+    a :class:`KernelExtension` for one function (two classes), else a
+    :class:`PairwiseKernelExtension`.
+    """
+    if np.asarray(phi).reshape(X.shape[0], -1).shape[1] == 1:
+        return KernelExtension(X, phi)
+    return PairwiseKernelExtension(X, phi, codes)
 
 
 def _sq_dist(A, B):
     """Squared Euclidean distances between the rows of ``A`` and ``B``, clipped at 0."""
     d = (A * A).sum(axis=1)[:, None] + (B * B).sum(axis=1)[None, :] - 2.0 * (A @ B.T)
     return np.maximum(d, 0.0)
+
+
+def _sq_dist_rowwise(X, landmarks, landmark_sq):
+    """:func:`_sq_dist` with each row's sums independent of the rows beside it
+    (``einsum``'s own loops, not a matrix product whose blocking depends on the number of
+    rows), so that new points computed block by block equal those computed at once, to
+    the bit.
+    """
+    cross = np.einsum("bd,ld->bl", X, landmarks)
+    return np.maximum(np.einsum("bd,bd->b", X, X)[:, None] + landmark_sq[None, :] - 2.0 * cross, 0.0)
+
+
+class _RidgeFit:
+    """Ridge regression of ``phi`` on the Nyström features of a Gaussian kernel and a
+    constant, width and ridge chosen by exact leave-one-out error.
+
+    ``d_rows`` (n, m) holds the squared distances of the fitted samples to the ``m``
+    landmarks, ``d_landmarks`` (m, m) those among the landmarks. The fit evaluates new
+    points from their squared distances to the landmarks (:meth:`at`).
+    """
+
+    def __init__(self, d_rows, d_landmarks, phi, gamma_scale):
+        n = d_rows.shape[0]
+        mean = phi.mean(axis=0)
+        target = phi - mean
+        best = None
+        for factor in GAMMA_FACTORS:
+            gamma = gamma_scale * factor
+            s, U = np.linalg.eigh(np.exp(-gamma * d_landmarks))
+            keep = s > 1e-10 * s.max()
+            to_features = U[:, keep] / np.sqrt(s[keep])
+            features = np.column_stack([np.exp(-gamma * d_rows) @ to_features, np.full(n, BIAS)])
+            # ridge in the features' eigenbasis: F^T F = V diag(s) V^T
+            s, V = np.linalg.eigh(features.T @ features)
+            FV = features @ V
+            del features
+            proj = FV.T @ target
+            lev = FV**2
+            for ridge in RIDGES:
+                shrink = 1.0 / (s + ridge * n)
+                fit = FV @ (shrink[:, None] * proj)
+                h = lev @ shrink
+                loo = target - (target - fit) / np.maximum(1.0 - h, 1e-12)[:, None]
+                err = float(((loo - target) ** 2).sum())
+                if best is None or err < best[0]:
+                    best = (err, gamma, ridge, to_features, V, shrink[:, None] * proj, fit, loo)
+        _, self.gamma, self.ridge, to_features, V, coef, fit, loo = best
+        w = V @ coef
+        self.weights = to_features @ w[:-1]  # (m, n_functions)
+        self.offset = mean + BIAS * w[-1]
+        self.fitted = fit + mean
+        self.loo = loo + mean
+
+    def at(self, d):
+        """The fit at points of squared distances ``d`` (n, m) to the landmarks."""
+        return np.einsum("bl,lr->br", np.exp(-self.gamma * d), self.weights) + self.offset
 
 
 class KernelExtension:
@@ -78,75 +181,153 @@ class KernelExtension:
     """
 
     def __init__(self, X, phi):
+        X = np.asarray(X, dtype=np.float64)
+        phi = np.asarray(phi, dtype=np.float64).reshape(X.shape[0], -1)
+        n = X.shape[0]
+        pick = np.random.default_rng(0).permutation(n)[:N_LANDMARKS] if n > N_LANDMARKS else np.arange(n)
+        self._landmarks = X[np.sort(pick)]
+        self._landmark_sq = np.einsum("ld,ld->l", self._landmarks, self._landmarks)
         # one BLAS thread: the products are small (samples by landmarks), and OpenBLAS's
         # threads spin on them and multiply the wall time on a machine with any other load
         # (as in the solvers, :mod:`ndboundary.solvers.common`)
         with blas_threads(1):
-            self._fit(np.asarray(X, dtype=np.float64), phi)
-
-    def _fit(self, X, phi):
-        """Choose the width and the ridge by leave-one-out error, and fit."""
-        phi = np.asarray(phi, dtype=np.float64).reshape(X.shape[0], -1)
-        n = X.shape[0]
-        var = float(X.var())
-        gamma0 = 1.0 / (X.shape[1] * var) if var > 0.0 else 1.0
-        pick = np.random.default_rng(0).permutation(n)[:N_LANDMARKS] if n > N_LANDMARKS else np.arange(n)
-        self._landmarks = X[np.sort(pick)]
-        self._mean = phi.mean(axis=0)
-        target = phi - self._mean
-        best = None
-        for factor in GAMMA_FACTORS:
-            gamma = gamma0 * factor
-            features, to_features = self._features(X, gamma)
-            # ridge in the features' eigenbasis: F^T F = V diag(s) V^T
-            s, V = np.linalg.eigh(features.T @ features)
-            FV = features @ V
-            del features
-            proj = FV.T @ target
-            lev = FV**2
-            for ridge in RIDGES:
-                shrink = 1.0 / (s + ridge * n)
-                fit = FV @ (shrink[:, None] * proj)
-                h = lev @ shrink
-                loo = target - (target - fit) / np.maximum(1.0 - h, 1e-12)[:, None]
-                err = float(((loo - target) ** 2).sum())
-                if best is None or err < best[0]:
-                    best = (err, gamma, ridge, to_features, V, shrink[:, None] * proj, fit, loo)
-        _, self.gamma, self.ridge, to_features, V, coef, fit, loo = best
-        self._loo = loo + self._mean
-        self.fitted = fit + self._mean
-        self._weights = to_features @ (V @ coef)  # (n_landmarks, n_functions)
-        self._landmark_sq = np.einsum("ld,ld->l", self._landmarks, self._landmarks)
-
-    def _features(self, X, gamma):
-        """Nyström features of ``X`` for the kernel of ``gamma``: ``(features, map)``, the map
-        taking kernel rows against the landmarks to features (``K_nm U diag(s)^-1/2``).
-        """
-        s, U = np.linalg.eigh(np.exp(-gamma * _sq_dist(self._landmarks, self._landmarks)))
-        keep = s > 1e-10 * s.max()
-        to_features = U[:, keep] / np.sqrt(s[keep])
-        return np.exp(-gamma * _sq_dist(X, self._landmarks)) @ to_features, to_features
+            fit = _RidgeFit(
+                _sq_dist(X, self._landmarks), _sq_dist(self._landmarks, self._landmarks), phi, _gamma_scale(X)
+            )
+        self.gamma, self.ridge, self.fitted, self._loo = fit.gamma, fit.ridge, fit.fitted, fit.loo
+        fit.fitted = fit.loo = None
+        self._fit = fit
 
     def __call__(self, X):
         """The fitted functions at the points ``X`` (n, n_features): shape (n, n_functions).
 
-        Each row is computed by the same sums whatever rows come with it (``einsum``'s
-        own loops, not a matrix product whose blocking depends on the number of rows),
-        so predictions made block by block equal those made at once, to the bit.
+        Each row is computed by the same sums whatever rows come with it, so predictions
+        made block by block equal those made at once, to the bit.
         """
         X = np.asarray(X, dtype=np.float64)
-        out = np.empty((X.shape[0], self._weights.shape[1]))
+        out = np.empty((X.shape[0], self._fit.weights.shape[1]))
         for a in range(0, X.shape[0], _CHUNK):
             c = slice(a, min(X.shape[0], a + _CHUNK))
-            x = X[c]
-            cross = np.einsum("bd,ld->bl", x, self._landmarks)
-            d = np.einsum("bd,bd->b", x, x)[:, None] + self._landmark_sq[None, :] - 2.0 * cross
-            out[c] = np.einsum("bl,lr->br", np.exp(-self.gamma * np.maximum(d, 0.0)), self._weights) + self._mean
+            out[c] = self._fit.at(_sq_dist_rowwise(X[c], self._landmarks, self._landmark_sq))
         return out
 
     def leave_one_out(self, rows):
         """The regression at the training samples ``rows``, each fitted without its own
         sample (exactly, for the width and ridge chosen): shape (len(rows), n_functions).
+        """
+        return self._loo[np.asarray(rows)]
+
+    def for_queries(self):
+        """A copy that evaluates new points only (no :meth:`leave_one_out` or ``fitted``)."""
+        lean = object.__new__(type(self))
+        lean.__dict__.update(self.__dict__, _loo=None, fitted=None)
+        return lean
+
+
+class PairwiseKernelExtension:
+    """Kernel fits of the differences of per-class functions, one per pair of classes.
+
+    Pair ``(i, j)`` fits ``phi_i - phi_j`` on the samples of classes ``i`` and ``j`` only,
+    as :class:`KernelExtension` does, on its two classes' landmarks of a shared pool and
+    at the width scale of all the samples. Class ``i``'s function is
+    ``1/2 + min_j g_ij / 2`` over the pairs' fits ``g_ij`` (``g_ji = -g_ij``), which is
+    about ``phi_i`` inside the classes' regions, and is above 1/2 exactly where class
+    ``i`` wins each of its pairs.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+        The training samples.
+    phi : ndarray of shape (n_samples, n_classes)
+        One function per class (``n_classes >= 2``).
+    codes : ndarray of shape (n_samples,)
+        Each sample's class, in ``range(n_classes)``, every class with a sample; a pair is
+        fitted on its two classes' samples.
+
+    Attributes
+    ----------
+    pairs : list of tuple
+        The pairs ``(i, j)``, ``i < j``, in the order of the fits.
+    fitted : ndarray of shape (n_samples, n_classes)
+        The class functions at the training samples, each pair's fit in-sample.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.learn.kernel_extension import PairwiseKernelExtension
+    >>> X = np.random.default_rng(0).normal(size=(300, 4))
+    >>> codes = np.digitize(np.linalg.norm(X, axis=1), [1.5, 2.3])  # ball, shell, outside
+    >>> ext = PairwiseKernelExtension(X, np.eye(3)[codes], codes)
+    >>> ext(np.array([[0.0, 0, 0, 0], [1.9, 0, 0, 0], [3.5, 0, 0, 0]])).argmax(axis=1)
+    array([0, 1, 2])
+    """
+
+    def __init__(self, X, phi, codes):
+        X = np.asarray(X, dtype=np.float64)
+        phi = np.asarray(phi, dtype=np.float64).reshape(X.shape[0], -1)
+        codes = np.asarray(codes).reshape(-1)
+        self.n_classes = phi.shape[1]
+        counts = np.bincount(codes, minlength=self.n_classes)
+        if counts.shape[0] != self.n_classes or not counts.all():
+            raise ValueError(f"codes must hold every class of range({self.n_classes}) at least once")
+        self.pairs = list(combinations(range(self.n_classes), 2))
+        share = max(N_LANDMARKS // self.n_classes, MIN_CLASS_LANDMARKS)
+        order = np.random.default_rng(0).permutation(X.shape[0])
+        pool = np.sort(np.concatenate([order[codes[order] == c][:share] for c in range(self.n_classes)]))
+        self._landmarks = X[pool]
+        self._landmark_sq = np.einsum("ld,ld->l", self._landmarks, self._landmarks)
+        pool_codes = codes[pool]
+        gamma = _gamma_scale(X)
+        self._columns, self._fits = [], []
+        fit = np.empty((X.shape[0], len(self.pairs)))
+        loo = np.empty_like(fit)
+        with blas_threads(1):  # as in :class:`KernelExtension`
+            d = _sq_dist(X, self._landmarks)
+            for p, (i, j) in enumerate(self.pairs):
+                rows = np.flatnonzero((codes == i) | (codes == j))
+                cols = np.flatnonzero((pool_codes == i) | (pool_codes == j))
+                pair = _RidgeFit(
+                    d[np.ix_(rows, cols)],
+                    d[np.ix_(pool[cols], cols)],
+                    phi[rows, i : i + 1] - phi[rows, j : j + 1],
+                    gamma,
+                )
+                fit[:, p] = loo[:, p] = (np.exp(-pair.gamma * d[:, cols]) @ pair.weights + pair.offset)[:, 0]
+                fit[rows, p], loo[rows, p] = pair.fitted[:, 0], pair.loo[:, 0]
+                pair.fitted = pair.loo = None
+                self._columns.append(cols)
+                self._fits.append(pair)
+        self.fitted = self._classes(fit)
+        self._loo = self._classes(loo)
+
+    def _classes(self, g):
+        """Class functions ``1/2 + min_j g_ij / 2`` from the pairs' values ``g`` (n, n_pairs)."""
+        worst = np.full((g.shape[0], self.n_classes), np.inf)
+        for p, (i, j) in enumerate(self.pairs):
+            np.minimum(worst[:, i], g[:, p], out=worst[:, i])
+            np.minimum(worst[:, j], -g[:, p], out=worst[:, j])
+        return 0.5 + 0.5 * worst
+
+    def __call__(self, X):
+        """The class functions at the points ``X`` (n, n_features): shape (n, n_classes).
+
+        Each row is computed by the same sums whatever rows come with it, as in
+        :class:`KernelExtension`.
+        """
+        X = np.asarray(X, dtype=np.float64)
+        out = np.empty((X.shape[0], self.n_classes))
+        for a in range(0, X.shape[0], _CHUNK):
+            c = slice(a, min(X.shape[0], a + _CHUNK))
+            d = _sq_dist_rowwise(X[c], self._landmarks, self._landmark_sq)
+            g = np.column_stack(
+                [pair.at(d[:, cols])[:, 0] for cols, pair in zip(self._columns, self._fits, strict=True)]
+            )
+            out[c] = self._classes(g)
+        return out
+
+    def leave_one_out(self, rows):
+        """The class functions at the training samples ``rows``, each pair that holds a
+        sample fitted without it: shape (len(rows), n_classes).
         """
         return self._loo[np.asarray(rows)]
 

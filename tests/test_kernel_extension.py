@@ -1,0 +1,58 @@
+"""The kernel fits of the relaxed functions that carry the classifier's decision where
+the samples are sparse for their dimension."""
+
+import numpy as np
+import pytest
+from sklearn.datasets import make_gaussian_quantiles
+from sklearn.svm import SVC
+
+from ndboundary import LevelSetClassifier
+from ndboundary.learn.kernel_extension import KernelExtension, PairwiseKernelExtension
+
+
+def test_the_fit_settles_at_the_outer_class_far_from_the_samples():
+    """An inner ball against the rest, a quarter of the samples outside: far out, where
+    every kernel vanishes, the fit's constant carries the outer class rather than the
+    samples' mean, which would side with the inner one."""
+    X = np.random.default_rng(0).normal(size=(300, 6))
+    phi = (np.linalg.norm(X, axis=1) > 2.8).astype(float)[:, None]
+    assert phi.mean() < 0.5
+    far = np.zeros((3, 6))
+    far[:, 0] = [4.0, 6.0, 20.0]
+    assert (KernelExtension(X, phi)(far) > 0.9).all()
+
+
+def test_nested_classes_are_fitted_pair_by_pair():
+    """Three classes nested by radius: the middle shell's indicator rises and falls, which
+    one fit per class against the rest follows poorly; the pairs' fits each see one
+    boundary."""
+    X, y = make_gaussian_quantiles(n_samples=600, n_features=6, n_classes=3, random_state=0)
+    phi = np.eye(3)[y[:300]]
+    pairwise = PairwiseKernelExtension(X[:300], phi, y[:300])
+    against_rest = KernelExtension(X[:300], phi)
+    right = (pairwise(X[300:]).argmax(axis=1) == y[300:]).mean()
+    assert right > (against_rest(X[300:]).argmax(axis=1) == y[300:]).mean() + 0.05
+    # the class functions cross 1/2 where the classes change: exactly one above it
+    above = (pairwise(X[300:]) > 0.5).sum(axis=1)
+    assert (above <= 1).all() and (above == 1).mean() > 0.95
+
+
+def test_the_classifier_separates_nested_classes_as_well_as_svc():
+    X, y = make_gaussian_quantiles(n_samples=600, n_features=6, n_classes=3, random_state=0)
+    ours = LevelSetClassifier().fit(X[:300], y[:300])
+    assert ours.score(X[300:], y[300:]) >= SVC().fit(X[:300], y[:300]).score(X[300:], y[300:]) - 0.02
+
+
+def test_pairwise_values_do_not_depend_on_the_rows_beside_them():
+    X, y = make_gaussian_quantiles(n_samples=400, n_features=5, n_classes=4, random_state=1)
+    ext = PairwiseKernelExtension(X[:200], np.eye(4)[y[:200]], y[:200])
+    whole = ext(X[200:])
+    assert np.array_equal(whole[17:91], ext(X[200:][17:91]))
+    lean = ext.for_queries()
+    assert lean.fitted is None and np.array_equal(lean(X[200:]), whole)
+
+
+def test_pairwise_fit_refuses_a_class_without_samples():
+    X = np.random.default_rng(0).normal(size=(40, 3))
+    with pytest.raises(ValueError, match="every class"):
+        PairwiseKernelExtension(X, np.zeros((40, 3)), np.repeat([0, 2], 20))
