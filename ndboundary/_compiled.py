@@ -487,3 +487,22 @@ def pattern_sums(A, x):
         _pattern_sums(A.indptr, A.indices, x, out)
         return out
     return sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape) @ x
+
+
+@kernel("void(f8[:, ::1], f8[:, :, ::1], i8[:, :], f8[:, :], f8[:, ::1], f8[:, ::1], f8[:, :, ::1])")
+@numba.njit(cache=True, nogil=True)
+def ambient_values(c, g, ind, X, lo, hi, out):  # pragma: no cover - compiled
+    """``out[b, q, r] = c[u, r] + g[u, r] . X[b]`` for ``u = ind[b, q]``, clipped to
+    ``[lo[u, r], hi[u, r]]``: first-order extensions of functions from the neighbours
+    ``ind`` of the points ``X``, with gradients ``g`` in ambient coordinates, summed
+    without gathering a (b, q, r, D) array of them.
+    """
+    n_functions, dim = c.shape[1], X.shape[1]
+    for b in range(ind.shape[0]):
+        for q in range(ind.shape[1]):
+            u = ind[b, q]
+            for r in range(n_functions):
+                s = 0.0
+                for d in range(dim):
+                    s += g[u, r, d] * X[b, d]
+                out[b, q, r] = min(max(c[u, r] + s, lo[u, r]), hi[u, r])

@@ -150,6 +150,22 @@ def test_predictions_on_a_local_cluster_equal_the_in_memory_ones(client, fitted,
     np.testing.assert_array_equal(fitted.predict(Xd).compute(), fitted.predict(Xt))
 
 
+def test_the_workers_keep_their_copy_until_a_refit(client, moons):
+    from ndboundary.learn.scaleout import shipped_to_workers
+
+    X, y, Xt, _ = moons
+    clf = LevelSetClassifier().fit(X[:600], y[:600])
+    Xd = da.from_array(Xt, chunks=(250, 2))
+    np.testing.assert_array_equal(clf.predict(Xd).compute(), clf.predict(Xt))
+    first = shipped_to_workers(clf)
+    assert len(client.who_has()[first.key]) == 2  # on both workers
+    np.testing.assert_array_equal(clf.predict_proba(Xd).compute(), clf.predict_proba(Xt))
+    assert shipped_to_workers(clf) is first  # not sent again
+    clf.fit(X[600:1200], y[600:1200])
+    np.testing.assert_array_equal(clf.decision_function(Xd).compute(), clf.decision_function(Xt))
+    assert shipped_to_workers(clf) is not first
+
+
 @pytest.mark.parametrize("n_classes", [2, 4])
 def test_the_workers_copy_predicts_alike_and_is_small(n_classes):
     import pickle

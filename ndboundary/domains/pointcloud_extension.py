@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._compiled import ambient_values
 from .._threads import in_blocks
 
 __all__ = ["EXTENSION_POWERS", "LOCAL_SCALE_RANK", "NeighborExtension"]
@@ -371,8 +372,9 @@ class NeighborExtension:
         ind = ind[:, :k]
         if self._ambient is not None:
             c, g = self._ambient
-            vals = c[ind] + np.einsum("bqrd,bd->bqr", g[ind], X)
-        else:
-            off = self.cloud.tangent_offsets(X, ind)  # (b, q, m)
-            vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
+            vals = np.empty((ind.shape[0], k, c.shape[1]))
+            ambient_values(c, g, ind.astype(np.int64, copy=False), X, self._lo, self._hi, vals)
+            return vals, taper, log_ratio
+        off = self.cloud.tangent_offsets(X, ind)  # (b, q, m)
+        vals = self._phi_u[ind] + np.einsum("bqrm,bqm->bqr", self._grad_u[ind], off)
         return np.clip(vals, self._lo[ind], self._hi[ind]), taper, log_ratio

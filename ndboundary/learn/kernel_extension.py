@@ -37,6 +37,7 @@ from itertools import combinations
 
 import numpy as np
 
+from .._threads import in_blocks
 from ..solvers.common import blas_threads
 
 __all__ = [
@@ -103,6 +104,21 @@ def _sq_dist_rowwise(X, landmarks, landmark_sq):
     return np.maximum(np.einsum("bd,bd->b", X, X)[:, None] + landmark_sq[None, :] - 2.0 * cross, 0.0)
 
 
+def _by_blocks(X, n_out, values):
+    """``values`` of the rows of ``X``, block by block on several threads (numpy's loops
+    release the GIL): shape (n, n_out).
+    """
+    X = np.asarray(X, dtype=np.float64)
+    out = np.empty((X.shape[0], n_out))
+
+    def block(c):
+        out[c] = values(X[c])
+
+    for _ in in_blocks(X.shape[0], _CHUNK, block):
+        pass
+    return out
+
+
 class _RidgeFit:
     """Ridge regression of ``phi`` on the Nyström features of a Gaussian kernel and a
     constant, width and ridge chosen by exact leave-one-out error.
@@ -122,7 +138,9 @@ class _RidgeFit:
             s, U = np.linalg.eigh(np.exp(-gamma * d_landmarks))
             keep = s > 1e-10 * s.max()
             to_features = U[:, keep] / np.sqrt(s[keep])
-            features = np.column_stack([np.exp(-gamma * d_rows) @ to_features, np.full(n, BIAS)])
+            features = np.empty((n, to_features.shape[1] + 1))
+            np.matmul(np.exp(-gamma * d_rows), to_features, out=features[:, :-1])
+            features[:, -1] = BIAS
             # ridge in the features' eigenbasis: F^T F = V diag(s) V^T
             s, V = np.linalg.eigh(features.T @ features)
             FV = features @ V
@@ -202,14 +220,14 @@ class KernelExtension:
         """The fitted functions at the points ``X`` (n, n_features): shape (n, n_functions).
 
         Each row is computed by the same sums whatever rows come with it, so predictions
-        made block by block equal those made at once, to the bit.
+        made block by block equal those made at once, to the bit; blocks of rows are
+        evaluated on several threads (:func:`~ndboundary._threads.in_blocks`).
         """
-        X = np.asarray(X, dtype=np.float64)
-        out = np.empty((X.shape[0], self._fit.weights.shape[1]))
-        for a in range(0, X.shape[0], _CHUNK):
-            c = slice(a, min(X.shape[0], a + _CHUNK))
-            out[c] = self._fit.at(_sq_dist_rowwise(X[c], self._landmarks, self._landmark_sq))
-        return out
+        return _by_blocks(
+            X,
+            self._fit.weights.shape[1],
+            lambda x: self._fit.at(_sq_dist_rowwise(x, self._landmarks, self._landmark_sq)),
+        )
 
     def leave_one_out(self, rows):
         """The regression at the training samples ``rows``, each fitted without its own
@@ -314,16 +332,13 @@ class PairwiseKernelExtension:
         Each row is computed by the same sums whatever rows come with it, as in
         :class:`KernelExtension`.
         """
-        X = np.asarray(X, dtype=np.float64)
-        out = np.empty((X.shape[0], self.n_classes))
-        for a in range(0, X.shape[0], _CHUNK):
-            c = slice(a, min(X.shape[0], a + _CHUNK))
-            d = _sq_dist_rowwise(X[c], self._landmarks, self._landmark_sq)
-            g = np.column_stack(
-                [pair.at(d[:, cols])[:, 0] for cols, pair in zip(self._columns, self._fits, strict=True)]
-            )
-            out[c] = self._classes(g)
-        return out
+
+        def classes(x):
+            d = _sq_dist_rowwise(x, self._landmarks, self._landmark_sq)
+            pairs = zip(self._columns, self._fits, strict=True)
+            return self._classes(np.column_stack([pair.at(d[:, cols])[:, 0] for cols, pair in pairs]))
+
+        return _by_blocks(X, self.n_classes, classes)
 
     def leave_one_out(self, rows):
         """The class functions at the training samples ``rows``, each pair that holds a

@@ -10,12 +10,15 @@ Two pieces serve large data:
   each block of rows of a Dask array, lazily: predictions of one row never depend on the
   other rows predicted with it, so the blocks agree with the in-memory result exactly.
   Dask is an optional dependency (the ``dask`` extra); nothing here imports it unless a
-  Dask array is given.
+  Dask array is given. On a ``distributed`` cluster the lean copy of the fitted
+  classifier (:func:`for_prediction`) is sent to every worker once and kept there while
+  the classifier lives (:func:`shipped_to_workers`), so later predictions start at once.
 """
 
 from __future__ import annotations
 
 import numbers
+import weakref
 
 import numpy as np
 
@@ -27,8 +30,12 @@ __all__ = [
     "for_prediction",
     "map_rows",
     "n_landmarks",
+    "shipped_to_workers",
     "transduce_the_rest",
 ]
+
+# fitted classifier -> (its classes_ when shipped, the client, the workers' copy)
+_SHIPPED = weakref.WeakKeyDictionary()
 
 
 def is_dask_array(X):
@@ -142,13 +149,47 @@ def for_prediction(est):
     return lean
 
 
+def _current_client():
+    """The ``distributed`` client Dask computes with by default, or None."""
+    try:
+        from distributed import default_client
+    except ImportError:
+        return None
+    try:
+        return default_client()
+    except ValueError:  # no client
+        return None
+
+
+def shipped_to_workers(est):
+    """The workers' copy of the fitted classifier ``est`` on the current ``distributed``
+    client: a future of :func:`for_prediction` held on every worker, or None without a
+    client.
+
+    The copy is sent (``scatter(..., broadcast=True)``) on the first call and reused by
+    later ones while ``est`` lives, the client runs and ``est`` is not refitted. The lean
+    copy of a classifier fitted on 100 000 samples in 50 dimensions is about 140 MB, which
+    sent with each prediction cost 0.5 to 0.8 s per call.
+    """
+    client = _current_client()
+    if client is None or client.status != "running":
+        return None
+    held = _SHIPPED.get(est)
+    if held is not None and held[0] is est.classes_ and held[1] is client and held[2].status == "finished":
+        return held[2]
+    future = client.scatter(for_prediction(est), broadcast=True, hash=False)
+    _SHIPPED[est] = (est.classes_, client, future)
+    return future
+
+
 def map_rows(est, method, X, n_outputs, dtype):
     """The method ``method`` of the fitted classifier ``est`` applied to each block of rows
     of the Dask array ``X``, lazily.
 
-    The estimator enters the task graph once, as one delayed object that every block's
-    task depends on, and lean (:func:`for_prediction`): a cluster ships it to each
-    worker once, not with every task.
+    The estimator enters the task graph once, as one object that every block's task
+    depends on, and lean (:func:`for_prediction`): a cluster ships it to each worker
+    once, not with every task. On a ``distributed`` client that object is the copy the
+    workers already hold (:func:`shipped_to_workers`).
 
     Parameters
     ----------
@@ -178,8 +219,10 @@ def map_rows(est, method, X, n_outputs, dtype):
         raise ValueError(f"X has shape {X.shape}; the classifier was fitted on {n_features} features")
     if len(X.chunks[1]) > 1:
         X = X.rechunk({1: -1})  # each block holds whole rows
-    # pure=False: a fresh key instead of hashing the whole fitted estimator
-    shipped = dask.delayed(for_prediction(est), pure=False, traverse=False)
+    shipped = shipped_to_workers(est)
+    if shipped is None:
+        # pure=False: a fresh key instead of hashing the whole fitted estimator
+        shipped = dask.delayed(for_prediction(est), pure=False, traverse=False)
     if n_outputs is None:
         return X.map_blocks(_apply, shipped, method, drop_axis=1, dtype=dtype, meta=np.empty((0,), dtype=dtype))
     return X.map_blocks(
