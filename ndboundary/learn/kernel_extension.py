@@ -13,10 +13,12 @@ is smooth on the scale of the whole sample.
 :class:`KernelExtension` is that kind of fit, made to ``phi``: kernel ridge regression
 of the relaxed functions on the Gaussian kernel, in the Nyström features of
 :data:`N_LANDMARKS` landmark samples (all of them on fewer samples) so that its cost
-grows linearly with the number of samples. The kernel's width and the ridge are chosen
-by the exact leave-one-out error of the regression (the hat matrix of a ridge gives it
-in closed form, Allen 1974), among the widths :data:`GAMMA_FACTORS` times
-scikit-learn's scale and the ridges :data:`RIDGES`.
+grows linearly with the number of samples, and a constant feature (:data:`BIAS`): far
+from the samples, where every kernel vanishes, the fit tends to the value the data call
+for (outside a ball of one class, the other class) rather than to the samples' mean.
+The kernel's width and the ridge are chosen by the exact leave-one-out error of the
+regression (the hat matrix of a ridge gives it in closed form, Allen 1974), among the
+widths :data:`GAMMA_FACTORS` times scikit-learn's scale and the ridges :data:`RIDGES`.
 
 With three classes or more, one regression per class against the rest must represent a
 class whose region is a shell between two others by a function that rises and falls
@@ -41,6 +43,7 @@ from .._threads import in_blocks
 from ..solvers.common import blas_threads
 
 __all__ = [
+    "BIAS",
     "GAMMA_FACTORS",
     "MIN_CLASS_LANDMARKS",
     "N_LANDMARKS",

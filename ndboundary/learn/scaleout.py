@@ -167,9 +167,9 @@ def shipped_to_workers(est):
     client.
 
     The copy is sent (``scatter(..., broadcast=True)``) on the first call and reused by
-    later ones while ``est`` lives, the client runs and ``est`` is not refitted. The lean
-    copy of a classifier fitted on 100 000 samples in 50 dimensions is about 140 MB, which
-    sent with each prediction cost 0.5 to 0.8 s per call.
+    later ones while ``est`` lives, the client runs and ``est`` is not refitted: the copy
+    holds the training samples and their neighbour index, which sent with each
+    prediction would cost each call a transfer of that size.
     """
     client = _current_client()
     if client is None or client.status != "running":
