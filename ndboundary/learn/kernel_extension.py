@@ -300,11 +300,11 @@ class PairwiseKernelExtension:
         pool_codes = codes[pool]
         gamma = _gamma_scale(X)
         self._columns, self._fits = [], []
-        fit = np.empty((X.shape[0], len(self.pairs)))
-        loo = np.empty_like(fit)
+        fit = np.full((X.shape[0], self.n_classes), np.inf)  # min_j g_ij, pair by pair
+        loo = fit.copy()
         with blas_threads(1):  # as in :class:`KernelExtension`
             d = _sq_dist(X, self._landmarks)
-            for p, (i, j) in enumerate(self.pairs):
+            for i, j in self.pairs:
                 rows = np.flatnonzero((codes == i) | (codes == j))
                 cols = np.flatnonzero((pool_codes == i) | (pool_codes == j))
                 pair = _RidgeFit(
@@ -313,21 +313,25 @@ class PairwiseKernelExtension:
                     phi[rows, i : i + 1] - phi[rows, j : j + 1],
                     gamma,
                 )
-                fit[:, p] = loo[:, p] = (np.exp(-pair.gamma * d[:, cols]) @ pair.weights + pair.offset)[:, 0]
-                fit[rows, p], loo[rows, p] = pair.fitted[:, 0], pair.loo[:, 0]
+                g = (np.exp(-pair.gamma * d[:, cols]) @ pair.weights + pair.offset)[:, 0]
+                g_loo = g.copy()
+                g[rows], g_loo[rows] = pair.fitted[:, 0], pair.loo[:, 0]
+                self._worst(fit, i, j, g)
+                self._worst(loo, i, j, g_loo)
                 pair.fitted = pair.loo = None
                 self._columns.append(cols)
                 self._fits.append(pair)
-        self.fitted = self._classes(fit)
-        self._loo = self._classes(loo)
+        self.fitted = 0.5 + 0.5 * fit
+        self._loo = 0.5 + 0.5 * loo
 
-    def _classes(self, g):
-        """Class functions ``1/2 + min_j g_ij / 2`` from the pairs' values ``g`` (n, n_pairs)."""
-        worst = np.full((g.shape[0], self.n_classes), np.inf)
-        for p, (i, j) in enumerate(self.pairs):
-            np.minimum(worst[:, i], g[:, p], out=worst[:, i])
-            np.minimum(worst[:, j], -g[:, p], out=worst[:, j])
-        return 0.5 + 0.5 * worst
+    @staticmethod
+    def _worst(worst, i, j, g):
+        """Fold pair ``(i, j)``'s values ``g = g_ij`` into ``worst``, the least ``g_kl`` of
+        each class ``k`` so far (``g_ji = -g_ij``): one pair at a time, so that no
+        (n, n_pairs) array is held with many classes.
+        """
+        np.minimum(worst[:, i], g, out=worst[:, i])
+        np.minimum(worst[:, j], -g, out=worst[:, j])
 
     def __call__(self, X):
         """The class functions at the points ``X`` (n, n_features): shape (n, n_classes).
@@ -338,8 +342,10 @@ class PairwiseKernelExtension:
 
         def classes(x):
             d = _sq_dist_rowwise(x, self._landmarks, self._landmark_sq)
-            pairs = zip(self._columns, self._fits, strict=True)
-            return self._classes(np.column_stack([pair.at(d[:, cols])[:, 0] for cols, pair in pairs]))
+            worst = np.full((x.shape[0], self.n_classes), np.inf)
+            for (i, j), cols, pair in zip(self.pairs, self._columns, self._fits, strict=True):
+                self._worst(worst, i, j, pair.at(d[:, cols])[:, 0])
+            return 0.5 + 0.5 * worst
 
         return _by_blocks(X, self.n_classes, classes)
 
