@@ -135,6 +135,7 @@ class _RidgeFit:
         n = d_rows.shape[0]
         mean = phi.mean(axis=0)
         target = phi - mean
+        ridges = np.asarray(RIDGES)
         best = None
         for factor in GAMMA_FACTORS:
             gamma = gamma_scale * factor
@@ -149,15 +150,17 @@ class _RidgeFit:
             FV = features @ V
             del features
             proj = FV.T @ target
-            lev = FV**2
-            for ridge in RIDGES:
-                shrink = 1.0 / (s + ridge * n)
-                fit = FV @ (shrink[:, None] * proj)
-                h = lev @ shrink
-                loo = target - (target - fit) / np.maximum(1.0 - h, 1e-12)[:, None]
-                err = float(((loo - target) ** 2).sum())
-                if best is None or err < best[0]:
-                    best = (err, gamma, ridge, to_features, V, shrink[:, None] * proj, fit, loo)
+            # every ridge at once: coefficients (ridges, features, functions), the fits
+            # and the hat matrix's diagonal (samples, ridges)
+            shrink = 1.0 / (s[None, :] + ridges[:, None] * n)
+            coefs = shrink[:, :, None] * proj[None]
+            fit = np.matmul(FV[None], coefs)
+            h = (FV**2) @ shrink.T
+            loo = target[None] - (target[None] - fit) / np.maximum(1.0 - h.T, 1e-12)[:, :, None]
+            err = ((loo - target[None]) ** 2).sum(axis=(1, 2))
+            i = int(np.argmin(err))  # the first of equal errors, as RIDGES orders them
+            if best is None or err[i] < best[0]:
+                best = (float(err[i]), gamma, float(ridges[i]), to_features, V, coefs[i], fit[i], loo[i])
         _, self.gamma, self.ridge, to_features, V, coef, fit, loo = best
         w = V @ coef
         self.weights = to_features @ w[:-1]  # (m, n_functions)
