@@ -506,3 +506,24 @@ def ambient_values(c, g, ind, X, lo, hi, out):  # pragma: no cover - compiled
                 for d in range(dim):
                     s += g[u, r, d] * X[b, d]
                 out[b, q, r] = min(max(c[u, r] + s, lo[u, r]), hi[u, r])
+
+
+@kernel("void(f8[:, :], f8[:, ::1], f8[:, :, :], i8[:, :], f8[:, :, ::1])")
+@numba.njit(cache=True, nogil=True)
+def tangent_coordinates(X, points, frames, ind, out):  # pragma: no cover - compiled
+    """``out[b, q] = frames[u]^T (X[b] - points[u])`` for ``u = ind[b, q]``: the tangent
+    coordinates of the points ``X`` seen from their neighbours ``ind``, without gathering
+    a (b, q, D, m) array of the neighbours' frames.
+    """
+    dim, m = frames.shape[1], frames.shape[2]
+    offset = np.empty(dim)
+    for b in range(ind.shape[0]):
+        for q in range(ind.shape[1]):
+            u = ind[b, q]
+            for d in range(dim):
+                offset[d] = X[b, d] - points[u, d]
+            for j in range(m):
+                s = 0.0
+                for d in range(dim):
+                    s += offset[d] * frames[u, d, j]
+                out[b, q, j] = s

@@ -267,3 +267,12 @@ def test_compiled_first_order_values_equal_the_gathered_sums():
     expected = np.clip(c[ind] + np.einsum("bqrd,bd->bqr", g[ind], X), lo[ind], hi[ind])
     np.testing.assert_allclose(out, expected, rtol=1e-13, atol=1e-13)
     assert (out == lo[ind]).any() and (out == hi[ind]).any()  # both bounds were met
+
+
+def test_tangent_offsets_equal_the_gathered_frames_products():
+    rng = np.random.default_rng(0)
+    cloud = PointCloud(rng.normal(size=(500, 6)), n_neighbors=10, intrinsic_dim=3)
+    X, ind = rng.normal(size=(40, 6)), rng.integers(0, 500, size=(40, 9))[:, :7]
+    expected = np.einsum("bqd,bqdm->bqm", X[:, None, :] - cloud.unique_points[ind], cloud.frames[ind])
+    np.testing.assert_allclose(cloud.tangent_offsets(X, ind), expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(cloud.tangent_offsets(X, ind.astype(np.int32)), expected, rtol=1e-12, atol=1e-12)

@@ -49,6 +49,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .._compiled import tangent_coordinates
 from .._validation import check_points
 from .neighbors import component_bridges, estimate_intrinsic_dim, kneighbors
 from .pointcloud_extension import NeighborExtension
@@ -56,11 +57,6 @@ from .pointcloud_operators import StencilDomain
 from .tangent import ball_volume, local_pca, lsq_coefficients
 
 __all__ = ["PointCloud"]
-
-
-_CHUNK = 4096
-#: Elements of gathered tangent frames held at once by :meth:`PointCloud.tangent_offsets`.
-_GATHER = 1 << 22
 
 
 class PointCloud(StencilDomain):
@@ -225,14 +221,15 @@ class PointCloud(StencilDomain):
         return self._index.query(np.asarray(X, dtype=np.float64), k)
 
     def tangent_offsets(self, X, ind):
-        """Tangent coordinates ``T_j^T (x - x_j)`` of ``X`` (n, D) seen from ``ind`` (n, q): (n, q, m)."""
+        """Tangent coordinates ``T_j^T (x - x_j)`` of ``X`` (n, D) seen from ``ind`` (n, q): (n, q, m).
+
+        Summed by a compiled pass (:func:`ndboundary._compiled.tangent_coordinates`), which
+        reads each neighbour's frame in place instead of gathering them.
+        """
         out = np.empty(ind.shape + (self.intrinsic_dim,))
-        # rows per chunk: the gathered frames (rows, q, D, m) stay within _GATHER elements
-        step = max(1, min(_CHUNK, _GATHER // max(1, ind.shape[1] * self.frames[0].size)))
-        for a in range(0, X.shape[0], step):
-            c = slice(a, min(X.shape[0], a + step))
-            off = X[c][:, None, :] - self.unique_points[ind[c]]  # (b, q, D)
-            out[c] = np.einsum("bqd,bqdm->bqm", off, self.frames[ind[c]], optimize=True)
+        points = np.ascontiguousarray(self.unique_points, dtype=np.float64)
+        X = np.asarray(X, dtype=np.float64)
+        tangent_coordinates(X, points, self.frames, np.asarray(ind).astype(np.int64, copy=False), out)
         return out
 
     def for_queries(self, frames=True):

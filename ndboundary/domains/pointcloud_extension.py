@@ -223,8 +223,8 @@ class NeighborExtension:
         stencil = np.concatenate([self._phi_u[:, None, :], self._phi_u[dom.neighbors]], axis=1)
         ordered = np.sort(stencil, axis=1)
         lo1, lo2, hi1, hi2 = ordered[:, 0], ordered[:, 1], ordered[:, -1], ordered[:, -2]
-        for a in range(0, rows.size, _CHUNK):
-            c = slice(a, min(rows.size, a + _CHUNK))
+
+        def block(c):
             u = dom.unique_inverse[rows[c]]
             X = dom.points[rows[c]]
             ind, dist = self._others(rows[c], X, k + nxt)
@@ -244,6 +244,9 @@ class NeighborExtension:
             lo = np.where(alone_lo, lo2[ind], lo1[ind])
             hi = np.where(alone_hi, hi2[ind], hi1[ind])
             out[c] = _weighted_mean(np.clip(vals, lo, hi), taper, log_ratio, self.power)
+
+        for _ in in_blocks(rows.size, _CHUNK, block):  # blocks of samples on several threads
+            pass
         return out
 
     def _choose_power(self, labels, labelled):

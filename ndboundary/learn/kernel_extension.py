@@ -44,6 +44,7 @@ from ..solvers.common import blas_threads
 
 __all__ = [
     "BIAS",
+    "BLAS_THREADED_SAMPLES",
     "GAMMA_FACTORS",
     "MIN_CLASS_LANDMARKS",
     "N_LANDMARKS",
@@ -73,6 +74,19 @@ RIDGES = tuple(np.logspace(-6.0, -1.0, 11).tolist())
 BIAS = 1.0
 
 _CHUNK = 8192
+
+#: Samples from which the fit's products run on every BLAS thread.
+BLAS_THREADED_SAMPLES = 20000
+
+
+def _blas_limit(n_samples):
+    """BLAS threads for a fit to ``n_samples``: one below :data:`BLAS_THREADED_SAMPLES`,
+    where the products (samples by landmarks) are small and OpenBLAS's threads spin on
+    them and multiply the wall time on a machine with any other load (as in the solvers,
+    :mod:`ndboundary.solvers.common`); no limit above, where two threads cut the time of
+    a fit to 100 000 samples by a quarter to a half.
+    """
+    return 1 if n_samples < BLAS_THREADED_SAMPLES else None
 
 
 def _gamma_scale(X):
@@ -211,10 +225,7 @@ class KernelExtension:
         pick = np.random.default_rng(0).permutation(n)[:N_LANDMARKS] if n > N_LANDMARKS else np.arange(n)
         self._landmarks = X[np.sort(pick)]
         self._landmark_sq = np.einsum("ld,ld->l", self._landmarks, self._landmarks)
-        # one BLAS thread: the products are small (samples by landmarks), and OpenBLAS's
-        # threads spin on them and multiply the wall time on a machine with any other load
-        # (as in the solvers, :mod:`ndboundary.solvers.common`)
-        with blas_threads(1):
+        with blas_threads(_blas_limit(n)):
             fit = _RidgeFit(
                 _sq_dist(X, self._landmarks), _sq_dist(self._landmarks, self._landmarks), phi, _gamma_scale(X)
             )
@@ -305,7 +316,7 @@ class PairwiseKernelExtension:
         self._columns, self._fits = [], []
         fit = np.full((X.shape[0], self.n_classes), np.inf)  # min_j g_ij, pair by pair
         loo = fit.copy()
-        with blas_threads(1):  # as in :class:`KernelExtension`
+        with blas_threads(_blas_limit(X.shape[0])):
             d = _sq_dist(X, self._landmarks)
             for i, j in self.pairs:
                 rows = np.flatnonzero((codes == i) | (codes == j))
