@@ -52,7 +52,7 @@ import numpy as np
 from .._compiled import ambient_values
 from .._threads import in_blocks
 
-__all__ = ["EXTENSION_POWERS", "LOCAL_SCALE_RANK", "NeighborExtension"]
+__all__ = ["EXTENSION_POWERS", "LOCAL_SCALE_RANK", "NeighborExtension", "predicted_codes"]
 
 #: The powers ``power="auto"`` chooses from; on equal leave-one-out accuracy the
 #: earlier one is kept.
@@ -70,7 +70,7 @@ def _weighted_mean(vals, taper, log_ratio, power):
     return np.einsum("bq,bqr->br", w, vals) / w.sum(axis=1)[:, None]
 
 
-def _predicted(phi):
+def predicted_codes(phi):
     """Class codes of extension values: ``phi > 1/2`` for one column, the largest otherwise."""
     return (phi[:, 0] > 0.5).astype(np.int64) if phi.shape[1] == 1 else np.argmax(phi, axis=1)
 
@@ -273,9 +273,9 @@ class NeighborExtension:
         for c, left_out, kept in self._training_terms(rows):
             for i, p in enumerate(powers):
                 phi = loo[i, c] = _weighted_mean(*left_out, p)
-                right[i] += int((_predicted(phi) == lab[c]).sum())
+                right[i] += int((predicted_codes(phi) == lab[c]).sum())
                 at[i, c] = _weighted_mean(*kept, p)
-                own[i, c] = _predicted(at[i, c])
+                own[i, c] = predicted_codes(at[i, c])
         classes = np.unique(lab)
         keeps = np.array([np.isin(classes, lab[own[i] == lab]).all() for i in range(powers.size)])
         if self.cloud.unique_points.shape[0] <= self.n_neighbors + 1:

@@ -40,6 +40,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ..domains.pointcloud_extension import predicted_codes
 from .band import classifier_band
 from .extrema import relax_classes
 from .graph import build_graph
@@ -77,11 +78,6 @@ INTEGRATION_FORM = "gradient"
 #: ``--sets other``, each on two draws of folds), as it did with the weights 1/4 and 3/4
 #: added.
 KERNEL_WEIGHTS = (0.5, 1.0)
-
-
-def _predicted(phi):
-    """Class codes of relaxed functions: ``phi > 1/2`` for one column, the largest otherwise."""
-    return (phi[:, 0] > 0.5).astype(np.int64) if phi.shape[1] == 1 else np.argmax(phi, axis=1)
 
 
 class LevelSetClassifier(ClassifierMixin, BaseEstimator):
@@ -389,10 +385,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         lab = codes[rows]
         best = None
         for w in KERNEL_WEIGHTS:
-            kept = _predicted((1.0 - w) * own_local + w * own_kernel)
+            kept = predicted_codes((1.0 - w) * own_local + w * own_kernel)
             if not np.isin(np.unique(lab), lab[kept == lab]).all():
                 continue
-            right = int((_predicted((1.0 - w) * local + w * kernel_loo) == lab).sum())
+            right = int((predicted_codes((1.0 - w) * local + w * kernel_loo) == lab).sum())
             if best is None or right > best[0]:
                 best = (right, w)
         if best is None:

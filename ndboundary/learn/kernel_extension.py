@@ -187,7 +187,26 @@ class _RidgeFit:
         return np.einsum("bl,lr->br", np.exp(-self.gamma * d), self.weights) + self.offset
 
 
-class KernelExtension:
+class _FittedAtSamples:
+    """What the kernel fits share: their values at the training samples held out
+    (``_loo``) and fitted (``fitted``), and a lean copy for new points only.
+    """
+
+    def leave_one_out(self, rows):
+        """The fit at the training samples ``rows``, each sample left out of the
+        regressions that held it (exactly, for the width and ridge chosen): shape
+        (len(rows), n_functions).
+        """
+        return self._loo[np.asarray(rows)]
+
+    def for_queries(self):
+        """A copy that evaluates new points only (no :meth:`leave_one_out` or ``fitted``)."""
+        lean = object.__new__(type(self))
+        lean.__dict__.update(self.__dict__, _loo=None, fitted=None)
+        return lean
+
+
+class KernelExtension(_FittedAtSamples):
     """Kernel ridge regression of vertex functions on a Gaussian kernel, evaluated at new points.
 
     Parameters
@@ -246,20 +265,8 @@ class KernelExtension:
             lambda x: self._fit.at(_sq_dist_rowwise(x, self._landmarks, self._landmark_sq)),
         )
 
-    def leave_one_out(self, rows):
-        """The regression at the training samples ``rows``, each fitted without its own
-        sample (exactly, for the width and ridge chosen): shape (len(rows), n_functions).
-        """
-        return self._loo[np.asarray(rows)]
 
-    def for_queries(self):
-        """A copy that evaluates new points only (no :meth:`leave_one_out` or ``fitted``)."""
-        lean = object.__new__(type(self))
-        lean.__dict__.update(self.__dict__, _loo=None, fitted=None)
-        return lean
-
-
-class PairwiseKernelExtension:
+class PairwiseKernelExtension(_FittedAtSamples):
     """Kernel fits of the differences of per-class functions, one per pair of classes.
 
     Pair ``(i, j)`` fits ``phi_i - phi_j`` on the samples of classes ``i`` and ``j`` only,
@@ -362,15 +369,3 @@ class PairwiseKernelExtension:
             return 0.5 + 0.5 * worst
 
         return _by_blocks(X, self.n_classes, classes)
-
-    def leave_one_out(self, rows):
-        """The class functions at the training samples ``rows``, each pair that holds a
-        sample fitted without it: shape (len(rows), n_classes).
-        """
-        return self._loo[np.asarray(rows)]
-
-    def for_queries(self):
-        """A copy that evaluates new points only (no :meth:`leave_one_out` or ``fitted``)."""
-        lean = object.__new__(type(self))
-        lean.__dict__.update(self.__dict__, _loo=None, fitted=None)
-        return lean
