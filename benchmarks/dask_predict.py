@@ -14,17 +14,25 @@ predicts, and reports rows per second:
   predicted there, the generation timed alone too: the throughput of a data set that
   never sits in one process's memory.
 
-Medians of ``--repeats`` runs for the first two. The classifier's own ``predict`` ships
-its lean copy to the workers on its first call and reuses it after
+Each of ``--repeats`` rounds predicts the samples in memory, with no cluster running (an
+idle ``LocalCluster`` slows a process beside it on a small machine), then starts a fresh
+cluster and predicts them there once each way. The ratios to the in-memory time are taken
+within a round, so that the drifts of a shared machine hit both sides alike; their median
+is printed with their range. The classifier's own ``predict`` ships its lean copy to the
+workers on its first call and reuses it after
 (``ndboundary.learn.scaleout.shipped_to_workers``): that first call is timed on its own
-(``cluster_first_s``), the median over the calls after it. ``ParallelPostFit`` ships the
-estimator with each call. Prints a table and one JSON line.
+(``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
+``--no-profiler`` and ``--no-malloc-trim`` start the workers without two of Dask's
+defaults: its statistical profiler, which samples every worker thread's stack 100 times a
+second, and ``MALLOC_TRIM_THRESHOLD_``, with which glibc hands freed memory back to the
+system (and faults it in again) at once. Prints a table and one JSON line.
 
 Usage::
 
     python benchmarks/dask_predict.py [--fit-n 100000] [--max-samples 0.1] [--n 10000000]
                                       [--check-n 200000] [--chunk 100000] [--workers 2]
-                                      [--threads 1]
+                                      [--threads 1] [--repeats 3] [--no-profiler]
+                                      [--no-malloc-trim]
 """
 
 from __future__ import annotations
@@ -32,7 +40,9 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from contextlib import contextmanager
 
+import dask
 import dask.array as da
 import numpy as np
 from dask_ml.wrappers import ParallelPostFit
@@ -61,13 +71,54 @@ def generated(n, chunk, features):
     ), n_blocks
 
 
-def timed(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), out
+def timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def check(labels, ref, way):
+    if not np.array_equal(labels, ref):
+        raise AssertionError(f"{way}: predictions differ from the in-memory ones")
+
+
+WAYS = ("cluster", "parallelpostfit_lean", "parallelpostfit")
+
+
+@contextmanager
+def cluster(args, settings):
+    """A client of a fresh ``LocalCluster`` of worker processes, with Dask ``settings``."""
+    with (
+        dask.config.set(settings),
+        LocalCluster(
+            n_workers=args.workers, threads_per_worker=args.threads, processes=True, dashboard_address=None
+        ) as local,
+        Client(local) as client,
+    ):
+        yield client
+
+
+def cluster_round(client, clf, Xc, ref, args):
+    """Seconds to predict ``Xc`` on the cluster of ``client`` each way, once, after warming
+    every worker; ``cluster_first`` is the classifier's own first call, which ships its
+    lean copy to the workers.
+    """
+    shipped = client.scatter(clf, broadcast=True)
+    client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()  # warm every worker
+    del shipped
+    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
+    wrapped, lean = ParallelPostFit(clf), ParallelPostFit(for_prediction(clf))
+    ways = {
+        "cluster_first": lambda: clf.predict(Xd).compute(),
+        "cluster": lambda: clf.predict(Xd).compute(),
+        "parallelpostfit_lean": lambda: lean.predict(Xd).compute(),
+        "parallelpostfit": lambda: wrapped.predict(Xd).compute(),
+    }
+    times = {}
+    for name, way in ways.items():
+        times[name], labels = timed(way)
+        check(labels, ref, name)
+    return times
 
 
 def main(argv=None):
@@ -81,6 +132,8 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--threads", type=int, default=1, help="threads per worker process")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--no-profiler", action="store_true", help="workers without Dask's statistical profiler")
+    ap.add_argument("--no-malloc-trim", action="store_true", help="workers without Dask's MALLOC_TRIM_THRESHOLD_")
     args = ap.parse_args(argv)
     X, y = make_data(args.fit_n, args.features)
     m = args.max_samples
@@ -90,44 +143,31 @@ def main(argv=None):
     out = {"fit_n": args.fit_n, "landmarks": int(clf.domain_.n_vertices), "fit_s": time.perf_counter() - t0}
     Xc, yc = make_data(args.check_n, args.features, seed=1)
     clf.predict(Xc[:1000])  # the neighbour index's query compiled
-    t_mem, ref = timed(lambda: clf.predict(Xc), args.repeats)
-    out.update(memory_s=t_mem, memory_rows_per_s=args.check_n / t_mem, accuracy=float((ref == yc).mean()))
-    with (
-        LocalCluster(
-            n_workers=args.workers, threads_per_worker=args.threads, processes=True, dashboard_address=None
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        shipped = client.scatter(clf, broadcast=True)
-        client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()  # warm every worker
-        del shipped
-        Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
-        t_first, lazy = timed(lambda: clf.predict(Xd).compute(), 1)
-        if not np.array_equal(lazy, ref):
-            raise AssertionError("block-wise predictions differ from the in-memory ones")
-        t_own, lazy = timed(lambda: clf.predict(Xd).compute(), args.repeats)
-        if not np.array_equal(lazy, ref):
-            raise AssertionError("block-wise predictions differ from the in-memory ones")
-        wrapped = ParallelPostFit(clf)
-        t_ppf, lazy = timed(lambda: wrapped.predict(Xd).compute(), args.repeats)
-        if not np.array_equal(lazy, ref):
-            raise AssertionError("ParallelPostFit's predictions differ from the in-memory ones")
-        lean = ParallelPostFit(for_prediction(clf))
-        t_lean, lazy = timed(lambda: lean.predict(Xd).compute(), args.repeats)
-        if not np.array_equal(lazy, ref):
-            raise AssertionError("ParallelPostFit's predictions differ from the in-memory ones")
-        out.update(
-            parallelpostfit_lean_s=t_lean,
-            parallelpostfit_lean_vs_memory=t_mem / t_lean,
-            cluster_first_s=t_first,
-            cluster_first_vs_memory=t_mem / t_first,
-            cluster_s=t_own,
-            cluster_rows_per_s=args.check_n / t_own,
-            cluster_vs_memory=t_mem / t_own,
-            parallelpostfit_s=t_ppf,
-            parallelpostfit_vs_memory=t_mem / t_ppf,
-        )
-        if args.n > 0:
+    ref = clf.predict(Xc)
+    out["accuracy"] = float((ref == yc).mean())
+    settings = {"distributed.worker.profile.enabled": not args.no_profiler}
+    if args.no_malloc_trim:
+        environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ"))
+        environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+        settings["distributed.nanny.pre-spawn-environ"] = environ
+    times = {name: [] for name in ("memory", "cluster_first", *WAYS)}
+    for _ in range(args.repeats):
+        t, labels = timed(lambda: clf.predict(Xc))  # no cluster running
+        check(labels, ref, "memory")
+        times["memory"].append(t)
+        with cluster(args, settings) as client:
+            for name, t in cluster_round(client, clf, Xc, ref, args).items():
+                times[name].append(t)
+    mem = np.asarray(times["memory"])
+    out.update(memory_s=float(np.median(mem)), memory_rows_per_s=args.check_n / float(np.median(mem)))
+    for name in ("cluster_first", *WAYS):
+        t = np.asarray(times[name])
+        out[f"{name}_s"] = float(np.median(t))
+        out[f"{name}_vs_memory"] = float(np.median(mem / t))  # ratios within each round
+        out[f"{name}_vs_memory_range"] = [round(float(r), 3) for r in (np.min(mem / t), np.max(mem / t))]
+    out["cluster_rows_per_s"] = args.check_n / out["cluster_s"]
+    if args.n > 0:
+        with cluster(args, settings) as client:
             big, n_blocks = generated(args.n, args.chunk, args.features)
             t0 = time.perf_counter()
             big.sum(axis=1).compute()
