@@ -527,3 +527,23 @@ def tangent_coordinates(X, points, frames, ind, out):  # pragma: no cover - comp
                 for d in range(dim):
                     s += offset[d] * frames[u, d, j]
                 out[b, q, j] = s
+
+
+@kernel("void(f8[:, ::1], f8[:, ::1], f8[:, ::1])")
+@numba.njit(cache=True, nogil=True)
+def squared_distances(X, landmarks_t, out):  # pragma: no cover - compiled
+    """``out[b, l] = |X[b] - landmarks[l]|^2``, from the transposed landmarks
+    ``landmarks_t`` (n_features, n_landmarks). Each row is summed in the same order
+    whatever rows come with it (predictions made block by block equal those made at
+    once, to the bit), and the inner loop runs over the landmarks, which the compiler
+    vectorises.
+    """
+    dim, m = landmarks_t.shape
+    for b in range(X.shape[0]):
+        for j in range(m):
+            out[b, j] = 0.0
+        for d in range(dim):
+            x = X[b, d]
+            for j in range(m):
+                t = x - landmarks_t[d, j]
+                out[b, j] += t * t

@@ -51,7 +51,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .._compiled import tangent_coordinates
 from .._validation import check_points
-from .neighbors import component_bridges, estimate_intrinsic_dim, kneighbors
+from .neighbors import component_bridges, drop_self, estimate_intrinsic_dim, kneighbors
 from .pointcloud_extension import NeighborExtension
 from .pointcloud_operators import StencilDomain
 from .tangent import ball_volume, local_pca, lsq_coefficients
@@ -75,10 +75,16 @@ class PointCloud(StencilDomain):
     method : {"auto", "exact", "approximate", "hnsw", "nndescent"}, default="auto"
         Neighbour search: scikit-learn's exact search, faiss's HNSW graph, pynndescent,
         the best approximate one installed (HNSW, else NN-descent), or exact up to
-        ``EXACT_MAX_SAMPLES`` distinct points and approximate beyond
+        ``EXACT_MAX_SAMPLES`` distinct points (``HNSW_MIN_SAMPLES`` on more than five
+        features when faiss is installed) and approximate beyond
         (:mod:`ndboundary.domains.neighbors`).
     random_state : int, Generator or None, default=None
         Seed of pynndescent's search (the HNSW graph is the same in every run).
+    search_neighbors : int or None, default=None
+        Neighbours to search per distinct point, when more than ``n_neighbors``: the
+        graph keeps its ``n_neighbors`` nearest, and :meth:`sample_neighbors` the rest, so
+        that an extension over more neighbours than the graph holds reads them from the
+        same search instead of searching again.
 
     Attributes
     ----------
@@ -117,7 +123,7 @@ class PointCloud(StencilDomain):
     True
     """
 
-    def __init__(self, X, *, n_neighbors=15, intrinsic_dim=None, method="auto", random_state=None):
+    def __init__(self, X, *, n_neighbors=15, intrinsic_dim=None, method="auto", random_state=None, search_neighbors=None):
         self.points = check_points(X, name="X")
         if isinstance(n_neighbors, bool) or not isinstance(n_neighbors, numbers.Integral):
             raise TypeError(f"n_neighbors must be an integer, got {type(n_neighbors).__name__}")
@@ -141,9 +147,16 @@ class PointCloud(StencilDomain):
             )
         k = int(min(n_neighbors, n_u - 1))
         self.n_neighbors = k
-        self.neighbors, self.distances, self._index = kneighbors(
-            self.unique_points, k, method=method, random_state=random_state, return_index=True
+        wide = k
+        if search_neighbors is not None:
+            if isinstance(search_neighbors, bool) or not isinstance(search_neighbors, numbers.Integral):
+                raise TypeError(f"search_neighbors must be an integer or None, got {type(search_neighbors).__name__}")
+            wide = int(min(max(search_neighbors, k), n_u - 1))
+        ind, dist, self._index = kneighbors(
+            self.unique_points, wide, method=method, random_state=random_state, return_index=True
         )
+        self._wide = (ind, dist) if wide > k else None
+        self.neighbors, self.distances = np.ascontiguousarray(ind[:, :k]), np.ascontiguousarray(dist[:, :k])
         D = self.points.shape[1]
         if intrinsic_dim is None:
             m = int(np.clip(round(estimate_intrinsic_dim(self.distances)), 1, max(1, min(D, k // 3))))
@@ -214,6 +227,23 @@ class PointCloud(StencilDomain):
         """
         return NeighborExtension(self, phi, n_neighbors=n_neighbors, power=power, labels=labels, labelled=labelled)
 
+    def sample_neighbors(self, count):
+        """The ``count`` nearest other distinct points of every distinct point:
+        ``(indices, distances)`` of shape (n_unique, min(count, n_unique - 1)), nearest first.
+
+        The graph's own neighbours when it holds that many, else those of one wider
+        search, kept for the next call (the ``search_neighbors`` of the constructor, or
+        searched now). Not pickled.
+        """
+        count = int(min(count, self.unique_points.shape[0] - 1))
+        if count <= self.neighbors.shape[1]:
+            return self.neighbors[:, :count], self.distances[:, :count]
+        wide = self.__dict__.get("_wide")
+        if wide is None or wide[0].shape[1] < count:
+            ind, dist = self._index.query(self.unique_points, count + 1)
+            wide = self._wide = drop_self(ind, dist, count)
+        return wide[0][:, :count], wide[1][:, :count]
+
     # -- new points -------------------------------------------------------------------------
     def kneighbors(self, X, n_neighbors=None):
         """Nearest distinct points of new points ``X``: (indices into ``unique_points``, distances)."""
@@ -251,6 +281,8 @@ class PointCloud(StencilDomain):
 
     def __getstate__(self):
         state = self.__dict__.copy()
-        for name in ("G", "K", "A", "mass", "adjacency", "incidence", "edges", "vertex_components", "edge_lengths"):
+        for name in (
+            "G", "K", "A", "mass", "adjacency", "incidence", "edges", "vertex_components", "edge_lengths", "_wide"
+        ):  # fmt: skip
             state.pop(name, None)
         return state

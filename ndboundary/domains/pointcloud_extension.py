@@ -223,11 +223,12 @@ class NeighborExtension:
         stencil = np.concatenate([self._phi_u[:, None, :], self._phi_u[dom.neighbors]], axis=1)
         ordered = np.sort(stencil, axis=1)
         lo1, lo2, hi1, hi2 = ordered[:, 0], ordered[:, 1], ordered[:, -1], ordered[:, -2]
+        dom.sample_neighbors(k + nxt)  # searched once, before the blocks read it
 
         def block(c):
             u = dom.unique_inverse[rows[c]]
             X = dom.points[rows[c]]
-            ind, dist = self._others(rows[c], X, k + nxt)
+            ind, dist = self._others(rows[c], k + nxt)
             _, taper, log_ratio = self._from_neighbors(X, ind, dist, k, nxt)
             ind = ind[:, :k]
             off = dom.tangent_offsets(X, ind)  # (b, k, m)
@@ -302,10 +303,11 @@ class NeighborExtension:
         k0, nxt0 = self._sizes(0)
         need = max(k1 + nxt1, k0 + nxt0 - 1)
         X = dom.points[rows]
+        dom.sample_neighbors(need)  # searched once, before the blocks read it
 
         def block(c):
             u = dom.unique_inverse[rows[c]]
-            ind, dist = self._others(rows[c], X[c], need)
+            ind, dist = self._others(rows[c], need)
             left_out = self._from_neighbors(X[c], ind[:, : k1 + nxt1], dist[:, : k1 + nxt1], k1, nxt1)
             with_self = np.concatenate([u[:, None], ind], axis=1)[:, : k0 + nxt0]
             zero = np.concatenate([np.zeros((u.size, 1)), dist], axis=1)[:, : k0 + nxt0]
@@ -325,9 +327,8 @@ class NeighborExtension:
         locally scaled distances (module docstring).
 
         With ``rows``, ``X`` holds those training samples and each sample's own point is
-        left out. Those leave-one-out estimates read the neighbours from the graph (the
-        nearest other distinct points) instead of querying the index, unless the
-        extension uses more neighbours than the graph holds.
+        left out. Those leave-one-out estimates read the nearest other distinct points
+        from the cloud's search (:meth:`_others`) instead of querying the index.
         """
         dom = self.cloud
         own = 0 if rows is None else 1
@@ -337,19 +338,17 @@ class NeighborExtension:
             if rows is None:
                 ind, dist = dom.kneighbors(X[c], k + nxt)
             else:
-                ind, dist = self._others(rows[c], X[c], k + nxt)
+                ind, dist = self._others(rows[c], k + nxt)
             yield (c, *self._from_neighbors(X[c], ind, dist, k, nxt))
 
-    def _others(self, rows, X, count):
+    def _others(self, rows, count):
         """``(ind, dist)``: the ``count`` nearest other samples of the training samples
-        ``rows`` (at ``X``), from the graph when it holds that many neighbours.
+        ``rows``, from the graph, or from one wider search of every sample
+        (:meth:`~ndboundary.PointCloud.sample_neighbors`) when the graph holds fewer.
         """
-        dom = self.cloud
-        if count <= dom.neighbors.shape[1]:
-            u = dom.unique_inverse[rows]
-            return dom.neighbors[u, :count], dom.distances[u, :count]
-        ind, dist = dom.kneighbors(X, count + 1)
-        return ind[:, 1:], dist[:, 1:]  # the sample itself comes first
+        ind, dist = self.cloud.sample_neighbors(count)
+        u = self.cloud.unique_inverse[rows]
+        return ind[u], dist[u]
 
     def _locally_scaled(self, ind, dist):
         """The distances ``dist`` to the neighbours ``ind`` in units of each neighbour's

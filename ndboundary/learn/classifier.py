@@ -332,6 +332,8 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             distinct=n_distinct == X.shape[0],
             intrinsic_dim=self.intrinsic_dim,
             random_state=self.random_state,
+            # the extension's neighbours and the next one, from the graph's search
+            search_neighbors=self.extension_neighbors + 1,
         )
         self.band_ = classifier_band(self.band, self.domain_)
         self._log(f"built the graph over {X.shape[0]} samples: {self.domain_!r}", t0)

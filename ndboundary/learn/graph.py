@@ -15,7 +15,7 @@ AUTO_NEIGHBORS_MAX_SAMPLES = 10_000
 AUTO_NEIGHBORS_LARGE = 15
 
 
-def build_graph(X, graph, n_neighbors, lam, *, distinct, intrinsic_dim=None, random_state=None):
+def build_graph(X, graph, n_neighbors, lam, *, distinct, intrinsic_dim=None, random_state=None, search_neighbors=None):
     """The classifier's domain over the samples ``X``: ``(domain, n_neighbors, lam)``.
 
     Parameters
@@ -31,6 +31,9 @@ def build_graph(X, graph, n_neighbors, lam, *, distinct, intrinsic_dim=None, ran
         The boundary weight asked for.
     distinct : bool
         Whether the samples are distinct (a Delaunay complex needs them to be).
+    search_neighbors : int or None
+        Neighbours a kNN graph searches per sample and keeps for its extension
+        (:class:`~ndboundary.PointCloud`'s ``search_neighbors``).
 
     Returns
     -------
@@ -58,5 +61,7 @@ def build_graph(X, graph, n_neighbors, lam, *, distinct, intrinsic_dim=None, ran
     k = n_neighbors
     if k == "auto":
         k = AUTO_NEIGHBORS if X.shape[0] <= AUTO_NEIGHBORS_MAX_SAMPLES else AUTO_NEIGHBORS_LARGE
-    cloud = PointCloud(X, n_neighbors=k, intrinsic_dim=intrinsic_dim, random_state=random_state)
+    cloud = PointCloud(
+        X, n_neighbors=k, intrinsic_dim=intrinsic_dim, random_state=random_state, search_neighbors=search_neighbors
+    )
     return cloud, cloud.n_neighbors, lam * k / cloud.n_neighbors

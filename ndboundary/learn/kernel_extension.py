@@ -39,6 +39,7 @@ from itertools import combinations
 
 import numpy as np
 
+from .._compiled import squared_distances
 from .._threads import in_blocks
 from ..solvers.common import blas_threads
 
@@ -111,14 +112,16 @@ def _sq_dist(A, B):
     return np.maximum(d, 0.0)
 
 
-def _sq_dist_rowwise(X, landmarks, landmark_sq):
-    """:func:`_sq_dist` with each row's sums independent of the rows beside it
-    (``einsum``'s own loops, not a matrix product whose blocking depends on the number of
-    rows), so that new points computed block by block equal those computed at once, to
-    the bit.
+def _sq_dist_rowwise(X, landmarks_t):
+    """Squared Euclidean distances between the rows of ``X`` and the landmarks, given
+    transposed (n_features, n_landmarks), each row summed by the same loop whatever rows
+    come with it (:func:`~ndboundary._compiled.squared_distances`, not a matrix product
+    whose blocking depends on the number of rows), so that new points computed block by
+    block equal those computed at once, to the bit.
     """
-    cross = np.einsum("bd,ld->bl", X, landmarks)
-    return np.maximum(np.einsum("bd,bd->b", X, X)[:, None] + landmark_sq[None, :] - 2.0 * cross, 0.0)
+    out = np.empty((X.shape[0], landmarks_t.shape[1]))
+    squared_distances(np.ascontiguousarray(X, dtype=np.float64), landmarks_t, out)
+    return out
 
 
 def _by_blocks(X, n_out, values):
@@ -150,26 +153,36 @@ class _RidgeFit:
         mean = phi.mean(axis=0)
         target = phi - mean
         ridges = np.asarray(RIDGES)
-        best = None
-        for factor in GAMMA_FACTORS:
+        best = E = None
+        for step, factor in enumerate(GAMMA_FACTORS):
             gamma = gamma_scale * factor
             s, U = np.linalg.eigh(np.exp(-gamma * d_landmarks))
             keep = s > 1e-10 * s.max()
             to_features = U[:, keep] / np.sqrt(s[keep])
-            features = np.empty((n, to_features.shape[1] + 1))
-            np.matmul(np.exp(-gamma * d_rows), to_features, out=features[:, :-1])
-            features[:, -1] = BIAS
-            # ridge in the features' eigenbasis: F^T F = V diag(s) V^T
-            s, V = np.linalg.eigh(features.T @ features)
-            FV = features @ V
-            del features
+            # the features are F = [E T, BIAS] (E the kernel to the landmarks, T
+            # to_features); the ridge works in their eigenbasis, F^T F = V diag(s) V^T,
+            # whose Gram matrix comes from E^T E and the column sums of E. A width twice
+            # the last one squares its kernel, exp(-2 g d) = exp(-g d)^2: a product per
+            # entry instead of an exponential
+            if step > 0 and factor == 2.0 * GAMMA_FACTORS[step - 1]:
+                np.multiply(E, E, out=E)
+            else:
+                E = np.exp(-gamma * d_rows)
+            gram = np.empty((to_features.shape[1] + 1,) * 2)
+            gram[:-1, :-1] = to_features.T @ (E.T @ E) @ to_features
+            gram[-1, :-1] = gram[:-1, -1] = BIAS * (E.sum(axis=0) @ to_features)
+            gram[-1, -1] = n * BIAS * BIAS
+            s, V = np.linalg.eigh(gram)
+            FV = E @ (to_features @ V[:-1])
+            FV += BIAS * V[-1]
             proj = FV.T @ target
             # every ridge at once: coefficients (ridges, features, functions), the fits
-            # and the hat matrix's diagonal (samples, ridges)
+            # and the hat matrix's diagonal (samples, ridges), each one product
             shrink = 1.0 / (s[None, :] + ridges[:, None] * n)
             coefs = shrink[:, :, None] * proj[None]
-            fit = np.matmul(FV[None], coefs)
-            h = (FV**2) @ shrink.T
+            p, r = coefs.shape[1:]
+            fit = (FV @ coefs.transpose(1, 0, 2).reshape(p, -1)).reshape(n, ridges.size, r).transpose(1, 0, 2)
+            h = np.square(FV, out=FV) @ shrink.T
             loo = target[None] - (target[None] - fit) / np.maximum(1.0 - h.T, 1e-12)[:, :, None]
             err = ((loo - target[None]) ** 2).sum(axis=(1, 2))
             i = int(np.argmin(err))  # the first of equal errors, as RIDGES orders them
@@ -243,7 +256,7 @@ class KernelExtension(_FittedAtSamples):
         n = X.shape[0]
         pick = np.random.default_rng(0).permutation(n)[:N_LANDMARKS] if n > N_LANDMARKS else np.arange(n)
         self._landmarks = X[np.sort(pick)]
-        self._landmark_sq = np.einsum("ld,ld->l", self._landmarks, self._landmarks)
+        self._landmarks_t = np.ascontiguousarray(self._landmarks.T)
         with blas_threads(_blas_limit(n)):
             fit = _RidgeFit(
                 _sq_dist(X, self._landmarks), _sq_dist(self._landmarks, self._landmarks), phi, _gamma_scale(X)
@@ -262,7 +275,7 @@ class KernelExtension(_FittedAtSamples):
         return _by_blocks(
             X,
             self._fit.weights.shape[1],
-            lambda x: self._fit.at(_sq_dist_rowwise(x, self._landmarks, self._landmark_sq)),
+            lambda x: self._fit.at(_sq_dist_rowwise(x, self._landmarks_t)),
         )
 
 
@@ -317,7 +330,7 @@ class PairwiseKernelExtension(_FittedAtSamples):
         order = np.random.default_rng(0).permutation(X.shape[0])
         pool = np.sort(np.concatenate([order[codes[order] == c][:share] for c in range(self.n_classes)]))
         self._landmarks = X[pool]
-        self._landmark_sq = np.einsum("ld,ld->l", self._landmarks, self._landmarks)
+        self._landmarks_t = np.ascontiguousarray(self._landmarks.T)
         pool_codes = codes[pool]
         gamma = _gamma_scale(X)
         self._columns, self._fits = [], []
@@ -362,7 +375,7 @@ class PairwiseKernelExtension(_FittedAtSamples):
         """
 
         def classes(x):
-            d = _sq_dist_rowwise(x, self._landmarks, self._landmark_sq)
+            d = _sq_dist_rowwise(x, self._landmarks_t)
             worst = np.full((x.shape[0], self.n_classes), np.inf)
             for (i, j), cols, pair in zip(self.pairs, self._columns, self._fits, strict=True):
                 self._worst(worst, i, j, pair.at(d[:, cols])[:, 0])
