@@ -70,10 +70,11 @@ def compiler(kernels):
     exec(f"def built_for():\n    return {target!r}\n", namespace)
     cc.export("built_for", "unicode_type()")(namespace["built_for"])
     # the sources the kernels were compiled from, so that a changed file retires the module
+    # (Python files only: not a module built before, which a reinstall has imported)
     sources = sorted(
         os.path.relpath(m.__file__, HERE).replace(os.sep, "/")
         for name, m in sys.modules.items()
-        if name.startswith("ndboundary.") and getattr(m, "__file__", None)
+        if name.startswith("ndboundary.") and str(getattr(m, "__file__", None)).endswith(".py")
     )
     exec(f"def built_from():\n    return {kernels.sources_digest(sources)!r}\n", namespace)
     cc.export("built_from", "unicode_type()")(namespace["built_from"])

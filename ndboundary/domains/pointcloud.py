@@ -93,6 +93,8 @@ class PointCloud(StencilDomain):
         The distinct points, on which the geometry is computed.
     unique_inverse : ndarray of int of shape (n_samples,)
         Row of ``unique_points`` of every point.
+    n_unique : int
+        The number of distinct points.
     neighbors : ndarray of int of shape (n_unique, k)
         Neighbours of every distinct point (rows of ``unique_points``), nearest first.
     distances : ndarray of shape (n_unique, k)
@@ -140,7 +142,7 @@ class PointCloud(StencilDomain):
                 )
         self.unique_points, self.unique_inverse = np.unique(self.points, axis=0, return_inverse=True)
         self.unique_inverse = self.unique_inverse.reshape(-1)
-        n_u = self.unique_points.shape[0]
+        n_u = self.n_unique = self.unique_points.shape[0]
         if n_u < 2:
             raise ValueError(
                 f"X has {self.points.shape[0]} point(s) but fewer than 2 distinct ones; a point cloud needs at least 2"
@@ -235,7 +237,7 @@ class PointCloud(StencilDomain):
         search, kept for the next call (the ``search_neighbors`` of the constructor, or
         searched now). Not pickled.
         """
-        count = int(min(count, self.unique_points.shape[0] - 1))
+        count = int(min(count, self.n_unique - 1))
         if count <= self.neighbors.shape[1]:
             return self.neighbors[:, :count], self.distances[:, :count]
         wide = self.__dict__.get("_wide")
@@ -247,7 +249,7 @@ class PointCloud(StencilDomain):
     # -- new points -------------------------------------------------------------------------
     def kneighbors(self, X, n_neighbors=None):
         """Nearest distinct points of new points ``X``: (indices into ``unique_points``, distances)."""
-        k = self.n_neighbors if n_neighbors is None else int(min(n_neighbors, self.unique_points.shape[0]))
+        k = self.n_neighbors if n_neighbors is None else int(min(n_neighbors, self.n_unique))
         return self._index.query(np.asarray(X, dtype=np.float64), k)
 
     def tangent_offsets(self, X, ind):
@@ -263,13 +265,15 @@ class PointCloud(StencilDomain):
         return out
 
     def for_queries(self, frames=True):
-        """A copy holding only what :meth:`kneighbors` and :meth:`tangent_offsets` read
-        (the distinct points, the neighbour index, and the frames if ``frames``): much
-        smaller to ship to the workers of a cluster than the whole cloud.
+        """A copy holding only what :meth:`kneighbors` reads (the neighbour index, lean:
+        :meth:`~ndboundary.domains.neighbors.NeighborIndex.for_queries`) and, if
+        ``frames``, what :meth:`tangent_offsets` reads (the distinct points and their
+        frames): much smaller to ship to the workers of a cluster than the whole cloud.
         """
         lean = object.__new__(type(self))
-        keep = ("unique_points", "_index", "n_neighbors", "intrinsic_dim") + (("frames",) if frames else ())
-        lean.__dict__.update({name: self.__dict__[name] for name in keep if name in self.__dict__})
+        keep = ("n_unique", "n_neighbors", "intrinsic_dim") + (("unique_points", "frames") if frames else ())
+        lean.__dict__.update({name: self.__dict__[name] for name in keep})
+        lean._index = self._index.for_queries()
         return lean
 
     def __repr__(self):

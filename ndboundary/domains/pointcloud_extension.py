@@ -170,8 +170,11 @@ class NeighborExtension:
         copy of the cloud (:meth:`~ndboundary.PointCloud.for_queries`).
         """
         lean = object.__new__(type(self))
-        cloud = self.cloud.for_queries(frames=self._ambient is None)
+        tangent = self._ambient is None
+        cloud = self.cloud.for_queries(frames=tangent)
         lean.__dict__.update(self.__dict__, _loo=None, _at_samples=None, cloud=cloud)
+        if not tangent:  # values come from the ambient gradients alone
+            lean._grad_u = None
         return lean
 
     def leave_one_out(self, rows):
@@ -279,14 +282,14 @@ class NeighborExtension:
                 own[i, c] = predicted_codes(at[i, c])
         classes = np.unique(lab)
         keeps = np.array([np.isin(classes, lab[own[i] == lab]).all() for i in range(powers.size)])
-        if self.cloud.unique_points.shape[0] <= self.n_neighbors + 1:
+        if self.cloud.n_unique <= self.n_neighbors + 1:
             keeps &= powers > 0.0
         best = int(np.argmax(np.where(keeps, right, -1))) if keeps.any() else int(np.argmax(right))
         return float(powers[best]), (rows, loo[best]), (rows, at[best])
 
     def _sizes(self, own):
         """``(k, nxt)``: the neighbours averaged, and whether a next one exists to fade against."""
-        n_u = self.cloud.unique_points.shape[0]
+        n_u = self.cloud.n_unique
         # keep a (k+1)-th neighbour for the weights to fade against whenever there is one
         # to spare: without it every weight would be 1 and, on fewer samples than k, the
         # extension the mean of all first-order extensions, an affine function
