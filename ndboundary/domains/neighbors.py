@@ -19,7 +19,15 @@ import numbers
 
 import numpy as np
 
-__all__ = ["EXACT_MAX_SAMPLES", "HNSW_MIN_SAMPLES", "NeighborIndex", "component_bridges", "estimate_intrinsic_dim", "kneighbors"]
+__all__ = [
+    "EXACT_MAX_SAMPLES",
+    "HNSW_MIN_SAMPLES",
+    "NeighborIndex",
+    "component_bridges",
+    "estimate_intrinsic_dim",
+    "exact_max_samples",
+    "kneighbors",
+]
 
 #: Above this many (distinct) points the neighbours come from an approximate search.
 EXACT_MAX_SAMPLES = 20000

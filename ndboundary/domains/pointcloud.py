@@ -125,7 +125,9 @@ class PointCloud(StencilDomain):
     True
     """
 
-    def __init__(self, X, *, n_neighbors=15, intrinsic_dim=None, method="auto", random_state=None, search_neighbors=None):
+    def __init__(
+        self, X, *, n_neighbors=15, intrinsic_dim=None, method="auto", random_state=None, search_neighbors=None
+    ):
         self.points = check_points(X, name="X")
         if isinstance(n_neighbors, bool) or not isinstance(n_neighbors, numbers.Integral):
             raise TypeError(f"n_neighbors must be an integer, got {type(n_neighbors).__name__}")

@@ -35,12 +35,12 @@ landmarks: a new point's distances are computed once for every pair.
 
 from __future__ import annotations
 
-from itertools import combinations
+from itertools import combinations, repeat
 
 import numpy as np
 
 from .._compiled import squared_distances
-from .._threads import in_blocks
+from .._threads import available_threads, in_blocks, shared_pool
 from ..solvers.common import blas_threads
 
 __all__ = [
@@ -139,6 +139,41 @@ def _by_blocks(X, n_out, values):
     return out
 
 
+def _ridge_candidate(E, gamma, d_landmarks, target):
+    """The ridge fit of ``target`` (n, n_functions) on the kernel ``E = exp(-gamma d)``
+    (n, m) to the landmarks, with the ridge of :data:`RIDGES` of least leave-one-out
+    error: ``(error, gamma, ridge, to_features, V, coef, fit, loo)``.
+
+    The features are ``F = [E T, BIAS]`` with ``T`` the Nyström map of the landmarks'
+    kernel; the ridge works in their eigenbasis, ``F^T F = V diag(s) V^T``, whose Gram
+    matrix comes from ``E^T E`` and the column sums of ``E``. Every ridge is solved at
+    once: coefficients (ridges, features, functions), the fits and the hat matrix's
+    diagonal (samples, ridges), each one product.
+    """
+    n = E.shape[0]
+    ridges = np.asarray(RIDGES)
+    s, U = np.linalg.eigh(np.exp(-gamma * d_landmarks))
+    keep = s > 1e-10 * s.max()
+    to_features = U[:, keep] / np.sqrt(s[keep])
+    gram = np.empty((to_features.shape[1] + 1,) * 2)
+    gram[:-1, :-1] = to_features.T @ (E.T @ E) @ to_features
+    gram[-1, :-1] = gram[:-1, -1] = BIAS * (E.sum(axis=0) @ to_features)
+    gram[-1, -1] = n * BIAS * BIAS
+    s, V = np.linalg.eigh(gram)
+    FV = E @ (to_features @ V[:-1])
+    FV += BIAS * V[-1]
+    proj = FV.T @ target
+    shrink = 1.0 / (s[None, :] + ridges[:, None] * n)
+    coefs = shrink[:, :, None] * proj[None]
+    p, r = coefs.shape[1:]
+    fit = (FV @ coefs.transpose(1, 0, 2).reshape(p, -1)).reshape(n, ridges.size, r).transpose(1, 0, 2)
+    h = np.square(FV, out=FV) @ shrink.T
+    loo = target[None] - (target[None] - fit) / np.maximum(1.0 - h.T, 1e-12)[:, :, None]
+    err = ((loo - target[None]) ** 2).sum(axis=(1, 2))
+    i = int(np.argmin(err))  # the first of equal errors, as RIDGES orders them
+    return float(err[i]), gamma, float(ridges[i]), to_features, V, coefs[i], fit[i], loo[i]
+
+
 class _RidgeFit:
     """Ridge regression of ``phi`` on the Nyström features of a Gaussian kernel and a
     constant, width and ridge chosen by exact leave-one-out error.
@@ -152,43 +187,24 @@ class _RidgeFit:
         n = d_rows.shape[0]
         mean = phi.mean(axis=0)
         target = phi - mean
-        ridges = np.asarray(RIDGES)
-        best = E = None
-        for step, factor in enumerate(GAMMA_FACTORS):
-            gamma = gamma_scale * factor
-            s, U = np.linalg.eigh(np.exp(-gamma * d_landmarks))
-            keep = s > 1e-10 * s.max()
-            to_features = U[:, keep] / np.sqrt(s[keep])
-            # the features are F = [E T, BIAS] (E the kernel to the landmarks, T
-            # to_features); the ridge works in their eigenbasis, F^T F = V diag(s) V^T,
-            # whose Gram matrix comes from E^T E and the column sums of E. A width twice
-            # the last one squares its kernel, exp(-2 g d) = exp(-g d)^2: a product per
-            # entry instead of an exponential
-            if step > 0 and factor == 2.0 * GAMMA_FACTORS[step - 1]:
-                np.multiply(E, E, out=E)
-            else:
-                E = np.exp(-gamma * d_rows)
-            gram = np.empty((to_features.shape[1] + 1,) * 2)
-            gram[:-1, :-1] = to_features.T @ (E.T @ E) @ to_features
-            gram[-1, :-1] = gram[:-1, -1] = BIAS * (E.sum(axis=0) @ to_features)
-            gram[-1, -1] = n * BIAS * BIAS
-            s, V = np.linalg.eigh(gram)
-            FV = E @ (to_features @ V[:-1])
-            FV += BIAS * V[-1]
-            proj = FV.T @ target
-            # every ridge at once: coefficients (ridges, features, functions), the fits
-            # and the hat matrix's diagonal (samples, ridges), each one product
-            shrink = 1.0 / (s[None, :] + ridges[:, None] * n)
-            coefs = shrink[:, :, None] * proj[None]
-            p, r = coefs.shape[1:]
-            fit = (FV @ coefs.transpose(1, 0, 2).reshape(p, -1)).reshape(n, ridges.size, r).transpose(1, 0, 2)
-            h = np.square(FV, out=FV) @ shrink.T
-            loo = target[None] - (target[None] - fit) / np.maximum(1.0 - h.T, 1e-12)[:, :, None]
-            err = ((loo - target[None]) ** 2).sum(axis=(1, 2))
-            i = int(np.argmin(err))  # the first of equal errors, as RIDGES orders them
-            if best is None or err[i] < best[0]:
-                best = (float(err[i]), gamma, float(ridges[i]), to_features, V, coefs[i], fit[i], loo[i])
-        _, self.gamma, self.ridge, to_features, V, coef, fit, loo = best
+        # A width twice the last one squares its kernel, exp(-2 g d) = exp(-g d)^2: a
+        # product per entry instead of an exponential. Below BLAS_THREADED_SAMPLES the
+        # widths are fitted on several threads at once (each product on one BLAS thread),
+        # above one at a time, each kernel squared in place, with every BLAS thread.
+        gammas = [gamma_scale * factor for factor in GAMMA_FACTORS]
+        squares = [i > 0 and GAMMA_FACTORS[i] == 2.0 * GAMMA_FACTORS[i - 1] for i in range(len(gammas))]
+        if n < BLAS_THREADED_SAMPLES and available_threads() > 1:
+            kernels = []
+            for gamma, square in zip(gammas, squares, strict=True):
+                kernels.append(kernels[-1] * kernels[-1] if square else np.exp(-gamma * d_rows))
+            fits = list(shared_pool().map(_ridge_candidate, kernels, gammas, repeat(d_landmarks), repeat(target)))
+        else:
+            fits, E = [], None
+            for gamma, square in zip(gammas, squares, strict=True):
+                E = np.multiply(E, E, out=E) if square else np.exp(-gamma * d_rows)
+                fits.append(_ridge_candidate(E, gamma, d_landmarks, target))
+        # the least error; the first of equal ones, as GAMMA_FACTORS and RIDGES order them
+        _, self.gamma, self.ridge, to_features, V, coef, fit, loo = min(fits, key=lambda f: f[0])
         w = V @ coef
         self.weights = to_features @ w[:-1]  # (m, n_functions)
         self.offset = mean + BIAS * w[-1]
