@@ -56,3 +56,30 @@ def test_pairwise_fit_refuses_a_class_without_samples():
     X = np.random.default_rng(0).normal(size=(40, 3))
     with pytest.raises(ValueError, match="every class"):
         PairwiseKernelExtension(X, np.zeros((40, 3)), np.repeat([0, 2], 20))
+
+
+def test_compiled_distances_to_the_landmarks_equal_the_direct_sums():
+    from ndboundary._compiled import squared_distances
+
+    rng = np.random.default_rng(3)
+    X, L = rng.normal(size=(57, 9)), rng.normal(size=(13, 9))
+    out = np.empty((57, 13))
+    squared_distances(X, np.ascontiguousarray(L.T), out)
+    np.testing.assert_allclose(out, ((X[:, None, :] - L[None]) ** 2).sum(axis=2), rtol=1e-13)
+    part = np.empty((20, 13))
+    squared_distances(np.ascontiguousarray(X[30:50]), np.ascontiguousarray(L.T), part)
+    assert np.array_equal(part, out[30:50])  # each row summed alike, whatever rows come with it
+
+
+def test_the_widths_fitted_on_threads_equal_those_fitted_one_at_a_time(monkeypatch):
+    import ndboundary.learn.kernel_extension as kx
+
+    X, y = make_gaussian_quantiles(n_samples=500, n_features=4, n_classes=2, random_state=2)
+    phi = y.astype(float)[:, None]
+    threaded = KernelExtension(X, phi)
+    monkeypatch.setattr(kx, "BLAS_THREADED_SAMPLES", 0)
+    one_by_one = KernelExtension(X, phi)
+    assert (threaded.gamma, threaded.ridge) == (one_by_one.gamma, one_by_one.ridge)
+    np.testing.assert_allclose(threaded.fitted, one_by_one.fitted, atol=1e-9)
+    Q = np.random.default_rng(0).normal(size=(100, 4))
+    np.testing.assert_allclose(threaded(Q), one_by_one(Q), atol=1e-9)

@@ -155,6 +155,7 @@ def test_smoothing_operator_transports_constant_fields(rng):
         ({"X": np.eye(3), "n_neighbors": 2.5}, TypeError, "n_neighbors must be an integer"),
         ({"X": np.eye(3), "intrinsic_dim": 4}, ValueError, "intrinsic_dim must be between"),
         ({"X": np.eye(3), "method": "kd"}, ValueError, "method must be"),
+        ({"X": np.eye(3), "search_neighbors": 2.0}, TypeError, "search_neighbors must be an integer"),
         ({"X": "abc"}, TypeError, "X must be"),
     ],
 )
@@ -276,3 +277,65 @@ def test_tangent_offsets_equal_the_gathered_frames_products():
     expected = np.einsum("bqd,bqdm->bqm", X[:, None, :] - cloud.unique_points[ind], cloud.frames[ind])
     np.testing.assert_allclose(cloud.tangent_offsets(X, ind), expected, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(cloud.tangent_offsets(X, ind.astype(np.int32)), expected, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["exact", "hnsw"])
+def test_a_wider_search_keeps_the_graph_and_serves_the_next_neighbours(rng, method):
+    if method == "hnsw":
+        pytest.importorskip("faiss")
+    import pickle
+
+    X = rng.normal(size=(1500, 6))
+    X[7] = X[3]  # a duplicate: neighbours are among the distinct points
+    narrow = PointCloud(X, n_neighbors=8, method=method)
+    wide = PointCloud(X, n_neighbors=8, method=method, search_neighbors=20)
+    np.testing.assert_array_equal(wide.neighbors, narrow.neighbors)
+    np.testing.assert_array_equal(wide.distances, narrow.distances)
+    ind, dist = wide.sample_neighbors(20)
+    assert ind.shape == (wide.n_unique, 20) and np.array_equal(ind[:, :8], wide.neighbors)
+    assert not np.any(ind == np.arange(wide.n_unique)[:, None]) and np.all(np.diff(dist, axis=1) >= 0)
+    if method == "exact":
+        exact, exact_dist = kneighbors(wide.unique_points, 20, method="exact")
+        np.testing.assert_array_equal(ind, exact)
+        np.testing.assert_allclose(dist, exact_dist)
+    # searched when asked for and not kept (by a query of the index, whose candidate
+    # lists are shorter for HNSW); the graph's own when it holds them
+    later, _ = narrow.sample_neighbors(20)
+    recall = np.mean([len(set(a) & set(b)) / 20 for a, b in zip(later, ind)])
+    assert recall == 1.0 if method == "exact" else recall > 0.97
+    np.testing.assert_array_equal(narrow.sample_neighbors(5)[0], narrow.neighbors[:, :5])
+    assert "_wide" not in pickle.loads(pickle.dumps(wide)).__dict__
+
+
+def test_hnsw_searches_points_of_many_features_beyond_a_smaller_size():
+    from ndboundary.domains.neighbors import (
+        EXACT_MAX_SAMPLES,
+        HNSW_MIN_SAMPLES,
+        TREE_MAX_FEATURES,
+        exact_max_samples,
+        has_faiss,
+    )
+
+    assert exact_max_samples(TREE_MAX_FEATURES) == EXACT_MAX_SAMPLES
+    assert exact_max_samples(TREE_MAX_FEATURES + 1) == (HNSW_MIN_SAMPLES if has_faiss() else EXACT_MAX_SAMPLES)
+    assert HNSW_MIN_SAMPLES < EXACT_MAX_SAMPLES
+
+
+def test_the_lean_copy_for_queries_drops_what_queries_do_not_read(rng):
+    import pickle
+
+    X = rng.normal(size=(800, 7))
+    cloud = PointCloud(X, n_neighbors=10, intrinsic_dim=3)
+    phi = (X[:, 0] > 0).astype(float)
+    ext = cloud.extension(phi, power=2.0)
+    lean = ext.for_queries()
+    assert "unique_points" not in lean.cloud.__dict__ and "frames" not in lean.cloud.__dict__
+    assert lean._grad_u is None and lean.cloud.n_unique == cloud.n_unique
+    Q = rng.normal(size=(300, 7))
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(lean))(Q), ext(Q))
+    # two functions on a one-dimensional tangent space: the frames are read, and kept
+    cloud1 = PointCloud(X, n_neighbors=10, intrinsic_dim=1)
+    ext2 = cloud1.extension(np.stack([phi, 1.0 - phi], axis=1), power=2.0)
+    lean2 = ext2.for_queries()
+    assert "frames" in lean2.cloud.__dict__ and lean2._grad_u is not None
+    np.testing.assert_array_equal(lean2(Q), ext2(Q))
