@@ -86,7 +86,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
     Parameters
     ----------
     n_neighbors : int or "auto", default="auto"
-        Neighbours per sample of the kNN graph. ``"auto"``: 40 up to 10 000 samples, 15
+        Neighbours per sample of the kNN graph. ``"auto"``: 40 up to 2 000 samples, 15
         beyond (:mod:`ndboundary.learn.graph`): on small noisy samples the wider stencil
         steadies the tangent gradients, on large ones the graph's cost grows with ``k``
         while 15 neighbours already hold the data's shape (``benchmarks/classify.py`` and

@@ -9,9 +9,11 @@ from ..domains.delaunay import DELAUNAY_MAX_DIM
 __all__ = ["AUTO_NEIGHBORS", "AUTO_NEIGHBORS_LARGE", "AUTO_NEIGHBORS_MAX_SAMPLES", "build_graph"]
 
 #: ``n_neighbors="auto"``: this many neighbours up to :data:`AUTO_NEIGHBORS_MAX_SAMPLES`
-#: samples, then :data:`AUTO_NEIGHBORS_LARGE`.
+#: samples, then :data:`AUTO_NEIGHBORS_LARGE`. On a few hundred noisy samples the wider
+#: stencil steadies the tangent gradients; from 2 500 samples on, 15 neighbours gave the
+#: same test accuracy (the README's classifier section has the draws) in half the time.
 AUTO_NEIGHBORS = 40
-AUTO_NEIGHBORS_MAX_SAMPLES = 10_000
+AUTO_NEIGHBORS_MAX_SAMPLES = 2_000
 AUTO_NEIGHBORS_LARGE = 15
 
 
