@@ -139,6 +139,21 @@ def _by_blocks(X, n_out, values):
     return out
 
 
+def _kernels(d, gammas, in_place):
+    """``exp(-gamma * d)`` for each of ``gammas`` in turn. A width twice the last one
+    squares its kernel, ``exp(-2 g d) = exp(-g d)^2``: a product per entry instead of an
+    exponential; ``in_place`` squares into the last kernel's array, which must be done with
+    before the next one is asked for.
+    """
+    E = None
+    for i, gamma in enumerate(gammas):
+        if E is not None and gamma == 2.0 * gammas[i - 1]:
+            E = np.multiply(E, E, out=E if in_place else None)
+        else:
+            E = np.exp(-gamma * d)
+        yield E
+
+
 def _ridge_candidate(E, gamma, d_landmarks, target):
     """The ridge fit of ``target`` (n, n_functions) on the kernel ``E = exp(-gamma d)``
     (n, m) to the landmarks, with the ridge of :data:`RIDGES` of least leave-one-out
@@ -187,22 +202,16 @@ class _RidgeFit:
         n = d_rows.shape[0]
         mean = phi.mean(axis=0)
         target = phi - mean
-        # A width twice the last one squares its kernel, exp(-2 g d) = exp(-g d)^2: a
-        # product per entry instead of an exponential. Below BLAS_THREADED_SAMPLES the
-        # widths are fitted on several threads at once (each product on one BLAS thread),
-        # above one at a time, each kernel squared in place, with every BLAS thread.
+        # Below BLAS_THREADED_SAMPLES the widths are fitted on several threads at once
+        # (each product on one BLAS thread), above one at a time, each kernel squared in
+        # place, with every BLAS thread.
         gammas = [gamma_scale * factor for factor in GAMMA_FACTORS]
-        squares = [i > 0 and GAMMA_FACTORS[i] == 2.0 * GAMMA_FACTORS[i - 1] for i in range(len(gammas))]
-        if n < BLAS_THREADED_SAMPLES and available_threads() > 1:
-            kernels = []
-            for gamma, square in zip(gammas, squares, strict=True):
-                kernels.append(kernels[-1] * kernels[-1] if square else np.exp(-gamma * d_rows))
-            fits = list(shared_pool().map(_ridge_candidate, kernels, gammas, repeat(d_landmarks), repeat(target)))
-        else:
-            fits, E = [], None
-            for gamma, square in zip(gammas, squares, strict=True):
-                E = np.multiply(E, E, out=E) if square else np.exp(-gamma * d_rows)
-                fits.append(_ridge_candidate(E, gamma, d_landmarks, target))
+        threaded = n < BLAS_THREADED_SAMPLES and available_threads() > 1
+        kernels = _kernels(d_rows, gammas, in_place=not threaded)
+        if threaded:
+            fits = list(shared_pool().map(_ridge_candidate, list(kernels), gammas, repeat(d_landmarks), repeat(target)))
+        else:  # each kernel fitted before the next one overwrites it
+            fits = [_ridge_candidate(E, gamma, d_landmarks, target) for E, gamma in zip(kernels, gammas, strict=True)]
         # the least error; the first of equal ones, as GAMMA_FACTORS and RIDGES order them
         _, self.gamma, self.ridge, to_features, V, coef, fit, loo = min(fits, key=lambda f: f[0])
         w = V @ coef
