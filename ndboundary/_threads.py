@@ -36,6 +36,9 @@ def available_threads():
 
 _SHARED = {}
 
+#: Rows below which :func:`in_blocks` does not cut a block further to share it out.
+MIN_BLOCK = 256
+
 
 def shared_pool():
     """One pool of :func:`available_threads` threads for the whole process, started when
@@ -54,26 +57,45 @@ def shared_pool():
     return pool
 
 
-def in_blocks(n, size, compute):
+def in_blocks(n, size, compute, *, first_alone=True):
     """``(c, compute(c))`` for the blocks ``c`` (slices of ``size`` rows) of ``range(n)``, in order.
 
-    The first block is computed alone, so that what prepares itself on its first call (a
-    neighbour index on its first query) does so once; the others on several threads, a
-    few blocks ahead of the one yielded, so that at most that many results are held.
+    With ``first_alone``, the first block is computed alone, so that what prepares itself
+    on its first call (a neighbour index on its first query) does so once; the others on
+    several threads, a few blocks ahead of the one yielded, so that at most that many
+    results are held. Blocks are cut no larger than needed for every thread to get one,
+    nor smaller than :data:`MIN_BLOCK` rows unless ``size`` is.
+
+    BLAS runs one thread per block meanwhile: the blocks' small products and batched
+    factorisations (LAPACK on a matrix per point) gain nothing from BLAS's threads, and
+    those threads, spinning beside the blocks' own, made a pass of batched
+    eigendecompositions on two blocks slower than on one.
 
     Examples
     --------
     >>> [(c.start, c.stop, total) for c, total in in_blocks(10, 4, lambda c: sum(range(c.start, c.stop)))]
     [(0, 4, 6), (4, 8, 22), (8, 10, 17)]
     """
+    threads = available_threads()
+    if threads > 1 and n > 1:
+        size = min(size, max(MIN_BLOCK, -(-n // (threads + first_alone))))
     blocks = [slice(s, min(n, s + size)) for s in range(0, n, size)]
     if not blocks:
         return
-    yield blocks[0], compute(blocks[0])
-    rest = blocks[1:]
+    from .solvers.common import blas_threads
+
+    with blas_threads(1 if len(blocks) > 1 else None):
+        yield from _blocks_on_threads(blocks, compute, first_alone, threads)
+
+
+def _blocks_on_threads(blocks, compute, first_alone, threads):
+    rest = blocks
+    if first_alone or threads == 1:
+        yield blocks[0], compute(blocks[0])
+        rest = blocks[1:]
     if not rest:
         return
-    workers = min(len(rest), available_threads())
+    workers = min(len(rest), threads)
     with ThreadPoolExecutor(workers) as pool:
         ahead = deque(pool.submit(compute, c) for c in rest[:workers])
         for i, c in enumerate(rest):

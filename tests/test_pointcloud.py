@@ -212,6 +212,8 @@ def test_local_pca_frames_are_orthonormal_and_the_same_in_blocks_on_threads(monk
 
 
 def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
+    import pickle
+
     from ndboundary.domains import pointcloud_extension
 
     X, t = _manifold(600, 5, rng)
@@ -223,9 +225,31 @@ def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
     blocks = cloud.extension(phi, labels=labels)
     assert blocks.power == ext.power
     np.testing.assert_array_equal(blocks.leave_one_out(np.arange(600)), loo)
-    np.testing.assert_array_equal(blocks(Q), whole)
+    np.testing.assert_array_equal(blocks(Q), whole)  # in the cloud's query order, the same values
+    lean = pickle.loads(pickle.dumps(blocks.for_queries()))  # the order's axes travel with the copy
+    np.testing.assert_array_equal(lean(Q), whole)
     assert whole.shape == (300, 2) and np.isfinite(whole).all()
     assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the function
+
+
+def test_the_query_order_follows_the_data_and_is_a_permutation(rng):
+    """Consecutive points in the order are close: the Z-order over the leading axes
+    keeps the steps near the spacing of the data, far below a random order's."""
+    from ndboundary.domains.neighbors import leading_axes, locality_order
+
+    X, _ = _manifold(3000, 12, rng, m=3)
+    cloud = PointCloud(X, n_neighbors=10)
+    Q = X[rng.permutation(3000)] + 0.001 * rng.normal(size=X.shape)
+    order = cloud.query_order(Q)
+    assert np.array_equal(np.sort(order), np.arange(3000))
+    step = np.linalg.norm(np.diff(Q[order], axis=0), axis=1).mean()
+    random_step = np.linalg.norm(np.diff(Q, axis=0), axis=1).mean()
+    assert step < 0.3 * random_step
+    center, axes = leading_axes(X, 20)  # no more axes than features
+    assert axes.shape == (12, 12)
+    np.testing.assert_allclose(axes @ axes.T, np.eye(12), atol=1e-8)
+    one = locality_order(X[:1], center, axes)
+    assert one.tolist() == [0]
 
 
 @pytest.mark.parametrize("n_features", [3, 8])

@@ -335,6 +335,35 @@ def test_blas_limits_entered_on_two_threads_are_restored_when_both_close():
     assert blas_limits() == before
 
 
+@pytest.mark.parametrize("first_alone", [True, False])
+def test_blocks_on_threads_cover_the_rows_in_order_with_one_blas_thread_each(monkeypatch, first_alone):
+    """Every thread gets a block, no block is cut below MIN_BLOCK rows, BLAS runs one
+    thread per block meanwhile, and its limits are back when the blocks are done."""
+    from ndboundary import _threads
+
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+
+    def blas_limits():
+        return sorted(p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas")
+
+    before = blas_limits()
+    monkeypatch.setattr(_threads, "available_threads", lambda: 2)
+    seen = []
+
+    def compute(c):
+        seen.append(blas_limits())
+        return c.stop - c.start
+
+    blocks = list(_threads.in_blocks(1000, 4096, compute, first_alone=first_alone))
+    sizes = [size for _, size in blocks]
+    assert [c.start for c, _ in blocks] == list(np.cumsum([0] + sizes[:-1]))
+    assert sum(sizes) == 1000 and len(blocks) == (3 if first_alone else 2)
+    assert all(limits == [1] * len(before) for limits in seen)
+    assert blas_limits() == before
+    few = list(_threads.in_blocks(300, 4096, compute, first_alone=first_alone))
+    assert [size for _, size in few] == [256, 44]  # not cut below MIN_BLOCK rows
+
+
 def test_a_preconditioner_built_ahead_solves_as_the_one_built_in_the_solve():
     _skip_unless_available("amg")
     from ndboundary.solvers.integration import Preconditioner, integration_preconditioner

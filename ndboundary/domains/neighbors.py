@@ -27,6 +27,8 @@ __all__ = [
     "estimate_intrinsic_dim",
     "exact_max_samples",
     "kneighbors",
+    "leading_axes",
+    "locality_order",
 ]
 
 #: Above this many (distinct) points the neighbours come from an approximate search.
@@ -235,6 +237,69 @@ class NeighborIndex:
         ind, dist = self._nn.query(X, k=k)
         order = np.argsort(dist, axis=1, kind="stable")
         return np.take_along_axis(ind, order, 1).astype(np.int64), np.take_along_axis(dist, order, 1).astype(np.float64)
+
+
+#: The Z-order of :func:`locality_order`: axes of the points it reads, and bits per axis.
+ORDER_AXES, ORDER_BITS = 8, 5
+#: Points :func:`leading_axes` reads at most (evenly spaced rows).
+AXES_SAMPLE = 2048
+
+
+def leading_axes(points, count=ORDER_AXES):
+    """The mean of ``points`` and their ``count`` leading principal axes, (count, n_features)
+    (fewer on fewer features), from at most :data:`AXES_SAMPLE` evenly spaced rows.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.neighbors import leading_axes
+    >>> X = np.random.default_rng(0).normal(size=(500, 3)) * [10.0, 1.0, 0.1]
+    >>> center, axes = leading_axes(X, 2)
+    >>> axes.shape, np.abs(axes).argmax(axis=1).tolist()
+    ((2, 3), [0, 1])
+    """
+    from sklearn.utils.extmath import randomized_svd
+
+    sample = points[:: max(1, -(-points.shape[0] // AXES_SAMPLE))]
+    center = sample.mean(axis=0)
+    count = min(count, points.shape[1], sample.shape[0])
+    _, _, axes = randomized_svd(sample - center, count, n_iter=2, random_state=0)
+    return center, axes
+
+
+def locality_order(X, center, axes, bits=ORDER_BITS):
+    """A permutation of the rows of ``X`` along a Z-order (Morton) curve of their
+    coordinates on ``axes`` (:func:`leading_axes`), cut into cells of one width (the
+    widest range of the rows in ``2**bits``): rows close in space come close in the order.
+
+    Searching an index in this order reads the same parts of it one query after the
+    next: on 100 000 new points of 50 features, searching faiss's HNSW graph took half
+    the time it took in a random order (``benchmarks/scale.py``). Each query's answer
+    is the same in any order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.neighbors import leading_axes, locality_order
+    >>> X = np.random.default_rng(0).uniform(size=(1000, 2))
+    >>> order = locality_order(X, *leading_axes(X))
+    >>> step = np.linalg.norm(np.diff(X[order], axis=0), axis=1).mean()
+    >>> sorted(order.tolist()) == list(range(1000)), bool(step < 0.1)  # random order: about 0.52
+    (True, True)
+    """
+    P = (X - center) @ axes.T
+    lo = P.min(axis=0)
+    # cells of one width on every axis, the widest axis cut in 2**bits: an axis along which
+    # the points barely spread takes few cells, and does not scatter the order
+    cells = 1 << bits
+    width = float((P.max(axis=0) - lo).max()) / cells
+    q = ((P - lo) / max(width, np.finfo(np.float64).tiny)).astype(np.int64)
+    np.clip(q, 0, cells - 1, out=q)
+    key = np.zeros(X.shape[0], dtype=np.int64)
+    for b in range(bits - 1, -1, -1):  # interleave the axes' bits, most significant first
+        for j in range(q.shape[1]):
+            key = (key << 1) | ((q[:, j] >> b) & 1)
+    return np.argsort(key, kind="stable")
 
 
 def _hnsw_index(points32):

@@ -51,7 +51,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .._compiled import tangent_coordinates
 from .._validation import check_points
-from .neighbors import component_bridges, drop_self, estimate_intrinsic_dim, kneighbors
+from .neighbors import component_bridges, drop_self, estimate_intrinsic_dim, kneighbors, leading_axes, locality_order
 from .pointcloud_extension import NeighborExtension
 from .pointcloud_operators import StencilDomain
 from .tangent import ball_volume, local_pca, lsq_coefficients
@@ -254,6 +254,20 @@ class PointCloud(StencilDomain):
         k = self.n_neighbors if n_neighbors is None else int(min(n_neighbors, self.n_unique))
         return self._index.query(np.asarray(X, dtype=np.float64), k)
 
+    def query_order(self, X):
+        """An order of the rows of new points ``X`` (a permutation) in which they are best
+        searched: near points one after the other (:func:`~ndboundary.domains.neighbors.locality_order`
+        along the cloud's leading principal axes, found at the first call and kept).
+        """
+        return locality_order(np.asarray(X, dtype=np.float64), *self._query_axes())
+
+    def _query_axes(self):
+        """The center and leading axes :meth:`query_order` projects on, found once."""
+        axes = self.__dict__.get("_axes")
+        if axes is None:
+            axes = self._axes = leading_axes(self.unique_points)
+        return axes
+
     def tangent_offsets(self, X, ind):
         """Tangent coordinates ``T_j^T (x - x_j)`` of ``X`` (n, D) seen from ``ind`` (n, q): (n, q, m).
 
@@ -276,6 +290,7 @@ class PointCloud(StencilDomain):
         keep = ("n_unique", "n_neighbors", "intrinsic_dim") + (("unique_points", "frames") if frames else ())
         lean.__dict__.update({name: self.__dict__[name] for name in keep})
         lean._index = self._index.for_queries()
+        lean._axes = self._query_axes()
         return lean
 
     def __repr__(self):

@@ -56,7 +56,7 @@ def local_pca(points, nbr, m):
     Z = np.empty((n, k, m))
     T = np.empty((n, points.shape[1], m))
     # numpy's batched eigh and products release the GIL: the blocks share the cores
-    for _ in in_blocks(n, _CHUNK, lambda c: _pca_block(points, nbr, m, Z, T, c)):
+    for _ in in_blocks(n, _CHUNK, lambda c: _pca_block(points, nbr, m, Z, T, c), first_alone=False):
         pass
     return Z, T
 

@@ -41,8 +41,9 @@ def _cut_peaks(edges, phi, markers):
     j = np.concatenate([edges[:, 1], m])
     w = np.concatenate([np.minimum(phi[edges[:, 0]], phi[edges[:, 1]]), phi[m]])
     # a maximum spanning tree as scipy's minimum one: costs 1, 2, ... by decreasing weight
+    # (however ties are ordered: every maximum spanning tree has the same bottlenecks)
     cost = np.empty(w.size)
-    cost[np.argsort(-w, kind="stable")] = np.arange(1, w.size + 1)
+    cost[np.argsort(-w)] = np.arange(1, w.size + 1)
     tree = minimum_spanning_tree(sp.csr_matrix((cost, (i, j)), shape=(n + 1, n + 1)))
     order, pred = breadth_first_order(tree, n, directed=False, return_predecessors=True)
     out = phi.tolist() + [np.inf]
