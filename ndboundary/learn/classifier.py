@@ -40,11 +40,14 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from .._threads import Beside
+from ..domains.pointcloud import PointCloud, distinct_rows
+from ..solvers.common import blas_threads
 from ..domains.pointcloud_extension import predicted_codes
 from .band import classifier_band
 from .extrema import relax_classes
 from .graph import build_graph
-from .kernel_extension import kernel_extension
+from .kernel_extension import kernel_basis
 from .params import check_classifier_params
 from .poisson import poisson_labels
 from .probability import logistic_slope, probabilities
@@ -78,6 +81,14 @@ INTEGRATION_FORM = "gradient"
 #: ``--sets other``, each on two draws of folds), as it did with the weights 1/4 and 3/4
 #: added.
 KERNEL_WEIGHTS = (0.5, 1.0)
+
+
+def _kernel_basis_alone(X, codes, n_functions):
+    """:func:`~ndboundary.learn.kernel_extension.kernel_basis` on one BLAS thread: beside
+    the relaxation, BLAS's threads would only contend with it for the cores.
+    """
+    with blas_threads(1):
+        return kernel_basis(X, codes, n_functions)
 
 
 class LevelSetClassifier(ClassifierMixin, BaseEstimator):
@@ -314,7 +325,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         codes = np.full(y.shape[0], -1, dtype=np.int64)
         codes[labelled] = codes_l.reshape(-1)
         n_cls = self.classes_.shape[0]
-        n_distinct = np.unique(X, axis=0).shape[0]
+        n_distinct = distinct_rows(X)[0].shape[0]
         if n_cls == 1 or n_distinct < 2:
             self._constant = int(np.argmax(np.bincount(codes[labelled], minlength=n_cls)))
             self.transduction_ = self.classes_[np.where(labelled, codes, self._constant)]
@@ -344,6 +355,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         votes = codes
         if self.vote:
             votes = vote(self.domain_.vertex_neighborhoods(), codes, n_cls, self.vote, self.vote_threshold)
+        # the kernel fit's features on the second core while the relaxation, mostly on one, runs
+        basis = None
+        if isinstance(self.domain_, PointCloud) and self.domain_.n_unique > self.extension_neighbors + 1:
+            basis = Beside(_kernel_basis_alone, X, codes, 1 if n_cls == 2 else n_cls)
         self.phi_ = relax_classes(
             self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_,
             form=INTEGRATION_FORM,
@@ -354,13 +369,15 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         )
         self.extension_power_ = self.extension_.power
         self._log(f"extension power {self.extension_power_}", t0)
-        held_out = self._fit_kernel_extension(X, codes, labelled)
+        held_out = self._fit_kernel_extension(basis, codes, labelled)
         self._log(f"kernel weight {self.kernel_weight_}", t0)
         self.proba_scale_ = logistic_slope(held_out, codes[labelled])
         self._log("fitted", t0)
 
-    def _fit_kernel_extension(self, X, codes, labelled):
-        """Choose the weight of the kernel fit of ``phi`` in the decision function.
+    def _fit_kernel_extension(self, basis, codes, labelled):
+        """Choose the weight of the kernel fit of ``phi`` (on the features ``basis``, a
+        :class:`~ndboundary._threads.Beside` computing :func:`~ndboundary.learn.kernel_extension.kernel_basis`,
+        or None where the domain's extension is kept alone) in the decision function.
 
         The weight of :data:`KERNEL_WEIGHTS` whose mix of the two extensions labels the
         most labelled samples right held out (the neighbour extension's
@@ -375,13 +392,10 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         """
         rows = np.flatnonzero(labelled)
         self.kernel_extension_, self.kernel_weight_ = None, 0.0
-        few = not hasattr(self.extension_, "held_out") or (
-            self.domain_.unique_points.shape[0] <= self.extension_neighbors + 1
-        )
-        if few:
+        if basis is None:
             return self.extension_.leave_one_out(rows)
         local = self.extension_.held_out(rows)
-        kernel = kernel_extension(X, self.phi_, codes)
+        kernel = basis.result().fit(self.phi_)
         kernel_loo = kernel.leave_one_out(rows)
         own_local, own_kernel = self.extension_.at_samples(rows), kernel.fitted[rows]
         lab = codes[rows]

@@ -52,6 +52,7 @@ __all__ = [
     "RIDGES",
     "KernelExtension",
     "PairwiseKernelExtension",
+    "kernel_basis",
     "kernel_extension",
 ]
 
@@ -101,9 +102,30 @@ def kernel_extension(X, phi, codes):
     a :class:`KernelExtension` for one function (two classes), else a
     :class:`PairwiseKernelExtension`.
     """
-    if np.asarray(phi).reshape(X.shape[0], -1).shape[1] == 1:
-        return KernelExtension(X, phi)
-    return PairwiseKernelExtension(X, phi, codes)
+    return kernel_basis(X, codes, np.asarray(phi).reshape(X.shape[0], -1).shape[1]).fit(phi)
+
+
+def kernel_basis(X, codes, n_functions):
+    """All of :func:`kernel_extension` that comes before the functions: the samples'
+    kernel features, their eigenbases and the hat matrices' diagonals, for every width,
+    ridge and pair of classes. Its ``fit(phi)`` returns the extension of ``phi`` (of
+    ``n_functions`` columns), as :func:`kernel_extension` does; the classifier builds it
+    beside the relaxation, which needs one core while this needs the other.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.learn.kernel_extension import kernel_basis, kernel_extension
+    >>> X = np.random.default_rng(0).normal(size=(300, 4))
+    >>> codes = np.digitize(np.linalg.norm(X, axis=1), [1.5, 2.3])
+    >>> basis = kernel_basis(X, codes, 3)
+    >>> a, b = basis.fit(np.eye(3)[codes]), kernel_extension(X, np.eye(3)[codes], codes)
+    >>> bool(np.array_equal(a(X[:5]), b(X[:5])))
+    True
+    """
+    if n_functions == 1:
+        return _SingleBasis(X)
+    return _PairwiseBasis(X, codes, n_functions)
 
 
 def _sq_dist(A, B):
@@ -154,16 +176,16 @@ def _kernels(d, gammas, in_place):
         yield E
 
 
-def _ridge_candidate(E, gamma, d_landmarks, target):
-    """The ridge fit of ``target`` (n, n_functions) on the kernel ``E = exp(-gamma d)``
-    (n, m) to the landmarks, with the ridge of :data:`RIDGES` of least leave-one-out
-    error: ``(error, gamma, ridge, to_features, V, coef, fit, loo)``.
+def _width_basis(E, gamma, d_landmarks):
+    """What the ridge fits on the kernel ``E = exp(-gamma d)`` (n, m) to the landmarks
+    share whatever function they fit: ``(gamma, to_features, V, FV, shrink, one_minus_h)``.
 
-    The features are ``F = [E T, BIAS]`` with ``T`` the Nyström map of the landmarks'
-    kernel; the ridge works in their eigenbasis, ``F^T F = V diag(s) V^T``, whose Gram
-    matrix comes from ``E^T E`` and the column sums of ``E``. Every ridge is solved at
-    once: coefficients (ridges, features, functions), the fits and the hat matrix's
-    diagonal (samples, ridges), each one product.
+    The features are ``F = [E T, BIAS]`` with ``T`` (``to_features``) the Nyström map of
+    the landmarks' kernel; the ridge works in their eigenbasis, ``F^T F = V diag(s) V^T``,
+    whose Gram matrix comes from ``E^T E`` and the column sums of ``E``. ``FV = F V``
+    (n, p); ``shrink`` (ridges, p) divides the projections on ``FV`` for each ridge of
+    :data:`RIDGES`; ``one_minus_h`` (n, ridges) is one minus the hat matrix's diagonal,
+    which turns fits into exact leave-one-out values.
     """
     n = E.shape[0]
     ridges = np.asarray(RIDGES)
@@ -177,41 +199,62 @@ def _ridge_candidate(E, gamma, d_landmarks, target):
     s, V = np.linalg.eigh(gram)
     FV = E @ (to_features @ V[:-1])
     FV += BIAS * V[-1]
-    proj = FV.T @ target
     shrink = 1.0 / (s[None, :] + ridges[:, None] * n)
+    h = np.square(FV) @ shrink.T
+    return gamma, to_features, V, FV, shrink, np.maximum(1.0 - h, 1e-12)
+
+
+def _ridge_candidate(width, target):
+    """The ridge fit of ``target`` (n, n_functions) on one width's features
+    (:func:`_width_basis`), with the ridge of :data:`RIDGES` of least leave-one-out
+    error: ``(error, gamma, ridge, to_features, V, coef, fit, loo)``. Every ridge is
+    solved at once: coefficients (ridges, features, functions) and the fits, one
+    product each.
+    """
+    gamma, to_features, V, FV, shrink, one_minus_h = width
+    n = FV.shape[0]
+    ridges = np.asarray(RIDGES)
+    proj = FV.T @ target
     coefs = shrink[:, :, None] * proj[None]
     p, r = coefs.shape[1:]
     fit = (FV @ coefs.transpose(1, 0, 2).reshape(p, -1)).reshape(n, ridges.size, r).transpose(1, 0, 2)
-    h = np.square(FV, out=FV) @ shrink.T
-    loo = target[None] - (target[None] - fit) / np.maximum(1.0 - h.T, 1e-12)[:, :, None]
+    loo = target[None] - (target[None] - fit) / one_minus_h.T[:, :, None]
     err = ((loo - target[None]) ** 2).sum(axis=(1, 2))
     i = int(np.argmin(err))  # the first of equal errors, as RIDGES orders them
     return float(err[i]), gamma, float(ridges[i]), to_features, V, coefs[i], fit[i], loo[i]
 
 
-class _RidgeFit:
-    """Ridge regression of ``phi`` on the Nyström features of a Gaussian kernel and a
-    constant, width and ridge chosen by exact leave-one-out error.
+class _RidgeBasis:
+    """The features of ridge fits on a Gaussian kernel and a constant, for every width
+    of :data:`GAMMA_FACTORS` (:func:`_width_basis`), before any function is fitted.
 
     ``d_rows`` (n, m) holds the squared distances of the fitted samples to the ``m``
-    landmarks, ``d_landmarks`` (m, m) those among the landmarks. The fit evaluates new
-    points from their squared distances to the landmarks (:meth:`at`).
+    landmarks, ``d_landmarks`` (m, m) those among the landmarks.
     """
 
-    def __init__(self, d_rows, d_landmarks, phi, gamma_scale):
-        n = d_rows.shape[0]
-        mean = phi.mean(axis=0)
-        target = phi - mean
-        # Below BLAS_THREADED_SAMPLES the widths are fitted on several threads at once
+    def __init__(self, d_rows, d_landmarks, gamma_scale):
+        # Below BLAS_THREADED_SAMPLES the widths are computed on several threads at once
         # (each product on one BLAS thread), above one at a time, each kernel squared in
         # place, with every BLAS thread.
         gammas = [gamma_scale * factor for factor in GAMMA_FACTORS]
-        threaded = n < BLAS_THREADED_SAMPLES and available_threads() > 1
+        threaded = d_rows.shape[0] < BLAS_THREADED_SAMPLES and available_threads() > 1
         kernels = _kernels(d_rows, gammas, in_place=not threaded)
         if threaded:
-            fits = list(shared_pool().map(_ridge_candidate, list(kernels), gammas, repeat(d_landmarks), repeat(target)))
-        else:  # each kernel fitted before the next one overwrites it
-            fits = [_ridge_candidate(E, gamma, d_landmarks, target) for E, gamma in zip(kernels, gammas, strict=True)]
+            self.widths = list(shared_pool().map(_width_basis, list(kernels), gammas, repeat(d_landmarks)))
+        else:  # each kernel done with before the next one overwrites it
+            self.widths = [_width_basis(E, gamma, d_landmarks) for E, gamma in zip(kernels, gammas, strict=True)]
+
+
+class _RidgeFit:
+    """Ridge regression of ``phi`` on the Nyström features of a :class:`_RidgeBasis`,
+    width and ridge chosen by exact leave-one-out error. The fit evaluates new points
+    from their squared distances to the landmarks (:meth:`at`).
+    """
+
+    def __init__(self, basis, phi):
+        mean = phi.mean(axis=0)
+        target = phi - mean
+        fits = [_ridge_candidate(width, target) for width in basis.widths]
         # the least error; the first of equal ones, as GAMMA_FACTORS and RIDGES order them
         _, self.gamma, self.ridge, to_features, V, coef, fit, loo = min(fits, key=lambda f: f[0])
         w = V @ coef
@@ -276,16 +319,13 @@ class KernelExtension(_FittedAtSamples):
     """
 
     def __init__(self, X, phi):
-        X = np.asarray(X, dtype=np.float64)
-        phi = np.asarray(phi, dtype=np.float64).reshape(X.shape[0], -1)
-        n = X.shape[0]
-        pick = np.random.default_rng(0).permutation(n)[:N_LANDMARKS] if n > N_LANDMARKS else np.arange(n)
-        self._landmarks = X[np.sort(pick)]
-        self._landmarks_t = np.ascontiguousarray(self._landmarks.T)
-        with blas_threads(_blas_limit(n)):
-            fit = _RidgeFit(
-                _sq_dist(X, self._landmarks), _sq_dist(self._landmarks, self._landmarks), phi, _gamma_scale(X)
-            )
+        self._fit_on(_SingleBasis(X), phi)
+
+    def _fit_on(self, basis, phi):
+        phi = np.asarray(phi, dtype=np.float64).reshape(basis.n_samples, -1)
+        self._landmarks, self._landmarks_t = basis.landmarks, basis.landmarks_t
+        with blas_threads(_blas_limit(basis.n_samples)):
+            fit = _RidgeFit(basis.ridge, phi)
         self.gamma, self.ridge, self.fitted, self._loo = fit.gamma, fit.ridge, fit.fitted, fit.loo
         fit.fitted = fit.loo = None
         self._fit = fit
@@ -343,36 +383,19 @@ class PairwiseKernelExtension(_FittedAtSamples):
     """
 
     def __init__(self, X, phi, codes):
-        X = np.asarray(X, dtype=np.float64)
-        phi = np.asarray(phi, dtype=np.float64).reshape(X.shape[0], -1)
-        codes = np.asarray(codes).reshape(-1)
-        self.n_classes = phi.shape[1]
-        counts = np.bincount(codes, minlength=self.n_classes)
-        if counts.shape[0] != self.n_classes or not counts.all():
-            raise ValueError(f"codes must hold every class of range({self.n_classes}) at least once")
-        self.pairs = list(combinations(range(self.n_classes), 2))
-        share = max(N_LANDMARKS // self.n_classes, MIN_CLASS_LANDMARKS)
-        order = np.random.default_rng(0).permutation(X.shape[0])
-        pool = np.sort(np.concatenate([order[codes[order] == c][:share] for c in range(self.n_classes)]))
-        self._landmarks = X[pool]
-        self._landmarks_t = np.ascontiguousarray(self._landmarks.T)
-        pool_codes = codes[pool]
-        gamma = _gamma_scale(X)
+        self._fit_on(_PairwiseBasis(X, codes, np.asarray(phi).reshape(np.shape(X)[0], -1).shape[1]), phi)
+
+    def _fit_on(self, basis, phi):
+        phi = np.asarray(phi, dtype=np.float64).reshape(basis.d.shape[0], -1)
+        self.n_classes, self.pairs = basis.n_classes, basis.pairs
+        self._landmarks, self._landmarks_t = basis.landmarks, basis.landmarks_t
         self._columns, self._fits = [], []
-        fit = np.full((X.shape[0], self.n_classes), np.inf)  # min_j g_ij, pair by pair
+        fit = np.full((phi.shape[0], self.n_classes), np.inf)  # min_j g_ij, pair by pair
         loo = fit.copy()
-        with blas_threads(_blas_limit(X.shape[0])):
-            d = _sq_dist(X, self._landmarks)
-            for i, j in self.pairs:
-                rows = np.flatnonzero((codes == i) | (codes == j))
-                cols = np.flatnonzero((pool_codes == i) | (pool_codes == j))
-                pair = _RidgeFit(
-                    d[np.ix_(rows, cols)],
-                    d[np.ix_(pool[cols], cols)],
-                    phi[rows, i : i + 1] - phi[rows, j : j + 1],
-                    gamma,
-                )
-                g = (np.exp(-pair.gamma * d[:, cols]) @ pair.weights + pair.offset)[:, 0]
+        with blas_threads(_blas_limit(phi.shape[0])):
+            for (i, j), rows, cols, ridge in zip(basis.pairs, basis.rows, basis.columns, basis.ridges, strict=True):
+                pair = _RidgeFit(ridge, phi[rows, i : i + 1] - phi[rows, j : j + 1])
+                g = (np.exp(-pair.gamma * basis.d[:, cols]) @ pair.weights + pair.offset)[:, 0]
                 g_loo = g.copy()
                 g[rows], g_loo[rows] = pair.fitted[:, 0], pair.loo[:, 0]
                 self._worst(fit, i, j, g)
@@ -407,3 +430,62 @@ class PairwiseKernelExtension(_FittedAtSamples):
             return 0.5 + 0.5 * worst
 
         return _by_blocks(X, self.n_classes, classes)
+
+
+class _SingleBasis:
+    """:func:`kernel_basis` for one function: the landmarks and one :class:`_RidgeBasis`."""
+
+    def __init__(self, X):
+        X = np.asarray(X, dtype=np.float64)
+        n = self.n_samples = X.shape[0]
+        pick = np.random.default_rng(0).permutation(n)[:N_LANDMARKS] if n > N_LANDMARKS else np.arange(n)
+        self.landmarks = X[np.sort(pick)]
+        self.landmarks_t = np.ascontiguousarray(self.landmarks.T)
+        with blas_threads(_blas_limit(n)):
+            self.ridge = _RidgeBasis(
+                _sq_dist(X, self.landmarks), _sq_dist(self.landmarks, self.landmarks), _gamma_scale(X)
+            )
+
+    def fit(self, phi):
+        """The :class:`KernelExtension` of ``phi`` (n_samples, 1)."""
+        ext = object.__new__(KernelExtension)
+        ext._fit_on(self, phi)
+        return ext
+
+
+class _PairwiseBasis:
+    """:func:`kernel_basis` for one function per class: the shared pool of landmarks and
+    a :class:`_RidgeBasis` per pair of classes, on the pair's samples (``rows``) and
+    landmarks (``columns``).
+    """
+
+    def __init__(self, X, codes, n_classes):
+        X = np.asarray(X, dtype=np.float64)
+        codes = np.asarray(codes).reshape(-1)
+        self.n_classes = n_classes
+        counts = np.bincount(codes, minlength=n_classes)
+        if counts.shape[0] != n_classes or not counts.all():
+            raise ValueError(f"codes must hold every class of range({n_classes}) at least once")
+        self.pairs = list(combinations(range(n_classes), 2))
+        share = max(N_LANDMARKS // n_classes, MIN_CLASS_LANDMARKS)
+        order = np.random.default_rng(0).permutation(X.shape[0])
+        pool = np.sort(np.concatenate([order[codes[order] == c][:share] for c in range(n_classes)]))
+        self.landmarks = X[pool]
+        self.landmarks_t = np.ascontiguousarray(self.landmarks.T)
+        pool_codes = codes[pool]
+        gamma = _gamma_scale(X)
+        self.rows, self.columns, self.ridges = [], [], []
+        with blas_threads(_blas_limit(X.shape[0])):
+            self.d = d = _sq_dist(X, self.landmarks)
+            for i, j in self.pairs:
+                rows = np.flatnonzero((codes == i) | (codes == j))
+                cols = np.flatnonzero((pool_codes == i) | (pool_codes == j))
+                self.ridges.append(_RidgeBasis(d[np.ix_(rows, cols)], d[np.ix_(pool[cols], cols)], gamma))
+                self.rows.append(rows)
+                self.columns.append(cols)
+
+    def fit(self, phi):
+        """The :class:`PairwiseKernelExtension` of ``phi`` (n_samples, n_classes)."""
+        ext = object.__new__(PairwiseKernelExtension)
+        ext._fit_on(self, phi)
+        return ext
