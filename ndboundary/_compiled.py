@@ -547,3 +547,76 @@ def squared_distances(X, landmarks_t, out):  # pragma: no cover - compiled
             for j in range(m):
                 t = x - landmarks_t[d, j]
                 out[b, j] += t * t
+
+
+@kernel("void(i8[::1], i8[::1], f8[::1], i8[::1], f8[::1])")
+@numba.njit(cache=True, nogil=True)
+def widest_paths(indptr, indices, phi, sources, out):  # pragma: no cover - compiled
+    """``out[v]``: the largest, over the paths of the graph (CSR ``indptr``, ``indices``,
+    both directions of every edge) from a vertex of ``sources`` to ``v``, of the least
+    ``phi`` on the path, both ends included; ``phi[v]`` where no path reaches ``v``.
+
+    A priority flood (Dijkstra's order, the widest path first) from the sources: each
+    vertex is settled once, at its final value, with a binary heap of lazy entries.
+    """
+    n = phi.shape[0]
+    best = np.full(n, -np.inf)
+    done = np.zeros(n, dtype=np.bool_)
+    cap = indices.shape[0] + sources.shape[0] + 1
+    keys = np.empty(cap)
+    nodes = np.empty(cap, dtype=np.int64)
+    size = 0
+    for s in sources:
+        if phi[s] <= best[s]:
+            continue
+        best[s] = phi[s]
+        # push (phi[s], s): sift up
+        t = size
+        size += 1
+        while t > 0 and keys[(t - 1) // 2] < phi[s]:
+            keys[t] = keys[(t - 1) // 2]
+            nodes[t] = nodes[(t - 1) // 2]
+            t = (t - 1) // 2
+        keys[t] = phi[s]
+        nodes[t] = s
+    while size > 0:
+        value = keys[0]
+        u = nodes[0]
+        # pop the top: the last entry sifts down from the root
+        size -= 1
+        last_key = keys[size]
+        last_node = nodes[size]
+        t = 0
+        while True:
+            c = 2 * t + 1
+            if c >= size:
+                break
+            if c + 1 < size and keys[c + 1] > keys[c]:
+                c += 1
+            if keys[c] <= last_key:
+                break
+            keys[t] = keys[c]
+            nodes[t] = nodes[c]
+            t = c
+        keys[t] = last_key
+        nodes[t] = last_node
+        if done[u]:
+            continue
+        done[u] = True
+        for p in range(indptr[u], indptr[u + 1]):
+            w = indices[p]
+            if done[w]:
+                continue
+            c_value = min(value, phi[w])
+            if c_value > best[w]:
+                best[w] = c_value
+                t = size
+                size += 1
+                while t > 0 and keys[(t - 1) // 2] < c_value:
+                    keys[t] = keys[(t - 1) // 2]
+                    nodes[t] = nodes[(t - 1) // 2]
+                    t = (t - 1) // 2
+                keys[t] = c_value
+                nodes[t] = w
+    for v in range(n):
+        out[v] = best[v] if done[v] else phi[v]

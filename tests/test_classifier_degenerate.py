@@ -127,3 +127,33 @@ def test_extension_stays_within_the_range_of_phi_far_from_the_data(moons):
     far = np.array([[50.0, 0.0], [0.0, -80.0], [-30.0, 40.0]])
     d = clf.decision_function(far)
     assert np.all(d >= clf.phi_.min() - 0.5) and np.all(d <= clf.phi_.max() - 0.5)
+
+
+def _reconstruction(edges, phi, markers):
+    """Reconstruction by dilation, by relaxing every edge until nothing changes."""
+    psi = np.where(markers, phi, -np.inf)
+    while True:
+        before = psi.copy()
+        for a, b in edges:
+            psi[b] = max(psi[b], min(psi[a], phi[b]))
+            psi[a] = max(psi[a], min(psi[b], phi[a]))
+        if np.array_equal(psi, before):
+            return np.where(np.isfinite(psi), psi, phi)
+
+
+def test_extrema_are_imposed_as_the_reconstruction_by_relaxing_every_edge():
+    """On a kNN graph of two clusters (one without any region-1 vertex), with ties in
+    phi: the compiled flood gives what relaxing the edges to a fixed point gives."""
+    from ndboundary import PointCloud
+    from ndboundary.learn.extrema import impose_extrema
+
+    rng = np.random.default_rng(3)
+    X = np.concatenate([rng.normal(size=(60, 3)), rng.normal(size=(40, 3)) + 30.0])
+    cloud = PointCloud(X, n_neighbors=6)
+    phi = np.round(rng.normal(size=100), 1)  # ties
+    region1 = (rng.random(100) < 0.2) & (np.arange(100) < 60)
+    edges = np.asarray(cloud.edges)
+    expected = -_reconstruction(edges, -_reconstruction(edges, phi, region1), ~region1)
+    got = impose_extrema(cloud, phi, region1)
+    np.testing.assert_array_equal(got, expected)
+    assert not np.array_equal(got, phi)  # peaks and pits were cut

@@ -22,36 +22,30 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
 
+from .._compiled import widest_paths
 from ..pipeline import relax
 
 __all__ = ["impose_extrema", "relax_classes"]
 
 
-def _cut_peaks(edges, phi, markers):
-    """Reconstruction by dilation of ``phi`` from the ``markers``: ``min(phi, bottleneck)``.
+def _vertex_graph(edges, n):
+    """Both directions of every edge, as CSR ``(indptr, indices)`` over ``n`` vertices (int64)."""
+    graph = sp.csr_matrix(
+        (np.ones(2 * edges.shape[0]), (np.r_[edges[:, 0], edges[:, 1]], np.r_[edges[:, 1], edges[:, 0]])),
+        shape=(n, n),
+    )
+    return graph.indptr.astype(np.int64), graph.indices.astype(np.int64)
 
-    The widest (maximin) paths run along a maximum spanning tree of the edge weights
-    ``min(phi_i, phi_j)``; a root joined to every marker makes one tree of all of them.
+
+def _cut_peaks(graph, phi, markers):
+    """Reconstruction by dilation of ``phi`` from the ``markers``: ``min(phi, bottleneck)``,
+    the bottleneck of the widest (maximin) paths from the markers, by a compiled priority
+    flood (:func:`~ndboundary._compiled.widest_paths`).
     """
-    n = phi.shape[0]
-    m = np.flatnonzero(markers)
-    i = np.concatenate([edges[:, 0], np.full(m.size, n)])
-    j = np.concatenate([edges[:, 1], m])
-    w = np.concatenate([np.minimum(phi[edges[:, 0]], phi[edges[:, 1]]), phi[m]])
-    # a maximum spanning tree as scipy's minimum one: costs 1, 2, ... by decreasing weight
-    # (however ties are ordered: every maximum spanning tree has the same bottlenecks)
-    cost = np.empty(w.size)
-    cost[np.argsort(-w)] = np.arange(1, w.size + 1)
-    tree = minimum_spanning_tree(sp.csr_matrix((cost, (i, j)), shape=(n + 1, n + 1)))
-    order, pred = breadth_first_order(tree, n, directed=False, return_predecessors=True)
-    out = phi.tolist() + [np.inf]
-    p = pred.tolist()
-    for v in order[1:].tolist():  # parents first
-        if out[p[v]] < out[v]:
-            out[v] = out[p[v]]
-    return np.asarray(out[:n])
+    out = np.empty(phi.shape[0])
+    widest_paths(*graph, np.ascontiguousarray(phi, dtype=np.float64), np.flatnonzero(markers).astype(np.int64), out)
+    return out
 
 
 def impose_extrema(domain, phi, region1):
@@ -89,9 +83,9 @@ def impose_extrema(domain, phi, region1):
     """
     phi = np.asarray(phi, dtype=np.float64)
     region1 = np.asarray(region1, dtype=bool)
-    edges = np.asarray(domain.edges)
-    psi = _cut_peaks(edges, phi, region1)
-    return -_cut_peaks(edges, -psi, ~region1)
+    graph = _vertex_graph(np.asarray(domain.edges), phi.shape[0])
+    psi = _cut_peaks(graph, phi, region1)
+    return -_cut_peaks(graph, -psi, ~region1)
 
 
 def relax_classes(domain, votes, n_classes, **params):
