@@ -151,8 +151,9 @@ def test_predictions_on_a_local_cluster_equal_the_in_memory_ones(client, fitted,
 
 
 def test_the_workers_keep_their_copy_until_a_refit(client, moons):
-    from ndboundary.learn.scaleout import shipped_to_workers
+    from ndboundary.learn.scaleout import _workers_on_loopback, shipped_to_workers
 
+    assert _workers_on_loopback(client)  # the copy goes to a worker directly, then to the other
     X, y, Xt, _ = moons
     clf = LevelSetClassifier().fit(X[:600], y[:600])
     Xd = da.from_array(Xt, chunks=(250, 2))
