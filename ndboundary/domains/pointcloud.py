@@ -31,8 +31,9 @@ connected, so the relaxation is well posed on clusters far apart; their measure 
 so that a bridge couples its ends as strongly as a typical neighbour pair does.
 
 Exact duplicates are merged for the geometry (neighbours are searched among distinct
-points) and keep their own vertex, joined to their representative by an edge, so that
-duplicates with different labels still form a boundary.
+points, numbered along a Z-order curve when there are many) and keep their own vertex,
+joined to their representative by an edge, so that duplicates with different labels
+still form a boundary.
 
 The operators are built from these arrays by
 :class:`~ndboundary.domains.pointcloud_operators.StencilDomain`, which a band of the
@@ -127,7 +128,10 @@ class PointCloud(StencilDomain):
     ----------
     points : ndarray of shape (n_samples, n_features)
     unique_points : ndarray of shape (n_unique, n_features)
-        The distinct points, on which the geometry is computed.
+        The distinct points, on which the geometry is computed: sorted as by
+        ``np.unique`` up to ``LOCALITY_MIN_POINTS`` of them, beyond in the order of a
+        Z-order curve over their leading principal axes, so that near points sit near
+        each other in memory for every pass that gathers neighbours.
     unique_inverse : ndarray of int of shape (n_samples,)
         Row of ``unique_points`` of every point.
     n_unique : int

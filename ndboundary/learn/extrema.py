@@ -82,8 +82,11 @@ def impose_extrema(domain, phi, region1):
     [2.0, 1.2, 1.2, -1.0, -1.0, -2.0]
     """
     phi = np.asarray(phi, dtype=np.float64)
-    region1 = np.asarray(region1, dtype=bool)
-    graph = _vertex_graph(np.asarray(domain.edges), phi.shape[0])
+    return _impose(_vertex_graph(np.asarray(domain.edges), phi.shape[0]), phi, np.asarray(region1, dtype=bool))
+
+
+def _impose(graph, phi, region1):
+    """:func:`impose_extrema` on the vertex graph ``graph`` (:func:`_vertex_graph`)."""
     psi = _cut_peaks(graph, phi, region1)
     return -_cut_peaks(graph, -psi, ~region1)
 
@@ -126,10 +129,13 @@ def relax_classes(domain, votes, n_classes, **params):
         res = relax(domain, votes, **params)
         columns = dict(zip(res.classes.tolist(), res.phi.T, strict=True))
     phis = []
+    graph = None  # the vertex graph of the extrema, built once for every class
     for c, target in enumerate(targets):
         if target.all() or not target.any():
             phis.append(np.full(votes.size, 1.0 if target.all() else 0.0))
             continue
         phi = columns[c] if columns else relax(domain, target, **params).phi
-        phis.append(impose_extrema(domain, phi, target))
+        if graph is None:
+            graph = _vertex_graph(np.asarray(domain.edges), votes.size)
+        phis.append(_impose(graph, np.asarray(phi, dtype=np.float64), target))
     return np.stack(phis, axis=1)
