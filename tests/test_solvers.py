@@ -364,6 +364,37 @@ def test_blocks_on_threads_cover_the_rows_in_order_with_one_blas_thread_each(mon
     assert [size for _, size in few] == [256, 44]  # not cut below MIN_BLOCK rows
 
 
+def test_blocks_within_blocks_are_computed_and_an_early_stop_leaves_no_block_running(monkeypatch):
+    """A block that splits its own rows into blocks gets them computed, while its
+    siblings hold the other threads; a caller that stops reading finds every block it
+    started finished."""
+    import threading
+
+    from ndboundary import _threads
+
+    monkeypatch.setattr(_threads, "available_threads", lambda: 2)
+
+    def inner(c):
+        return sum(size for _, size in _threads.in_blocks(c.stop - c.start, 4, lambda d: d.stop - d.start))
+
+    totals = [total for _, total in _threads.in_blocks(2000, 300, inner, first_alone=False)]
+    assert sum(totals) == 2000 and len(totals) == 7
+    running, done = threading.Event(), []
+
+    def slow(c):
+        running.set()
+        threading.Event().wait(0.05)
+        done.append(c.start)
+        return c.start
+
+    blocks = _threads.in_blocks(3000, 300, slow, first_alone=False)
+    next(blocks)
+    blocks.close()  # the blocks submitted ahead are cancelled, or waited for
+    count = len(done)
+    threading.Event().wait(0.2)
+    assert len(done) == count
+
+
 def test_a_preconditioner_built_ahead_solves_as_the_one_built_in_the_solve():
     _skip_unless_available("amg")
     from ndboundary.solvers.integration import Preconditioner, integration_preconditioner
