@@ -66,9 +66,10 @@ def in_blocks(n, size, compute, *, first_alone=True):
     results are held. Blocks are cut no larger than needed for every thread to get one,
     nor smaller than :data:`MIN_BLOCK` rows unless ``size`` is.
 
-    BLAS runs one thread per block meanwhile: the blocks' small products and batched
-    factorisations (LAPACK on a matrix per point) gain nothing from BLAS's threads, and
-    those threads, spinning beside the blocks' own, made a pass of batched
+    BLAS runs one thread per block meanwhile (the OpenBLAS on POSIX threads that numpy
+    and scipy ship; an OpenMP build keeps a count per thread): the blocks' small products
+    and batched factorisations (LAPACK on a matrix per point) gain nothing from BLAS's
+    threads, and those threads, spinning beside the blocks' own, made a pass of batched
     eigendecompositions on two blocks slower than on one.
 
     Examples

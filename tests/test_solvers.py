@@ -344,7 +344,13 @@ def test_blocks_on_threads_cover_the_rows_in_order_with_one_blas_thread_each(mon
     threadpoolctl = pytest.importorskip("threadpoolctl")
 
     def blas_limits():
-        return sorted(p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas")
+        # the builds on POSIX threads: an OpenMP build (MKL's too) keeps a thread count per
+        # calling thread, so a limit set here does not reach the blocks' threads
+        return sorted(
+            (p["filepath"], p["num_threads"])
+            for p in threadpoolctl.threadpool_info()
+            if p["user_api"] == "blas" and p.get("threading_layer") == "pthreads"
+        )
 
     before = blas_limits()
     monkeypatch.setattr(_threads, "available_threads", lambda: 2)
@@ -358,10 +364,31 @@ def test_blocks_on_threads_cover_the_rows_in_order_with_one_blas_thread_each(mon
     sizes = [size for _, size in blocks]
     assert [c.start for c, _ in blocks] == list(np.cumsum([0] + sizes[:-1]))
     assert sum(sizes) == 1000 and len(blocks) == (3 if first_alone else 2)
-    assert all(limits == [1] * len(before) for limits in seen)
+    assert all([t for _, t in limits] == [1] * len(before) for limits in seen), (before, seen)
     assert blas_limits() == before
     few = list(_threads.in_blocks(300, 4096, compute, first_alone=first_alone))
     assert [size for _, size in few] == [256, 44]  # not cut below MIN_BLOCK rows
+
+
+def test_a_classifier_fit_leaves_the_blas_threads_as_it_found_them():
+    """The fit limits BLAS on its own thread and beside it (the kernel fit's features) and
+    loads libraries on the way: every library runs as many threads after it as before."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from sklearn.datasets import make_classification
+
+    from ndboundary import LevelSetClassifier
+
+    def blas_threads_by_library():
+        return {p["filepath"]: p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"}
+
+    X, y = make_classification(1500, 8, random_state=0)
+    LevelSetClassifier().fit(X[:300], y[:300])  # what the fit loads, loaded
+    before = blas_threads_by_library()
+    if not before:
+        pytest.skip("no BLAS thread pool found")
+    for _ in range(3):
+        LevelSetClassifier().fit(X, y)
+        assert blas_threads_by_library() == before
 
 
 def test_blocks_within_blocks_are_computed_and_an_early_stop_leaves_no_block_running(monkeypatch):

@@ -42,8 +42,8 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._threads import Beside
 from ..domains.pointcloud import PointCloud, distinct_rows
-from ..solvers.common import blas_threads
 from ..domains.pointcloud_extension import predicted_codes
+from ..solvers.common import blas_threads
 from .band import classifier_band
 from .extrema import relax_classes
 from .graph import build_graph
@@ -81,14 +81,6 @@ INTEGRATION_FORM = "gradient"
 #: ``--sets other``, each on two draws of folds), as it did with the weights 1/4 and 3/4
 #: added.
 KERNEL_WEIGHTS = (0.5, 1.0)
-
-
-def _kernel_basis_alone(X, codes, n_functions):
-    """:func:`~ndboundary.learn.kernel_extension.kernel_basis` on one BLAS thread: beside
-    the relaxation, BLAS's threads would only contend with it for the cores.
-    """
-    with blas_threads(1):
-        return kernel_basis(X, codes, n_functions)
 
 
 class LevelSetClassifier(ClassifierMixin, BaseEstimator):
@@ -355,14 +347,18 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         votes = codes
         if self.vote:
             votes = vote(self.domain_.vertex_neighborhoods(), codes, n_cls, self.vote, self.vote_threshold)
-        # the kernel fit's features on the second core while the relaxation, mostly on one, runs
-        basis = None
-        if isinstance(self.domain_, PointCloud) and self.domain_.n_unique > self.extension_neighbors + 1:
-            basis = Beside(_kernel_basis_alone, X, codes, 1 if n_cls == 2 else n_cls)
-        self.phi_ = relax_classes(
-            self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_,
-            form=INTEGRATION_FORM,
-        )  # fmt: skip
+        # The kernel fit's features are computed on the second core while the relaxation,
+        # mostly on one, runs; BLAS on one thread meanwhile, as this thread sets it: OpenBLAS
+        # takes a raised thread count from the thread that lowered it only, so the limit
+        # is set and lifted here, around the other thread's whole work.
+        beside = isinstance(self.domain_, PointCloud) and self.domain_.n_unique > self.extension_neighbors + 1
+        with blas_threads(1 if beside else None):
+            basis = Beside(kernel_basis, X, codes, 1 if n_cls == 2 else n_cls) if beside else None
+            self.phi_ = relax_classes(
+                self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_,
+                form=INTEGRATION_FORM,
+            )  # fmt: skip
+            basis = None if basis is None else basis.result()
         self._log(f"relaxed {n_cls} classes", t0)
         self.extension_ = self.domain_.extension(
             self.phi_, n_neighbors=self.extension_neighbors, power=self.extension_power, labels=codes, labelled=labelled
@@ -375,9 +371,9 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         self._log("fitted", t0)
 
     def _fit_kernel_extension(self, basis, codes, labelled):
-        """Choose the weight of the kernel fit of ``phi`` (on the features ``basis``, a
-        :class:`~ndboundary._threads.Beside` computing :func:`~ndboundary.learn.kernel_extension.kernel_basis`,
-        or None where the domain's extension is kept alone) in the decision function.
+        """Choose the weight of the kernel fit of ``phi`` (on the features ``basis`` of
+        :func:`~ndboundary.learn.kernel_extension.kernel_basis`, or None where the domain's
+        extension is kept alone) in the decision function.
 
         The weight of :data:`KERNEL_WEIGHTS` whose mix of the two extensions labels the
         most labelled samples right held out (the neighbour extension's
@@ -395,7 +391,7 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         if basis is None:
             return self.extension_.leave_one_out(rows)
         local = self.extension_.held_out(rows)
-        kernel = basis.result().fit(self.phi_)
+        kernel = basis.fit(self.phi_)
         kernel_loo = kernel.leave_one_out(rows)
         own_local, own_kernel = self.extension_.at_samples(rows), kernel.fitted[rows]
         lab = codes[rows]

@@ -171,18 +171,23 @@ def blas_threads(n):
     return _shared_limit(controller, n)
 
 
-#: The open :func:`blas_threads` contexts (newest last), and the limiter that restores the
-#: limits found before the first of them; changed under the lock.
-_open_limits, _first_limiter, _limits_lock = [], [None], threading.Lock()
+#: The open :func:`blas_threads` contexts (newest last), and the threads each BLAS library
+#: (by its file) ran before the first of them, or before it was loaded while one was open;
+#: changed under the lock.
+_open_limits, _original_threads, _limits_lock = [], {}, threading.Lock()
+
+
+def _blas_libraries(controller):
+    return [lib for lib in controller.lib_controllers if lib.user_api == "blas"]
 
 
 @contextlib.contextmanager
 def _shared_limit(controller, n):
     token = object()
     with _limits_lock:
-        limiter = controller.limit(limits=n, user_api="blas")
-        if not _open_limits:
-            _first_limiter[0] = limiter
+        for lib in _blas_libraries(controller):  # a library loaded since: its own threads
+            _original_threads.setdefault(lib.filepath, lib.num_threads)
+        controller.limit(limits=n, user_api="blas")
         _open_limits.append((token, controller, n))
     try:
         yield
@@ -192,9 +197,11 @@ def _shared_limit(controller, n):
             if _open_limits:
                 _, newest, limit = _open_limits[-1]
                 newest.limit(limits=limit, user_api="blas")
-            else:
-                _first_limiter[0].restore_original_limits()
-                _first_limiter[0] = None
+            else:  # every library this process has loaded (some, maybe, since this one opened)
+                for lib in _blas_libraries(_threadpools() or controller):
+                    if lib.filepath in _original_threads:
+                        lib.set_num_threads(_original_threads[lib.filepath])
+                _original_threads.clear()
 
 
 _controller = [None, -1]
