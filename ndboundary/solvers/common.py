@@ -154,9 +154,13 @@ def blas_threads(n):
 
     The limit is the process's, and threads share it: the context entered last among
     those still open sets it, and the limits found before the first are restored when the
-    last one closes. (threadpoolctl's own contexts, entered and left on two threads at
+    last one closes (for a library loaded while one was open, the threads it had when
+    first seen). (threadpoolctl's own contexts, entered and left on two threads at
     once, would each restore what the other had found: the relaxation builds its
     integration's preconditioner on a second thread while conjugate gradients run.)
+    OpenBLAS takes a raised thread count only from the thread that lowered it, so the
+    first context should close last, on its own thread: work on another thread should
+    run inside a context of the thread that waits for it.
 
     Examples
     --------
