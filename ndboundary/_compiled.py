@@ -549,6 +549,19 @@ def squared_distances(X, landmarks_t, out):  # pragma: no cover - compiled
                 out[b, j] += t * t
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _heap_push(keys, nodes, size, key, node):  # pragma: no cover - compiled
+    """Push ``(key, node)`` on the max-heap ``keys[:size]``, ``nodes[:size]``; the new size."""
+    t = size
+    while t > 0 and keys[(t - 1) // 2] < key:
+        keys[t] = keys[(t - 1) // 2]
+        nodes[t] = nodes[(t - 1) // 2]
+        t = (t - 1) // 2
+    keys[t] = key
+    nodes[t] = node
+    return size + 1
+
+
 @kernel("void(i8[::1], i8[::1], f8[::1], i8[::1], f8[::1])")
 @numba.njit(cache=True, nogil=True)
 def widest_paths(indptr, indices, phi, sources, out):  # pragma: no cover - compiled
@@ -567,18 +580,9 @@ def widest_paths(indptr, indices, phi, sources, out):  # pragma: no cover - comp
     nodes = np.empty(cap, dtype=np.int64)
     size = 0
     for s in sources:
-        if phi[s] <= best[s]:
-            continue
-        best[s] = phi[s]
-        # push (phi[s], s): sift up
-        t = size
-        size += 1
-        while t > 0 and keys[(t - 1) // 2] < phi[s]:
-            keys[t] = keys[(t - 1) // 2]
-            nodes[t] = nodes[(t - 1) // 2]
-            t = (t - 1) // 2
-        keys[t] = phi[s]
-        nodes[t] = s
+        if phi[s] > best[s]:
+            best[s] = phi[s]
+            size = _heap_push(keys, nodes, size, phi[s], s)
     while size > 0:
         value = keys[0]
         u = nodes[0]
@@ -605,18 +609,8 @@ def widest_paths(indptr, indices, phi, sources, out):  # pragma: no cover - comp
         done[u] = True
         for p in range(indptr[u], indptr[u + 1]):
             w = indices[p]
-            if done[w]:
-                continue
-            c_value = min(value, phi[w])
-            if c_value > best[w]:
-                best[w] = c_value
-                t = size
-                size += 1
-                while t > 0 and keys[(t - 1) // 2] < c_value:
-                    keys[t] = keys[(t - 1) // 2]
-                    nodes[t] = nodes[(t - 1) // 2]
-                    t = (t - 1) // 2
-                keys[t] = c_value
-                nodes[t] = w
+            if not done[w] and min(value, phi[w]) > best[w]:
+                best[w] = min(value, phi[w])
+                size = _heap_push(keys, nodes, size, best[w], w)
     for v in range(n):
         out[v] = best[v] if done[v] else phi[v]

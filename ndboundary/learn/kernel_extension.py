@@ -275,6 +275,13 @@ class _FittedAtSamples:
     (``_loo``) and fitted (``fitted``), and a lean copy for new points only.
     """
 
+    @classmethod
+    def _on_basis(cls, basis, phi):
+        """The fit of ``phi`` on the features ``basis`` (:func:`kernel_basis`)."""
+        ext = object.__new__(cls)
+        ext._fit_on(basis, phi)
+        return ext
+
     def leave_one_out(self, rows):
         """The fit at the training samples ``rows``, each sample left out of the
         regressions that held it (exactly, for the width and ridge chosen): shape
@@ -385,7 +392,8 @@ class PairwiseKernelExtension(_FittedAtSamples):
     """
 
     def __init__(self, X, phi, codes):
-        self._fit_on(_PairwiseBasis(X, codes, np.asarray(phi).reshape(np.shape(X)[0], -1).shape[1]), phi)
+        phi = np.asarray(phi, dtype=np.float64).reshape(np.shape(X)[0], -1)
+        self._fit_on(_PairwiseBasis(X, codes, phi.shape[1]), phi)
 
     def _fit_on(self, basis, phi):
         phi = np.asarray(phi, dtype=np.float64).reshape(basis.d.shape[0], -1)
@@ -450,9 +458,7 @@ class _SingleBasis:
 
     def fit(self, phi):
         """The :class:`KernelExtension` of ``phi`` (n_samples, 1)."""
-        ext = object.__new__(KernelExtension)
-        ext._fit_on(self, phi)
-        return ext
+        return KernelExtension._on_basis(self, phi)
 
 
 class _PairwiseBasis:
@@ -488,6 +494,4 @@ class _PairwiseBasis:
 
     def fit(self, phi):
         """The :class:`PairwiseKernelExtension` of ``phi`` (n_samples, n_classes)."""
-        ext = object.__new__(PairwiseKernelExtension)
-        ext._fit_on(self, phi)
-        return ext
+        return PairwiseKernelExtension._on_basis(self, phi)
