@@ -1,25 +1,27 @@
-"""Prediction throughput on Dask arrays (not a test): in memory, then on a local cluster.
+"""Prediction throughput on Dask arrays (not a test): in memory, then on local clusters.
 
 Fits ``LevelSetClassifier`` on the 5-dimensional manifold in R^50 of
 ``benchmarks/scale.py`` (``--fit-n`` samples, on ``--max-samples`` landmarks), then
 predicts, and reports rows per second:
 
 * in memory: ``predict`` on one ndarray of ``--check-n`` new samples;
-* on a ``distributed.LocalCluster`` of ``--workers`` worker processes (``--threads`` each,
-  default one):
+* on a ``distributed.LocalCluster`` of worker processes for each of ``--layouts``
+  (``WxT``: ``W`` worker processes of ``T`` threads; by default one process with a thread
+  per core, then a process per core with one thread, which is ``LocalCluster``'s own
+  default on a machine of up to 4 cores):
   the same samples as a Dask array, through the classifier's own block-wise ``predict``
   and through dask-ml's ``ParallelPostFit`` (wrapping the fitted classifier, then its
   lean copy ``for_prediction(clf)``), checked equal to the in-memory predictions;
-* ``--n`` samples (10 M by default; 0 skips this) generated block by block on the workers and
-  predicted there, the generation timed alone too: the throughput of a data set that
-  never sits in one process's memory.
+* ``--n`` samples (10 M by default; 0 skips this) generated block by block on the workers
+  of the first layout and predicted there, the generation timed alone too: the
+  throughput of a data set that never sits in one process's memory.
 
 Each of ``--repeats`` rounds predicts the samples in memory, with no cluster running (an
 idle ``LocalCluster`` slows a process beside it on a small machine), then starts a fresh
-cluster and predicts them there once each way. The ratios to the in-memory time are taken
-within a round, so that the drifts of a shared machine hit both sides alike; their median
-is printed with their range. The classifier's own ``predict`` ships its lean copy to the
-workers on its first call and reuses it after
+cluster of each layout in turn and predicts them there once each way. The ratios to the
+in-memory time are taken within a round, so that the drifts of a shared machine hit both
+sides alike; their median is printed with their range. The classifier's own ``predict``
+ships its lean copy to the workers on its first call and reuses it after
 (``ndboundary.learn.scaleout.shipped_to_workers``): that first call is timed on its own
 (``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
 ``--no-profiler`` and ``--no-malloc-trim`` start the workers without two of Dask's
@@ -30,15 +32,15 @@ system (and faults it in again) at once. Prints a table and one JSON line.
 Usage::
 
     python benchmarks/dask_predict.py [--fit-n 100000] [--max-samples 0.1] [--n 10000000]
-                                      [--check-n 200000] [--chunk 100000] [--workers 2]
-                                      [--threads 1] [--repeats 3] [--no-profiler]
-                                      [--no-malloc-trim]
+                                      [--check-n 200000] [--chunk 100000] [--layouts 1x2,2x1]
+                                      [--repeats 3] [--no-profiler] [--no-malloc-trim]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from contextlib import contextmanager
 
@@ -85,14 +87,22 @@ def check(labels, ref, way):
 WAYS = ("cluster", "parallelpostfit_lean", "parallelpostfit")
 
 
+def layout(text):
+    """``(workers, threads)`` of a layout ``WxT``."""
+    workers, threads = (int(part) for part in text.lower().split("x"))
+    if workers < 1 or threads < 1:
+        raise ValueError(f"a layout needs at least one worker and one thread, got {text!r}")
+    return workers, threads
+
+
 @contextmanager
-def cluster(args, settings):
-    """A client of a fresh ``LocalCluster`` of worker processes, with Dask ``settings``."""
+def cluster(workers, threads, settings):
+    """A client of a fresh ``LocalCluster`` of ``workers`` processes of ``threads`` threads,
+    with Dask ``settings``.
+    """
     with (
         dask.config.set(settings),
-        LocalCluster(
-            n_workers=args.workers, threads_per_worker=args.threads, processes=True, dashboard_address=None
-        ) as local,
+        LocalCluster(n_workers=workers, threads_per_worker=threads, processes=True, dashboard_address=None) as local,
         Client(local) as client,
     ):
         yield client
@@ -129,8 +139,12 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=10_000_000)
     ap.add_argument("--check-n", type=int, default=200_000)
     ap.add_argument("--chunk", type=int, default=100_000)
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--threads", type=int, default=1, help="threads per worker process")
+    cores = len(os.sched_getaffinity(0))
+    ap.add_argument(
+        "--layouts",
+        default=f"1x{cores},{cores}x1",
+        help="comma-separated cluster layouts WxT: W worker processes of T threads each",
+    )
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-profiler", action="store_true", help="workers without Dask's statistical profiler")
     ap.add_argument("--no-malloc-trim", action="store_true", help="workers without Dask's MALLOC_TRIM_THRESHOLD_")
@@ -150,24 +164,28 @@ def main(argv=None):
         environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ"))
         environ.pop("MALLOC_TRIM_THRESHOLD_", None)
         settings["distributed.nanny.pre-spawn-environ"] = environ
-    times = {name: [] for name in ("memory", "cluster_first", *WAYS)}
+    layouts = [layout(text) for text in args.layouts.split(",")]
+    names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *WAYS)]
+    times = {name: [] for name in ("memory", *names)}
     for _ in range(args.repeats):
         t, labels = timed(lambda: clf.predict(Xc))  # no cluster running
         check(labels, ref, "memory")
         times["memory"].append(t)
-        with cluster(args, settings) as client:
-            for name, t in cluster_round(client, clf, Xc, ref, args).items():
-                times[name].append(t)
+        for w, th in layouts:
+            with cluster(w, th, settings) as client:
+                for name, t in cluster_round(client, clf, Xc, ref, args).items():
+                    times[f"{name}@{w}x{th}"].append(t)
     mem = np.asarray(times["memory"])
     out.update(memory_s=float(np.median(mem)), memory_rows_per_s=args.check_n / float(np.median(mem)))
-    for name in ("cluster_first", *WAYS):
+    for name in names:
         t = np.asarray(times[name])
         out[f"{name}_s"] = float(np.median(t))
         out[f"{name}_vs_memory"] = float(np.median(mem / t))  # ratios within each round
         out[f"{name}_vs_memory_range"] = [round(float(r), 3) for r in (np.min(mem / t), np.max(mem / t))]
-    out["cluster_rows_per_s"] = args.check_n / out["cluster_s"]
+    for w, th in layouts:
+        out[f"cluster_rows_per_s@{w}x{th}"] = args.check_n / out[f"cluster@{w}x{th}_s"]
     if args.n > 0:
-        with cluster(args, settings) as client:
+        with cluster(*layouts[0], settings) as client:
             big, n_blocks = generated(args.n, args.chunk, args.features)
             t0 = time.perf_counter()
             big.sum(axis=1).compute()
@@ -178,7 +196,7 @@ def main(argv=None):
             out["big_rows_per_s"] = args.n / out["big_s"]
             out["big_rows_per_s_without_generation"] = args.n / max(out["big_s"] - out["generate_s"], 1e-9)
     for k, v in out.items():
-        print(f"{k:<36s} {v:.4g}" if isinstance(v, float) else f"{k:<36s} {v}")
+        print(f"{k:<46s} {v:.4g}" if isinstance(v, float) else f"{k:<46s} {v}")
     print(json.dumps(out))
 
 

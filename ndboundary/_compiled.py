@@ -536,17 +536,19 @@ def squared_distances(X, landmarks_t, out):  # pragma: no cover - compiled
     ``landmarks_t`` (n_features, n_landmarks). Each row is summed in the same order
     whatever rows come with it (predictions made block by block equal those made at
     once, to the bit), and the inner loop runs over the landmarks, which the compiler
-    vectorises.
+    vectorises, into a row of its own that it knows no other array shares.
     """
     dim, m = landmarks_t.shape
+    acc = np.empty(m)
     for b in range(X.shape[0]):
-        for j in range(m):
-            out[b, j] = 0.0
+        acc[:] = 0.0
         for d in range(dim):
             x = X[b, d]
+            row = landmarks_t[d]
             for j in range(m):
-                t = x - landmarks_t[d, j]
-                out[b, j] += t * t
+                t = x - row[j]
+                acc[j] += t * t
+        out[b] = acc
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

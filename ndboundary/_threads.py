@@ -90,8 +90,12 @@ def in_blocks(n, size, compute, *, first_alone=True):
 
 
 def _blocks_on_threads(blocks, compute, first_alone, threads):
+    if threads == 1:  # in order on this thread: a pool of one would only hand the blocks over
+        for c in blocks:
+            yield c, compute(c)
+        return
     rest = blocks
-    if first_alone or threads == 1:
+    if first_alone:
         yield blocks[0], compute(blocks[0])
         rest = blocks[1:]
     if not rest:

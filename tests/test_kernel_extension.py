@@ -52,6 +52,21 @@ def test_pairwise_values_do_not_depend_on_the_rows_beside_them():
     assert lean.fitted is None and np.array_equal(lean(X[200:]), whole)
 
 
+def test_values_at_new_points_are_the_kernel_sums_and_do_not_depend_on_the_rows_beside_them():
+    """New points are evaluated a run of rows at a time with one distance buffer: the
+    values are those of the kernel sums over the landmarks, and each row's are the same
+    to the bit whatever rows come with it, across the runs' edges."""
+    X, y = make_gaussian_quantiles(n_samples=700, n_features=5, n_classes=2, random_state=4)
+    ext = KernelExtension(X[:300], y[:300].astype(float)[:, None])
+    new = X[300:]
+    whole = ext(new)
+    L, fit = ext._landmarks, ext._fit
+    d = ((new[:, None, :] - L[None]) ** 2).sum(axis=2)
+    np.testing.assert_allclose(whole, np.exp(-fit.gamma * d) @ fit.weights + fit.offset, rtol=1e-10, atol=1e-12)
+    for rows in (slice(0, 1), slice(100, 300), slice(127, 129), slice(5, 400)):
+        assert np.array_equal(ext(new[rows]), whole[rows])
+
+
 def test_pairwise_fit_refuses_a_class_without_samples():
     X = np.random.default_rng(0).normal(size=(40, 3))
     with pytest.raises(ValueError, match="every class"):

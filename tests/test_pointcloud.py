@@ -232,6 +232,31 @@ def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
     assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the function
 
 
+@pytest.mark.parametrize("method", ["exact", "hnsw", "nndescent"])
+def test_only_an_index_that_prepares_on_its_first_search_has_a_first_block_searched_alone(monkeypatch, rng, method):
+    """pynndescent compiles its search on the first query, which the first block of new
+    points takes alone; faiss and scikit-learn search every block at once."""
+    if method == "hnsw":
+        pytest.importorskip("faiss")
+    from ndboundary import _threads
+    from ndboundary.domains import pointcloud_extension
+
+    X, t = _manifold(400, 5, rng)
+    cloud = PointCloud(X, n_neighbors=12, method=method, random_state=0)
+    ext = cloud.extension(np.c_[t[:, 0]], labels=(t[:, 0] > 0).astype(int)).for_queries()
+    assert ext.cloud.query_prepares is (method == "nndescent")
+    seen = []
+    real = _threads.in_blocks
+
+    def spy(n, size, compute, *, first_alone=True):
+        seen.append(first_alone)
+        return real(n, size, compute, first_alone=first_alone)
+
+    monkeypatch.setattr(pointcloud_extension, "in_blocks", spy)
+    ext(X[:50] + 0.01)
+    assert seen == [method == "nndescent"]
+
+
 def test_distinct_rows_of_many_points_are_those_of_numpy_unique(rng):
     from ndboundary.domains.pointcloud import LOCALITY_MIN_POINTS, distinct_rows
 

@@ -370,6 +370,27 @@ def test_blocks_on_threads_cover_the_rows_in_order_with_one_blas_thread_each(mon
     assert [size for _, size in few] == [256, 44]  # not cut below MIN_BLOCK rows
 
 
+def test_blocks_on_one_thread_are_computed_in_order_on_the_calling_thread(monkeypatch):
+    """With one thread available (a Dask worker's ``OMP_NUM_THREADS=1``) no pool is
+    started: every block is computed on the caller's thread, in order."""
+    import threading
+
+    from ndboundary import _threads
+
+    monkeypatch.setattr(_threads, "available_threads", lambda: 1)
+    seen = []
+
+    def compute(c):
+        seen.append(threading.get_ident())
+        return c.start
+
+    for first_alone in (True, False):
+        seen.clear()
+        starts = [s for _, s in _threads.in_blocks(1000, 128, compute, first_alone=first_alone)]
+        assert starts == list(range(0, 1000, 128))
+        assert set(seen) == {threading.get_ident()}
+
+
 def test_a_classifier_fit_leaves_the_blas_threads_as_it_found_them():
     """The fit limits BLAS on its own thread and beside it (the kernel fit's features) and
     loads libraries on the way: every library runs as many threads after it as before."""

@@ -301,6 +301,14 @@ class PointCloud(StencilDomain):
         k = self.n_neighbors if n_neighbors is None else int(min(n_neighbors, self.n_unique))
         return self._index.query(np.asarray(X, dtype=np.float64), k)
 
+    @property
+    def query_prepares(self):
+        """Whether the neighbour index prepares itself on its first search of new points
+        (pynndescent compiles its search then): a first block of searches should run
+        alone, before others run beside it.
+        """
+        return self._index.method == "nndescent"
+
     def query_order(self, X):
         """An order of the rows of new points ``X`` (a permutation) in which they are best
         searched: near points one after the other (:func:`~ndboundary.domains.neighbors.locality_order`

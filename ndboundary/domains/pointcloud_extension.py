@@ -167,7 +167,7 @@ class NeighborExtension:
             for _, *terms in self._terms(X[c]):  # one chunk
                 out[rows] = _weighted_mean(*terms, self.power)
 
-        for _ in in_blocks(X.shape[0], _CHUNK, block):
+        for _ in in_blocks(X.shape[0], _CHUNK, block, first_alone=self.cloud.query_prepares):
             pass
         return out
 

@@ -136,29 +136,35 @@ def _sq_dist(A, B):
     return np.maximum(d, 0.0)
 
 
-def _sq_dist_rowwise(X, landmarks_t):
-    """Squared Euclidean distances between the rows of ``X`` and the landmarks, given
-    transposed (n_features, n_landmarks), each row summed by the same loop whatever rows
-    come with it (:func:`~ndboundary._compiled.squared_distances`, not a matrix product
-    whose blocking depends on the number of rows), so that new points computed block by
-    block equal those computed at once, to the bit.
-    """
-    out = np.empty((X.shape[0], landmarks_t.shape[1]))
-    squared_distances(np.ascontiguousarray(X, dtype=np.float64), landmarks_t, out)
-    return out
+#: Rows whose distances to the landmarks are held at once while new points are evaluated:
+#: one (rows, n_landmarks) buffer per block, filled again for each run of rows, small
+#: enough to stay in cache and below the size that the allocator would map afresh.
+_RUN = 128
 
 
-def _by_blocks(X, n_out, values):
-    """``values`` of the rows of ``X``, block by block on several threads (numpy's loops
-    release the GIL): shape (n, n_out).
+def _rowwise(X, n_out, landmarks_t, values):
+    """``values(d, out)`` over the rows of ``X``, run by run: ``d`` the squared distances of
+    a run of rows to the landmarks (given transposed, (n_features, n_landmarks)), which
+    ``values`` may overwrite, and ``out`` the run's rows of the result, (n, n_out).
+
+    Each row's distances are summed by the same loop whatever rows come with it
+    (:func:`~ndboundary._compiled.squared_distances`, not a matrix product whose blocking
+    depends on the number of rows), so that new points computed block by block equal
+    those computed at once, to the bit. Blocks of rows run on several threads (numpy's
+    loops release the GIL), each with one distance buffer of :data:`_RUN` rows.
     """
     X = np.asarray(X, dtype=np.float64)
     out = np.empty((X.shape[0], n_out))
 
     def block(c):
-        out[c] = values(X[c])
+        d = np.empty((min(_RUN, c.stop - c.start), landmarks_t.shape[1]))
+        for a in range(c.start, c.stop, _RUN):
+            run = slice(a, min(c.stop, a + _RUN))
+            dr = d[: run.stop - run.start]
+            squared_distances(np.ascontiguousarray(X[run]), landmarks_t, dr)
+            values(dr, out[run])
 
-    for _ in in_blocks(X.shape[0], _CHUNK, block):
+    for _ in in_blocks(X.shape[0], _CHUNK, block, first_alone=False):
         pass
     return out
 
@@ -265,9 +271,16 @@ class _RidgeFit:
         self.fitted = fit + mean
         self.loo = loo + mean
 
-    def at(self, d):
-        """The fit at points of squared distances ``d`` (n, m) to the landmarks."""
-        return np.einsum("bl,lr->br", np.exp(-self.gamma * d), self.weights) + self.offset
+    def at(self, d, out=None):
+        """The fit at points of squared distances ``d`` (n, m) to the landmarks; with
+        ``out`` (n, n_functions), written there, and ``d`` overwritten.
+        """
+        if out is None:
+            return np.einsum("bl,lr->br", np.exp(-self.gamma * d), self.weights) + self.offset
+        np.exp(np.multiply(d, -self.gamma, out=d), out=d)
+        np.einsum("bl,lr->br", d, self.weights, out=out)
+        out += self.offset
+        return out
 
 
 class _FittedAtSamples:
@@ -346,11 +359,7 @@ class KernelExtension(_FittedAtSamples):
         made block by block equal those made at once, to the bit; blocks of rows are
         evaluated on several threads (:func:`~ndboundary._threads.in_blocks`).
         """
-        return _by_blocks(
-            X,
-            self._fit.weights.shape[1],
-            lambda x: self._fit.at(_sq_dist_rowwise(x, self._landmarks_t)),
-        )
+        return _rowwise(X, self._fit.weights.shape[1], self._landmarks_t, self._fit.at)
 
 
 class PairwiseKernelExtension(_FittedAtSamples):
@@ -432,14 +441,14 @@ class PairwiseKernelExtension(_FittedAtSamples):
         :class:`KernelExtension`.
         """
 
-        def classes(x):
-            d = _sq_dist_rowwise(x, self._landmarks_t)
-            worst = np.full((x.shape[0], self.n_classes), np.inf)
+        def classes(d, worst):
+            worst.fill(np.inf)
             for (i, j), cols, pair in zip(self.pairs, self._columns, self._fits, strict=True):
                 self._worst(worst, i, j, pair.at(d[:, cols])[:, 0])
-            return 0.5 + 0.5 * worst
+            worst *= 0.5
+            worst += 0.5
 
-        return _by_blocks(X, self.n_classes, classes)
+        return _rowwise(X, self.n_classes, self._landmarks_t, classes)
 
 
 class _SingleBasis:
