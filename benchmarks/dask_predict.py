@@ -16,13 +16,14 @@ predicts, and reports rows per second:
   of the first layout and predicted there, the generation timed alone too: the
   throughput of a data set that never sits in one process's memory.
 
-Each of ``--repeats`` rounds predicts the samples in memory, in a fresh process with no
-cluster running (an idle ``LocalCluster`` slows a process beside it on a small machine,
-and a closed one the process that ran it), then starts a fresh cluster of each layout in
-turn and predicts them there once each way. The ratios to the in-memory time are taken
-within a round, so that the drifts of a shared machine hit both sides alike; their
-median is printed with their range. The classifier's own ``predict`` ships its lean copy
-to the workers on its first call and reuses it after
+Each of ``--repeats`` rounds predicts the samples in memory, with no cluster running (an
+idle ``LocalCluster`` slows a process beside it on a small machine; the one closed before
+leaves ``OMP_NUM_THREADS=1`` in this process's environment, which ndboundary reads only
+as the process was started), then starts a fresh cluster of each layout in turn and
+predicts them there once each way. The ratios to the in-memory time are taken within a
+round, so that the drifts of a shared machine hit both sides alike; their median is
+printed with their range. The classifier's own ``predict`` ships its lean copy to the
+workers on its first call and reuses it after
 (``ndboundary.learn.scaleout.shipped_to_workers``): that first call is timed on its own
 (``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
 ``--no-profiler`` and ``--no-malloc-trim`` start the workers without two of Dask's
@@ -40,14 +41,9 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import atexit
 import json
-import multiprocessing
 import os
-import pickle
-import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 
 import dask
@@ -91,27 +87,6 @@ def check(labels, ref, way):
 
 
 WAYS = ("cluster", "parallelpostfit_lean", "parallelpostfit")
-
-
-def _predict_saved(path):
-    """Seconds to predict the samples saved at ``path`` with the classifier saved beside
-    them, after a warm-up, checked against the predictions saved too.
-    """
-    with open(path, "rb") as f:
-        clf, Xc, ref = pickle.load(f)
-    clf.predict(Xc[:1000])
-    t, labels = timed(lambda: clf.predict(Xc))
-    check(labels, ref, "memory")
-    return t
-
-
-def in_fresh_process(path):
-    """:func:`_predict_saved` in a process of its own: in memory, as a user's process that
-    has never run a cluster predicts (a process that has started and closed a
-    ``LocalCluster`` of worker processes was measured up to a quarter slower after).
-    """
-    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-        return pool.submit(_predict_saved, path).result()
 
 
 def layout(text):
@@ -185,11 +160,6 @@ def main(argv=None):
     Xc, yc = make_data(args.check_n, args.features, seed=1)
     clf.predict(Xc[:1000])  # the neighbour index's query compiled
     ref = clf.predict(Xc)
-    saved = tempfile.NamedTemporaryFile(suffix=".pkl", delete=False)
-    with saved:
-        pickle.dump((for_prediction(clf), Xc, ref), saved, protocol=pickle.HIGHEST_PROTOCOL)
-    atexit.register(os.unlink, saved.name)
-    saved = saved.name
     out["accuracy"] = float((ref == yc).mean())
     settings = {"distributed.worker.profile.enabled": not args.no_profiler}
     if args.no_malloc_trim:
@@ -200,7 +170,9 @@ def main(argv=None):
     names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *WAYS)]
     times = {name: [] for name in ("memory", *names)}
     for _ in range(args.repeats):
-        times["memory"].append(in_fresh_process(saved))
+        t, labels = timed(lambda: clf.predict(Xc))  # no cluster running
+        check(labels, ref, "memory")
+        times["memory"].append(t)
         for w, th in layouts:
             with cluster(w, th, settings) as client:
                 for name, t in cluster_round(client, clf, Xc, ref, args).items():

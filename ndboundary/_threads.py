@@ -11,13 +11,21 @@ from concurrent.futures import ThreadPoolExecutor
 __all__ = ["Beside", "available_threads", "in_blocks", "shared_pool"]
 
 
+#: ``OMP_NUM_THREADS`` as this process was started with, read when ndboundary is imported.
+_LAUNCH_LIMIT = os.environ.get("OMP_NUM_THREADS", "")
+
+
 def available_threads():
     """Threads this process should run at once: the cores it may use, or fewer when
     ``OMP_NUM_THREADS`` says so.
 
     A Dask worker process gets ``OMP_NUM_THREADS=1`` (``distributed.nanny.pre-spawn-environ``),
     so that the workers of one machine share its cores instead of each starting a thread
-    per core; the passes here follow the same limit.
+    per core; the passes here follow the same limit. It is read once, when ndboundary is
+    imported, as an OpenMP runtime reads it when loaded: a ``LocalCluster`` of worker
+    processes sets it in the environment of the process that starts it, for its workers
+    to inherit, and leaves it there, which must not make that process's own work run on
+    one thread.
 
     Examples
     --------
@@ -28,8 +36,8 @@ def available_threads():
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on every platform
         cores = os.cpu_count() or 1
-    limit = os.environ.get("OMP_NUM_THREADS", "")
-    if limit.strip().isdigit() and int(limit) > 0:
+    limit = _LAUNCH_LIMIT.strip()
+    if limit.isdigit() and int(limit) > 0:
         return max(1, min(cores, int(limit)))
     return max(1, cores)
 

@@ -6,8 +6,10 @@ from sklearn.datasets import make_blobs, make_moons
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from ndboundary import LevelSetClassifier
+from ndboundary._threads import available_threads
 
 da = pytest.importorskip("dask.array")
+THREADS_BEFORE_ANY_CLUSTER = available_threads()
 
 
 @pytest.fixture(scope="module")
@@ -148,6 +150,14 @@ def test_predictions_on_a_local_cluster_equal_the_in_memory_ones(client, fitted,
     blocks = Xd.map_blocks(fitted.decision_function, drop_axis=1, dtype=np.float64)
     np.testing.assert_array_equal(blocks.compute(), fitted.decision_function(Xt))
     np.testing.assert_array_equal(fitted.predict(Xd).compute(), fitted.predict(Xt))
+
+
+def test_a_local_cluster_leaves_the_process_that_started_it_its_threads(client):
+    """The cluster's nanny sets ``OMP_NUM_THREADS=1`` in this process's environment for
+    its workers to inherit and leaves it there; the classifier's own passes here keep the
+    threads this process was started with."""
+    assert client.run(available_threads) == dict.fromkeys(client.scheduler_info()["workers"], 1)
+    assert available_threads() == THREADS_BEFORE_ANY_CLUSTER
 
 
 def test_the_workers_keep_their_copy_until_a_refit(client, moons):

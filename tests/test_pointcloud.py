@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 
@@ -319,15 +321,23 @@ def test_exact_neighbours_by_tree_and_by_brute_force(rng, n_features):
     assert (n_features <= TREE_MAX_FEATURES) == (n_features == 3)
 
 
-def test_threads_follow_omp_num_threads(monkeypatch):
+def test_threads_follow_omp_num_threads_as_the_process_was_started(monkeypatch):
+    """A process started with ``OMP_NUM_THREADS=1`` (a Dask worker) runs one thread; a
+    change of the variable after ndboundary is imported (a ``LocalCluster`` starting its
+    workers sets it and leaves it set) changes nothing."""
+    import subprocess
+    import sys
+
     from ndboundary._threads import available_threads
 
-    monkeypatch.setenv("OMP_NUM_THREADS", "1")
-    assert available_threads() == 1
-    monkeypatch.setenv("OMP_NUM_THREADS", "not a number")
-    assert available_threads() >= 1
-    monkeypatch.delenv("OMP_NUM_THREADS")
-    assert available_threads() >= 1
+    count = "from ndboundary._threads import available_threads; print(available_threads())"
+    for value, expected in (("1", "1"), ("not a number", None), ("", None)):
+        env = {**os.environ, "OMP_NUM_THREADS": value}
+        out = subprocess.run([sys.executable, "-c", count], env=env, capture_output=True, text=True, check=True)
+        assert int(out.stdout) >= 1 and (expected is None or out.stdout.strip() == expected)
+    before = available_threads()
+    monkeypatch.setenv("OMP_NUM_THREADS", "1" if before > 1 else "2")
+    assert available_threads() == before
 
 
 def test_compiled_first_order_values_equal_the_gathered_sums():
