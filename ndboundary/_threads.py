@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 __all__ = ["Beside", "available_threads", "in_blocks", "shared_pool"]
 
@@ -153,3 +153,12 @@ class Beside:
             return compute(*args)
         future, self._future = self._future, None
         return future.result()
+
+    def abandon(self):
+        """Wait for the thread, if one runs, and drop its outcome: for a caller that fails
+        before it needs the value, so that none of its work goes on after the caller has
+        raised (the BLAS limits it sets and lifts included).
+        """
+        future, self._future, self._compute, self._args = self._future, None, None, None
+        if future is not None:
+            wait([future])

@@ -391,6 +391,35 @@ def test_blocks_on_one_thread_are_computed_in_order_on_the_calling_thread(monkey
         assert set(seen) == {threading.get_ident()}
 
 
+def test_a_fit_that_fails_leaves_no_work_beside_it_running(monkeypatch):
+    """The kernel fit's features run beside the relaxation; when the relaxation raises,
+    the fit waits for them before it raises, so that nothing of it goes on after."""
+    import threading
+    import time
+
+    from sklearn.datasets import make_classification
+
+    from ndboundary import LevelSetClassifier, _threads
+    from ndboundary.learn import classifier
+
+    monkeypatch.setattr(_threads, "available_threads", lambda: 2)
+    done = threading.Event()
+
+    def slow_basis(*args):
+        time.sleep(0.3)
+        done.set()
+
+    def failing_relax(*args, **kwargs):
+        raise FloatingPointError("the relaxation failed")
+
+    monkeypatch.setattr(classifier, "kernel_basis", slow_basis)
+    monkeypatch.setattr(classifier, "relax_classes", failing_relax)
+    X, y = make_classification(300, 5, random_state=0)
+    with pytest.raises(FloatingPointError, match="relaxation failed"):
+        LevelSetClassifier().fit(X, y)
+    assert done.is_set()
+
+
 def test_a_classifier_fit_leaves_the_blas_threads_as_it_found_them():
     """The fit limits BLAS on its own thread and beside it (the kernel fit's features) and
     loads libraries on the way: every library runs as many threads after it as before."""
