@@ -391,6 +391,28 @@ def test_blocks_on_one_thread_are_computed_in_order_on_the_calling_thread(monkey
         assert set(seen) == {threading.get_ident()}
 
 
+def test_a_relaxation_leaves_the_blas_threads_as_it_found_them():
+    """The relaxation builds its integration's preconditioner on a second thread while
+    the heat is solved, each limiting BLAS: the limits are lifted on the thread that set
+    the first, so that every library runs as many threads after as before."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from ndboundary import relax
+    from ndboundary.datasets import circle, label_by, voronoi_polygons
+
+    def blas_threads_by_library():
+        return {p["filepath"]: p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"}
+
+    mesh = voronoi_polygons(80, random_state=0)
+    labels = label_by(mesh, circle)
+    relax(mesh, labels, on="elements", band=None)  # what the relaxation loads, loaded
+    before = blas_threads_by_library()
+    if not before:
+        pytest.skip("no BLAS thread pool found")
+    for _ in range(3):
+        relax(mesh, labels, on="elements", band=None)
+        assert blas_threads_by_library() == before
+
+
 def test_a_fit_that_fails_leaves_no_work_beside_it_running(monkeypatch):
     """The kernel fit's features run beside the relaxation; when the relaxation raises,
     the fit waits for them before it raises, so that nothing of it goes on after."""

@@ -23,6 +23,7 @@ from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
 from ..solvers.cache import digest
+from ..solvers.common import blas_threads
 from .band import (
     AUTO_BAND_MAX_SHARE,
     AUTO_BAND_MIN_VERTICES,
@@ -200,16 +201,24 @@ class Relaxer:
             zeta = result  # the band would hold (nearly) everything: the whole domain, with its zeta
         boundary, padded = self._padded(key, region1, on, bool(pad), zeta)
         prog.step("pad")
-        # step 4's matrix and preconditioner do not depend on the field: built meanwhile
-        terms = Beside(self._integration_terms, padded, boundary.sources, h, p)
-        u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
-        groups = None
-        if self._sectors is not None:
-            groups = region_sectors(self.domain, *self._sectors)[padded.parent]
-        Xs = smooth(padded.work, X, p["smoothing"], groups)
-        prog.step("smoothing")
+        # step 4's matrix and preconditioner do not depend on the field: built meanwhile,
+        # with BLAS limited to one thread on this thread around both (the solves and the
+        # preconditioner's build limit it too, and OpenBLAS lifts a limit only on the
+        # thread that set it: the limit opened first must close last, here)
+        with blas_threads(1):
+            terms = Beside(self._integration_terms, padded, boundary.sources, h, p)
+            try:
+                u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
+                groups = None
+                if self._sectors is not None:
+                    groups = region_sectors(self.domain, *self._sectors)[padded.parent]
+                Xs = smooth(padded.work, X, p["smoothing"], groups)
+                prog.step("smoothing")
+            except BaseException:
+                terms.abandon()
+                raise
+            system, preconditioner, on_band, inner, kept, constraints = terms.result()
         work = padded.work
-        system, preconditioner, on_band, inner, kept, constraints = terms.result()
         system = with_rhs(system, on_band, Xs if inner is None else Xs[inner], h, constraints)
         rows = (constraints.S, constraints.targets, constraints.slabs)  # the pins, for within_slabs
         terms = on_band = constraints = None
