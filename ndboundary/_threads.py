@@ -162,3 +162,11 @@ class Beside:
         future, self._future, self._compute, self._args = self._future, None, None, None
         if future is not None:
             wait([future])
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, value, traceback):
+        """Leaving a ``with`` block by an exception abandons the work (:meth:`abandon`)."""
+        if kind is not None:
+            self.abandon()

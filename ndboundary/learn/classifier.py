@@ -33,6 +33,7 @@ Three rules keep degenerate inputs classified as a user expects:
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 
@@ -354,15 +355,11 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         beside = isinstance(self.domain_, PointCloud) and self.domain_.n_unique > self.extension_neighbors + 1
         with blas_threads(1 if beside else None):
             basis = Beside(kernel_basis, X, codes, 1 if n_cls == 2 else n_cls) if beside else None
-            try:
+            with basis or contextlib.nullcontext():
                 self.phi_ = relax_classes(
                     self.domain_, votes, n_cls, lam=lam, smoothing=self.smoothing, rtol=self.tol, band=self.band_,
                     form=INTEGRATION_FORM,
                 )  # fmt: skip
-            except BaseException:
-                if basis is not None:
-                    basis.abandon()
-                raise
             basis = None if basis is None else basis.result()
         self._log(f"relaxed {n_cls} classes", t0)
         self.extension_ = self.domain_.extension(

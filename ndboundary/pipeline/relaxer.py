@@ -205,18 +205,13 @@ class Relaxer:
         # with BLAS limited to one thread on this thread around both (the solves and the
         # preconditioner's build limit it too, and OpenBLAS lifts a limit only on the
         # thread that set it: the limit opened first must close last, here)
-        with blas_threads(1):
-            terms = Beside(self._integration_terms, padded, boundary.sources, h, p)
-            try:
-                u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
-                groups = None
-                if self._sectors is not None:
-                    groups = region_sectors(self.domain, *self._sectors)[padded.parent]
-                Xs = smooth(padded.work, X, p["smoothing"], groups)
-                prog.step("smoothing")
-            except BaseException:
-                terms.abandon()
-                raise
+        with blas_threads(1), Beside(self._integration_terms, padded, boundary.sources, h, p) as terms:
+            u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
+            groups = None
+            if self._sectors is not None:
+                groups = region_sectors(self.domain, *self._sectors)[padded.parent]
+            Xs = smooth(padded.work, X, p["smoothing"], groups)
+            prog.step("smoothing")
             system, preconditioner, on_band, inner, kept, constraints = terms.result()
         work = padded.work
         system = with_rhs(system, on_band, Xs if inner is None else Xs[inner], h, constraints)
