@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ndboundary import LevelSet, PolygonMesh, Relaxer, SimplicialComplex, relax
+from ndboundary import ImageGrid, LevelSet, PolygonMesh, Relaxer, SimplicialComplex, relax
 from ndboundary.datasets import ball, circle, flower, hex_grid, icosphere, kuhn_grid, label_by, voronoi_polygons
 from ndboundary.domains.distances import GraphDistances, IncidenceDistances
 from ndboundary.metrics import level_set_distance
@@ -279,11 +279,48 @@ def test_incidence_queries_agree_and_refuse_bad_masks(make, rng):
     # the simplices' reading equals the incidence's, on complexes; any domain has both
     np.testing.assert_array_equal(mesh.vertices_of(elements), IncidenceQueries.vertices_of(mesh, elements))
     np.testing.assert_array_equal(mesh.elements_at(vertices), IncidenceQueries.elements_at(mesh, vertices))
+    # a few vertices: a complex whose vertex-simplex rows are built reads those rows
+    few = np.zeros(mesh.n_vertices, dtype=bool)
+    few[rng.choice(mesh.n_vertices, 3, replace=False)] = True
+    if isinstance(mesh, SimplicialComplex):
+        _ = mesh.vertex_simplices
+    np.testing.assert_array_equal(mesh.elements_at(few), IncidenceQueries.elements_at(mesh, few))
     for bad in (elements[:-1], elements.astype(int)):
         with pytest.raises(ValueError, match="boolean mask over the"):
             mesh.vertices_of(bad)
     with pytest.raises(ValueError, match=f"{mesh.n_vertices} vertices"):
         mesh.elements_at(vertices[1:])
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: kuhn_grid(20, 2, jitter=0.2, random_state=0),
+        lambda: kuhn_grid(6, 3),
+        lambda: icosphere(3),
+        lambda: voronoi_polygons(20, random_state=0),
+        lambda: hex_grid(6),
+        lambda: ImageGrid((9, 8, 7)),
+        lambda: ImageGrid((15, 12)),
+    ],
+    ids=["triangles", "tetrahedra", "surface", "polygons", "hexahedra", "voxels", "pixels"],
+)
+def test_every_region_s_zeta_at_once_is_each_region_s_own(make, rng):
+    mesh = make()
+    c = mesh.element_centroids()
+    sites = rng.uniform(c.min(axis=0), c.max(axis=0), (5, c.shape[1]))
+    codes = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=-1), axis=1)
+    codes[codes == 4] = 3  # a code of no element: an empty boundary
+    zetas = mesh.code_boundaries(codes, 5)
+    assert len(zetas) == 5 and zetas[4].size == 0
+    for r, zeta in enumerate(zetas):
+        alone = np.flatnonzero(mesh.vertices_of(codes == r) & mesh.vertices_of(codes != r))
+        np.testing.assert_array_equal(zeta, alone)
+    assert sum(z.size for z in zetas) > 0
+    with pytest.raises(ValueError, match="codes must lie in 0 .. 2"):
+        mesh.code_boundaries(codes, 3)
+    with pytest.raises(ValueError, match="integer codes over the"):
+        mesh.code_boundaries(codes[1:], 5)
 
 
 def test_auto_widens_the_band_by_the_whole_domain_s_boundary_scale():

@@ -23,7 +23,7 @@ from scipy import ndimage
 
 from .._arrays import ragged_next, unique_values, used_vertices
 from .polygon import PolygonMesh
-from .queries import as_mask
+from .queries import _check_codes, as_mask, boundaries_by_code
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
 from .voxels import (
@@ -427,6 +427,24 @@ class _Voxels(PolyhedralMesh):
         for c in range(1, 8):
             out |= vertices[corners[:, c]]
         return out
+
+    def code_boundaries(self, codes, n_codes):
+        """Every region's jagged boundary at once
+        (:meth:`~ndboundary.Domain.code_boundaries`), read off the voxels' corners
+        without the incidence.
+        """
+        codes = _check_codes(codes, self.n_elements, n_codes)
+        corners = _corners_of(self)
+        lowest = np.full(self.n_vertices, n_codes, dtype=codes.dtype)
+        highest = np.zeros(self.n_vertices, dtype=codes.dtype)
+        for c in range(8):
+            np.minimum.at(lowest, corners[:, c], codes)
+            np.maximum.at(highest, corners[:, c], codes)
+        mixed = lowest < highest  # a vertex of no voxel keeps (n_codes, 0)
+        near = np.flatnonzero(self.elements_at(mixed))
+        vertex = corners[near].ravel()
+        keep = mixed[vertex]
+        return boundaries_by_code(vertex[keep], np.repeat(codes[near], 8)[keep], self.n_vertices, n_codes)
 
     def element_centroids(self):
         """Vertex means of the voxels, shape (n_elements, 3): their corners summed in

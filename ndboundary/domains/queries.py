@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from .distances import GraphDistances
 
-__all__ = ["IncidenceQueries", "as_mask"]
+__all__ = ["IncidenceQueries", "as_mask", "boundaries_by_code"]
 
 
 def as_mask(mask, n, what):
@@ -60,6 +60,35 @@ class IncidenceQueries:
         vertices = as_mask(vertices, self.n_vertices, "vertices")
         return (self.incidence.T @ vertices.astype(np.float64)) > 0
 
+    def code_boundaries(self, codes, n_codes):
+        """Every region's jagged boundary at once: for the element codes ``codes`` (ints
+        in ``0 .. n_codes - 1``), the vertices shared by an element of each code and an
+        element of another, as ``n_codes`` increasing arrays.
+
+        One pass over the incidence finds the vertices where codes meet; beyond it the cost
+        follows those vertices, where each code's boundary alone
+        (``vertices_of(codes == r) & vertices_of(codes != r)``) reads the whole domain.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ndboundary.datasets import kuhn_grid
+        >>> grid = kuhn_grid(4, 2)
+        >>> c = grid.element_centroids()
+        >>> codes = np.where(c[:, 1] < 0, 0, np.where(c[:, 0] < 0, 1, 2))  # a T
+        >>> [b.tolist() for b in grid.code_boundaries(codes, 3)]
+        [[10, 11, 12, 13, 14], [2, 7, 10, 11, 12], [2, 7, 12, 13, 14]]
+        """
+        codes = _check_codes(codes, self.n_elements, n_codes)
+        return _structure_boundaries(self._vertex_elements, codes, n_codes)
+
+    @property
+    def _vertex_elements(self):
+        """The elements at each vertex: a CSR matrix of shape (n_vertices, n_elements)
+        whose structure alone is read.
+        """
+        return self.incidence
+
     def element_max(self, f) -> np.ndarray:
         """Per element, the largest value of the vertex function ``f`` over its vertices."""
         by_element = self.incidence.T.tocsr()  # every row is non-empty
@@ -95,3 +124,48 @@ class IncidenceQueries:
         :mod:`~ndboundary.domains.distances`), here Dijkstra on :meth:`edge_length_graph`.
         """
         return GraphDistances(self.edge_length_graph(unit))
+
+
+def _check_codes(codes, n_elements, n_codes):
+    """``codes`` as an integer array over the ``n_elements`` elements, each in
+    ``0 .. n_codes - 1``, or a ValueError naming what is wrong.
+    """
+    codes = np.asarray(codes)
+    if codes.shape != (n_elements,) or codes.dtype.kind not in "iu":
+        raise ValueError(f"expected integer codes over the {n_elements} elements, got {codes.dtype} of shape {codes.shape}")
+    if codes.size and (codes.min() < 0 or codes.max() >= n_codes):
+        raise ValueError(f"codes must lie in 0 .. {n_codes - 1}, got {codes.min()} .. {codes.max()}")
+    return codes
+
+
+def _structure_boundaries(A, codes, n_codes):
+    """:meth:`IncidenceQueries.code_boundaries` read off ``A``, the elements at each vertex
+    as the rows of a CSR matrix: the lowest and highest code at every vertex, then the
+    codes at the vertices where they differ.
+    """
+    n = A.shape[0]
+    used = np.flatnonzero(np.diff(A.indptr))
+    at = codes[A.indices]
+    mixed = np.zeros(0, dtype=np.int64)
+    if used.size:
+        starts = A.indptr[used]
+        mixed = used[np.minimum.reduceat(at, starts) != np.maximum.reduceat(at, starts)]
+    rows = A[mixed]
+    return boundaries_by_code(np.repeat(mixed, np.diff(rows.indptr)), codes[rows.indices], n, n_codes)
+
+
+def boundaries_by_code(vertex, code, n_vertices, n_codes):
+    """The (vertex, code) pairs where codes meet, split by code: ``n_codes`` increasing
+    arrays of vertices, each pair counted once.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> [b.tolist() for b in boundaries_by_code(np.array([4, 1, 4, 1]), np.array([1, 0, 1, 1]), 5, 3)]
+    [[1], [1, 4], []]
+    """
+    key = np.unique(np.asarray(code, dtype=np.int64) * n_vertices + vertex)
+    of_code = key // n_vertices
+    bounds = np.searchsorted(of_code, np.arange(n_codes + 1))
+    vertices = key - of_code * n_vertices
+    return [vertices[bounds[r] : bounds[r + 1]] for r in range(n_codes)]

@@ -29,6 +29,12 @@ from .simplex_geometry import COMPILED_MIN_VERTICES_PER_SIMPLEX, compiled_passes
 __all__ = ["SimplicialTopology"]
 
 
+#: :meth:`SimplicialTopology.elements_at` reads the rows of the selected vertices when
+#: they are fewer than this fraction's inverse of all: a column pass over every simplex
+#: costs about as much as reading this many times more rows.
+SPARSE_SELECTION = 8
+
+
 class SimplicialTopology:
     """Edges, facets and adjacency of a complex with ``simplices``, ``sorted_simplices``,
     ``points`` and an ``incidence`` (mixed into :class:`~ndboundary.SimplicialComplex`).
@@ -51,6 +57,11 @@ class SimplicialTopology:
         if "incidence" in self.__dict__:
             return self.incidence
         return simplex_incidence(self.simplices, self.sorted_simplices, self.n_vertices, dtype=bool)
+
+    @property
+    def _vertex_elements(self):
+        """The simplices at each vertex, for the incidence queries (:attr:`vertex_simplices`)."""
+        return self.vertex_simplices
 
     def mean_edge_length(self) -> float:
         """Mean length of the unique edges: the mesh size ``h`` of the method.
@@ -92,9 +103,17 @@ class SimplicialTopology:
 
     def elements_at(self, vertices) -> np.ndarray:
         """The simplices holding a vertex selected by the boolean mask ``vertices`` (a mask),
-        read off the simplices.
+        read off the simplices, or off the rows of :attr:`vertex_simplices` when it is
+        built and the vertices are few (a band among many regions'), so that the cost
+        follows them beyond the mask itself.
         """
         vertices = as_mask(vertices, self.n_vertices, "vertices")
+        if "vertex_simplices" in self.__dict__:
+            ids = np.flatnonzero(vertices)
+            if ids.size * SPARSE_SELECTION < self.n_vertices:
+                out = np.zeros(self.n_elements, dtype=bool)
+                out[self.vertex_simplices[ids].indices] = True
+                return out
         out = vertices[self.simplices[:, 0]]
         for column in self.simplices.T[1:]:
             out |= vertices[column]

@@ -59,12 +59,14 @@ class Boundary:
         return f"Boundary(n_sources={self.sources.size}, n_points={self.points.shape[0]})"
 
 
-def element_boundary(domain, region1):
+def element_boundary(domain, region1, sources=None):
     """Zeta for element labels: the vertices shared by elements of both labels.
 
     The facets between the labels, which the relaxation does not need, are sought when
     first read, among the elements that touch zeta's vertices only (every such facet lies
     there), so that beyond the linear passes of the incidence the cost follows zeta.
+    ``sources``, when given, are those vertices, found before (for many regions at once,
+    by :meth:`~ndboundary.Domain.code_boundaries`).
 
     Examples
     --------
@@ -75,7 +77,8 @@ def element_boundary(domain, region1):
     >>> zeta.sources.size, zeta.facets.shape  # 20 vertices, joined by 20 jagged edges
     (20, (20, 2))
     """
-    sources = np.flatnonzero(domain.vertices_of(region1) & domain.vertices_of(~region1))
+    if sources is None:
+        sources = np.flatnonzero(domain.vertices_of(region1) & domain.vertices_of(~region1))
     S = sp.csr_matrix(
         (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
     )

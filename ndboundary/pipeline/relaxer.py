@@ -128,6 +128,7 @@ class Relaxer:
         self._shared = None  # a FactorCache that relaxations of other labellings share (many regions)
         self._sectors = None  # (every element's region, this region): smooth within sectors
         self._vertex_pins = False  # True: zeta's vertices pinned on image grids too (many regions)
+        self._zeta = None  # zeta's vertices, found with every other region's (many regions)
         # on the band of an image grid: (its vertices' graph distance from zeta, inf beyond
         # the band's width, and the integration's reach), both in units of h: the far
         # field's direction (field.initial_field) and the integration's inner band
@@ -188,7 +189,10 @@ class Relaxer:
         t0 = prog.tick
         h = domain.mean_edge_length() if self._h is None else self._h  # a linear pass over the edges
 
-        key = _labels_key(region1, on, bool(pad))
+        # what is kept for the next call is found again by the labels' digest (a pass over
+        # the domain, which a relaxer that keeps nothing does not need)
+        kept = self._keep or self._labelling is not None or self._band is not None
+        key = _labels_key(region1, on, bool(pad)) if kept else None
         auto = p["band"] == "auto"
         zeta = None
         if p["band"] is not None and not (
@@ -274,12 +278,15 @@ class Relaxer:
         results, distances = [], self._distances
         # the squared operator and PARDISO's ordering serve every region; each factor its own
         shared = self._factors if self._keep else FactorCache(keep_factor=False)
+        # every region's zeta in one pass over the domain, where each alone would take one
+        zetas = self.domain.code_boundaries(codes, classes.size) if p["on"] == "elements" else None
         for r in range(classes.size):
             relaxer = Relaxer(self.domain, _keep=False, _h=h)
             relaxer._distances = distances  # the band's searches serve every region
             relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
             relaxer._shared = shared
             relaxer._vertex_pins = True
+            relaxer._zeta = None if zetas is None else zetas[r]
             if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
                 relaxer._sectors = (codes, r)
             results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
@@ -309,7 +316,7 @@ class Relaxer:
             boundary, scale, cached = self._band[1:]
         else:
             self._band = None
-            boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
+            boundary = self._boundary(region1, on)
             if boundary.sources.size == 0:
                 raise ValueError("the two regions never meet: labels form no boundary on this domain")
             scale = cached = None
@@ -321,7 +328,7 @@ class Relaxer:
 
         def relaxer_of(mask):
             """``(digest of mask, the band's relaxer, its vertices)``, the last one's if the same."""
-            mask_key = digest("band", mask)
+            mask_key = digest("band", mask) if self._keep or self._band_relaxer is not None else None
             if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
                 return self._band_relaxer
             sub, vertices = domain.subdomain(mask)
@@ -340,14 +347,14 @@ class Relaxer:
                 # per h) already exceed the share: no need to search the band
                 return boundary
             mask, dist = band_of(width)
-            if mask.mean() > AUTO_BAND_MAX_SHARE:
+            if _share(mask) > AUTO_BAND_MAX_SHARE:
                 return boundary
             hint = grid_scale_hint(domain, h) if scale is None else None
             likely = width if hint is None else band_width(p, domain, hint)
             # an image grid's scale is known closely without a padding: when the band it
             # widens to holds most of the domain, relax the whole domain (the exact solve
             # the band stands for) instead of padding a band only to read its scale
-            if likely > width and band_of(likely)[0].mean() > AUTO_BAND_MAX_SHARE:
+            if likely > width and _share(band_of(likely)[0]) > AUTO_BAND_MAX_SHARE:
                 return boundary
             band = relaxer_of(mask)
             if scale is None:
@@ -361,7 +368,7 @@ class Relaxer:
             if wider > width:
                 width = wider
                 mask, dist = band_of(width)
-                if mask.mean() > AUTO_BAND_MAX_SHARE:
+                if _share(mask) > AUTO_BAND_MAX_SHARE:
                     return boundary
                 band = relaxer_of(mask)
         else:
@@ -467,7 +474,7 @@ class Relaxer:
         self._labelling = self._heat = None
         domain = self.domain
         if boundary is None:
-            boundary = (element_boundary if on == "elements" else vertex_boundary)(domain, region1)
+            boundary = self._boundary(region1, on)
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
         check_element_shapes(domain, stacklevel=5)
@@ -476,6 +483,14 @@ class Relaxer:
         if self._keep or keep:
             self._labelling = (key, boundary, padded)
         return boundary, padded
+
+    def _boundary(self, region1, on):
+        """Zeta of the labelling ``region1`` on this relaxer's domain (its vertices found
+        already when ``_zeta`` holds them).
+        """
+        if on == "elements":
+            return element_boundary(self.domain, region1, self._zeta)
+        return vertex_boundary(self.domain, region1)
 
     def _field(self, key, boundary, padded, region1, t, rtol, prog):
         """Steps 1 and 2 (heat and field), kept for the next call with the same labels."""
@@ -529,3 +544,10 @@ def _vertex_side(domain, on, members):
     mask = np.zeros(domain.n_elements if on == "elements" else domain.n_vertices, dtype=bool)
     mask[members] = True
     return domain.vertices_of(mask) if on == "elements" else mask
+
+
+def _share(mask):
+    """The share of ``mask`` that is set (a count, where ``mask.mean()`` converts every
+    entry of a mask over the whole domain to a float).
+    """
+    return np.count_nonzero(mask) / max(mask.size, 1)
