@@ -132,7 +132,9 @@ def _check_codes(codes, n_elements, n_codes):
     """
     codes = np.asarray(codes)
     if codes.shape != (n_elements,) or codes.dtype.kind not in "iu":
-        raise ValueError(f"expected integer codes over the {n_elements} elements, got {codes.dtype} of shape {codes.shape}")
+        raise ValueError(
+            f"expected integer codes over the {n_elements} elements, got {codes.dtype} of shape {codes.shape}"
+        )
     if codes.size and (codes.min() < 0 or codes.max() >= n_codes):
         raise ValueError(f"codes must lie in 0 .. {n_codes - 1}, got {codes.min()} .. {codes.max()}")
     return codes
