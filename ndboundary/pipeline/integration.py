@@ -38,7 +38,7 @@ import scipy.sparse as sp
 
 from ..domains.image import GridBand, ImageGrid
 from ..solvers import SolveInfo, factorize_spd, solve_gradient_integration, solve_integration
-from ..solvers.integration import integration_preconditioner
+from ..solvers.integration import IntegrationFactor, integration_preconditioner
 
 __all__ = [
     "IntegrationSystem",
@@ -198,9 +198,10 @@ def with_rhs(system, work, Xs, h, padded):
 
 
 def prepare(system, *, solver, cache=None):
-    """The preconditioner :func:`integrate` will use for ``system``, built before its
-    right-hand side is known (:func:`~ndboundary.solvers.integration.integration_preconditioner`);
-    None when the solve factorises instead, or for the first-order form.
+    """The preconditioner or the factor :func:`integrate` will use for ``system``, built
+    before its right-hand side is known
+    (:func:`~ndboundary.solvers.integration.integration_preconditioner`); None when the
+    solve builds its own, and for the first-order form.
     """
     if system.form == "gradient":
         return None
@@ -294,6 +295,8 @@ def within_slabs(system, S, targets, slabs, phi, *, rtol, solver, cache=None, pr
         tick = time.perf_counter()
         phi = _corrected_near(system, phi, near)
         return phi, SolveInfo("cholesky-near", 0, np.nan, solve_time=time.perf_counter() - tick), int(lifted.sum())
+    if isinstance(preconditioner, IntegrationFactor):  # the factor of the system before the pins were lifted
+        preconditioner = None
     phi, info = integrate(system, rtol=rtol, solver=solver, cache=cache, preconditioner=preconditioner, x0=phi)
     return phi, info, int(lifted.sum())
 

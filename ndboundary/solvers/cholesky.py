@@ -96,6 +96,11 @@ def _cholmod(A):
     return factor.solve_A
 
 
+#: Held while cvxopt's factorisation sets its module's options, so that factorisations on
+#: two threads (one built beside a relaxation's field) do not restore each other's.
+_CVXOPT_OPTIONS = threading.Lock()
+
+
 def _cvxopt(A):
     """Supernodal CHOLMOD of cvxopt (AMD ordering, the wheel's own OpenBLAS)."""
     cvxopt = importlib.import_module("cvxopt")
@@ -109,15 +114,16 @@ def _cvxopt(A):
         (n, n),
     )
     del L
-    saved = dict(cholmod.options)
-    cholmod.options.update(supernodal=2, postorder=True)
-    try:
-        with blas_threads(common.FACTOR_THREADS):
-            F = cholmod.symbolic(Ac, uplo="L")
-            cholmod.numeric(Ac, F)
-    finally:
-        cholmod.options.clear()
-        cholmod.options.update(saved)
+    with _CVXOPT_OPTIONS:  # the options are the module's: one factorisation sets them at a time
+        saved = dict(cholmod.options)
+        cholmod.options.update(supernodal=2, postorder=True)
+        try:
+            with blas_threads(common.FACTOR_THREADS):
+                F = cholmod.symbolic(Ac, uplo="L")
+                cholmod.numeric(Ac, F)
+        finally:
+            cholmod.options.clear()
+            cholmod.options.update(saved)
     del Ac
     lock = threading.Lock()
 

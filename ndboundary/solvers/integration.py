@@ -62,6 +62,7 @@ __all__ = [
     "PCG_FACTOR_MAX_GRAPHS",
     "SMALL_SYSTEM",
     "Preconditioner",
+    "IntegrationFactor",
     "integration_preconditioner",
     "solve_gradient_integration",
     "solve_integration",
@@ -170,14 +171,15 @@ def solve_integration(
         installed). With ``"auto"`` and none of the optional backends installed, a
         direct solve of more than :data:`SMALL_SYSTEM` unknowns warns once per process
         (:class:`~ndboundary.solvers.SolverFallbackWarning`).
-    preconditioner : {"auto", "amg", "cholesky"} or Preconditioner, default="auto"
+    preconditioner : {"auto", "amg", "cholesky"}, Preconditioner or IntegrationFactor, default="auto"
         How pcg applies ``(K + D)^{-1}``: one AMG V-cycle (package ``pyamg``) with a
         Jacobi step on the light vertices before and after it
         (:func:`~ndboundary.solvers.amg.light_vertex_jacobi`), or a sparse Cholesky
         factor. ``"auto"``: amg on meshes with denser rows when pyamg is installed (its
         cost grows linearly, where the factor fills in), cholesky otherwise. A
         :class:`Preconditioner` built for this system by
-        :func:`integration_preconditioner` is used as it is.
+        :func:`integration_preconditioner` is used as it is, and so is an
+        :class:`IntegrationFactor` (the factor of the direct path), which solves at once.
     sweeps : int, default=2
         Gauss-Seidel sweeps of the AMG V-cycle on each level, before the coarse
         correction and after it (:func:`~ndboundary.solvers.amg.amg_preconditioner`).
@@ -213,6 +215,8 @@ def solve_integration(
     (True, 'pcg-cholesky')
     """
     _check_choices(method, preconditioner)
+    if isinstance(preconditioner, IntegrationFactor):
+        return _solve_factored(preconditioner, np.asarray(rhs, dtype=np.float64), rtol)
     K, S = sp.csr_matrix(K), sp.csr_matrix(S)
     system = _System(K, np.asarray(mass, dtype=np.float64), S, lam, mu, np.asarray(rhs, dtype=np.float64))
     sparse_rows = _is_sparse_rows(K)
@@ -237,12 +241,7 @@ def _solve_direct(system, rtol, *, refine_single, backend, cache):
     t0 = time.perf_counter()
     Q = _assemble(system, cache)
     single = None
-    if (
-        refine_single
-        and backend in ("auto", "pardiso")
-        and Q.shape[0] >= SINGLE_PRECISION_MIN
-        and load_optional("pypardiso") is not None
-    ):
+    if _refines_single(refine_single, backend, Q.shape[0]):
         single = refined_single(Q, system.rhs, rtol, cache, SINGLE_REFINE_MAXITER)
     phi, info = single if single is not None else _factor_solve(Q, system.rhs, backend, cache)
     info.setup_time = time.perf_counter() - t0 - info.solve_time  # with the assembly
@@ -264,6 +263,28 @@ def _assemble(system, cache=None):
 
     P = squared() if cache is None else cache.squared(K, mass, mu, squared)
     return (P + lam * (S.T @ S)).tocsr()
+
+
+def _refines_single(refine_single, backend, n):
+    """Whether the direct path factorises in single precision (PARDISO) and refines."""
+    return (
+        refine_single
+        and backend in ("auto", "pardiso")
+        and n >= SINGLE_PRECISION_MIN
+        and load_optional("pypardiso") is not None
+    )
+
+
+def _solve_factored(factor, rhs, rtol):
+    """The direct path's solve with its factor built before (:class:`IntegrationFactor`)."""
+    t0 = time.perf_counter()
+    with one_blas_thread():
+        phi = factor.solve(rhs)
+    info = SolveInfo("cholesky", 0, relres(factor.Q, phi, rhs), factor.setup_time, time.perf_counter() - t0)
+    if not info.residual <= 10 * rtol:
+        # stacklevel 4: past this function and solve_integration, at the pipeline's caller
+        warn_unconverged("integration (step 4)", info, rtol, " (the factorisation lost its accuracy)", stacklevel=4)
+    return phi, info
 
 
 def _factor_solve(Q, rhs, backend, cache, iters=0):
@@ -337,6 +358,18 @@ class Preconditioner(NamedTuple):
     setup_time: float
 
 
+class IntegrationFactor(NamedTuple):
+    """The double-precision Cholesky factor of ``Q`` that :func:`solve_integration`'s
+    direct path computes, built by :func:`integration_preconditioner` ahead of the
+    right-hand side: ``solve(b)`` solves ``Q x = b``; ``setup_time`` the seconds the
+    assembly of ``Q`` and its factorisation took (reported as the solve's setup).
+    """
+
+    Q: sp.csr_matrix
+    solve: object
+    setup_time: float
+
+
 def integration_preconditioner(
     K, mass, S, lam, *, mu=0.0, method="auto", backend="auto", preconditioner="auto", sweeps=2, cache=None
 ):
@@ -347,12 +380,14 @@ def integration_preconditioner(
 
     Returns
     -------
-    Preconditioner or None
-        None when :func:`solve_integration` would not iterate with an AMG V-cycle: it
-        factorises ``Q`` (``method="direct"``, or ``"auto"`` on sparse rows), or ``K + D``
-        for the iteration (small systems, ``preconditioner="cholesky"``, or without pyamg).
-        A factor is left to the solve: the factorisations' backends keep options and
-        threads for the whole process, which work on another thread must not change.
+    Preconditioner, IntegrationFactor or None
+        An :class:`IntegrationFactor` when :func:`solve_integration` factorises ``Q``
+        (``method="direct"``, or ``"auto"`` on sparse rows) in double precision with a
+        fast backend: then the solve only solves. None when it factorises ``K + D`` for
+        the iteration (small systems, ``preconditioner="cholesky"``, or without pyamg),
+        and when it factorises ``Q`` in single precision (PARDISO, from
+        :data:`SINGLE_PRECISION_MIN` unknowns) or without a fast backend (the solve warns
+        of the cost).
 
     Examples
     --------
@@ -368,12 +403,29 @@ def integration_preconditioner(
     ('pcg-amg', True)
     >>> integration_preconditioner(K, np.ones(n), S, 1.0, method="pcg", preconditioner="cholesky") is None
     True
+    >>> factor = integration_preconditioner(K, np.ones(n), S, 1.0, method="direct")
+    >>> phi, info = solve_integration(K, np.ones(n), S, 1.0, rhs, preconditioner=factor)
+    >>> type(factor).__name__, info.method, bool(np.allclose(phi, ref, atol=1e-8))
+    ('IntegrationFactor', 'cholesky', True)
     """
     _check_choices(method, preconditioner)
     K, S = sp.csr_matrix(K), sp.csr_matrix(S)
     system = _System(K, np.asarray(mass, dtype=np.float64), S, lam, mu, None)
     sparse_rows = _is_sparse_rows(K)
-    if method == "direct" or (method == "auto" and sparse_rows) or preconditioner == "cholesky":
+    if method == "direct" or (method == "auto" and sparse_rows):
+        if _refines_single(method == "auto", backend, K.shape[0]) or (
+            backend == "auto" and not fast_cholesky_available()
+        ):
+            return None
+        t0 = time.perf_counter()
+        Q = _assemble(system, cache)
+        with one_blas_thread():
+            solve = cached(
+                ("direct", backend), Q,
+                lambda A: factorize_spd(A, backend=backend, orderings=orderings_of(cache)), cache,
+            )  # fmt: skip
+        return IntegrationFactor(Q, solve, time.perf_counter() - t0)
+    if preconditioner == "cholesky":
         return None
     if load_optional("pyamg") is None:  # the solve factorises, and warns of the cost
         return None
@@ -411,9 +463,14 @@ def _preconditioner(system, sparse_rows, backend, preconditioner, sweeps, cache)
 def _check_choices(method, preconditioner):
     if method not in ("auto", "pcg", "direct"):
         raise ValueError(f"method must be 'auto', 'pcg' or 'direct', got {method!r}")
-    if not isinstance(preconditioner, Preconditioner) and preconditioner not in ("auto", "amg", "cholesky"):
+    if not isinstance(preconditioner, (Preconditioner, IntegrationFactor)) and preconditioner not in (
+        "auto",
+        "amg",
+        "cholesky",
+    ):
         raise ValueError(
-            f"preconditioner must be 'auto', 'amg', 'cholesky' or a Preconditioner, got {preconditioner!r}"
+            "preconditioner must be 'auto', 'amg', 'cholesky', a Preconditioner or an IntegrationFactor, "
+            f"got {preconditioner!r}"
         )
 
 
