@@ -190,8 +190,16 @@ class SimplicialComplex(SimplicialTopology, Domain):
         return aspect_ratios(self.points, self.simplices, self.volumes)
 
     def element_centroids(self) -> np.ndarray:
-        """Element centroids, shape (n_elements, dim)."""
-        return self.points[self.simplices].mean(axis=1)
+        """Element centroids, shape (n_elements, dim): the vertices summed a column at a
+        time (the sum and the values of a mean over the (n_elements, k + 1, dim) table of
+        corners, which this does not build).
+        """
+        points, simplices = self.points, self.simplices
+        out = points[simplices[:, 0]]
+        for column in simplices.T[1:]:
+            out += points[column]
+        out /= simplices.shape[1]
+        return out
 
     # -- operators ------------------------------------------------------------------
     def build_gradient(self):
