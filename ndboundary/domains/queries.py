@@ -3,8 +3,9 @@
 
 The band (:mod:`ndboundary.pipeline.band`) is found, and phi filled outside it, by these
 queries alone: which vertices the selected elements hold, which elements hold the
-selected vertices, and distances along the edges. Here they read the ``incidence`` and
-the ``edges``; a domain that can answer them from its own arrays overrides them
+selected vertices, and distances along the edges; the jagged boundaries of many regions
+are found at once by where their codes meet. Here they read the ``incidence`` and the
+``edges``; a domain that can answer them from its own arrays overrides them
 (:class:`~ndboundary.SimplicialComplex` reads its simplices, without the incidence of a
 large mesh).
 """
@@ -77,7 +78,7 @@ class IncidenceQueries:
         >>> c = grid.element_centroids()
         >>> codes = np.where(c[:, 1] < 0, 0, np.where(c[:, 0] < 0, 1, 2))  # a T
         >>> [b.tolist() for b in grid.code_boundaries(codes, 3)]
-        [[10, 11, 12, 13, 14], [2, 7, 10, 11, 12], [2, 7, 12, 13, 14]]
+        [[2, 7, 12, 17, 22], [2, 7, 12, 13, 14], [12, 13, 14, 17, 22]]
         """
         codes = _check_codes(codes, self.n_elements, n_codes)
         return _structure_boundaries(self._vertex_elements, codes, n_codes)
