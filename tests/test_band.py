@@ -321,6 +321,10 @@ def test_every_region_s_zeta_at_once_is_each_region_s_own(make, rng):
         mesh.code_boundaries(codes, 3)
     with pytest.raises(ValueError, match="integer codes over the"):
         mesh.code_boundaries(codes[1:], 5)
+    # the narrowest integers that hold every code: 256 codes in 8 bits
+    many = (np.arange(mesh.n_elements) % 256).astype(np.uint8)
+    for r, zeta in enumerate(mesh.code_boundaries(many, 256)):
+        np.testing.assert_array_equal(zeta, np.flatnonzero(mesh.vertices_of(many == r) & mesh.vertices_of(many != r)))
 
 
 def test_auto_widens_the_band_by_the_whole_domain_s_boundary_scale():

@@ -435,8 +435,8 @@ class _Voxels(PolyhedralMesh):
         """
         codes = _check_codes(codes, self.n_elements, n_codes)
         corners = _corners_of(self)
-        lowest = np.full(self.n_vertices, n_codes, dtype=codes.dtype)
-        highest = np.zeros(self.n_vertices, dtype=codes.dtype)
+        lowest = np.full(self.n_vertices, n_codes, dtype=np.int64)
+        highest = np.zeros(self.n_vertices, dtype=np.int64)
         for c in range(8):
             np.minimum.at(lowest, corners[:, c], codes)
             np.maximum.at(highest, corners[:, c], codes)
