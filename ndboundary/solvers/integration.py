@@ -265,6 +265,13 @@ def _assemble(system, cache=None):
     return (P + lam * (S.T @ S)).tocsr()
 
 
+def _factor(kind, A, backend, cache):
+    """The solve of a Cholesky factor of ``A`` (:func:`~ndboundary.solvers.factorize_spd`),
+    kept in ``cache`` as ``kind`` (with PARDISO's ordering for the pattern).
+    """
+    return cached(kind, A, lambda B: factorize_spd(B, backend=backend, orderings=orderings_of(cache)), cache)
+
+
 def _refines_single(refine_single, backend, n):
     """Whether the direct path factorises in single precision (PARDISO) and refines."""
     return (
@@ -293,9 +300,7 @@ def _factor_solve(Q, rhs, backend, cache, iters=0):
     """
     t0 = time.perf_counter()
     with one_blas_thread():
-        solve = cached(
-            ("direct", backend), Q, lambda A: factorize_spd(A, backend=backend, orderings=orderings_of(cache)), cache
-        )
+        solve = _factor(("direct", backend), Q, backend, cache)
         t1 = time.perf_counter()
         phi = solve(rhs)
     t2 = time.perf_counter()
@@ -420,10 +425,7 @@ def integration_preconditioner(
         t0 = time.perf_counter()
         Q = _assemble(system, cache)
         with one_blas_thread():
-            solve = cached(
-                ("direct", backend), Q,
-                lambda A: factorize_spd(A, backend=backend, orderings=orderings_of(cache)), cache,
-            )  # fmt: skip
+            solve = _factor(("direct", backend), Q, backend, cache)
         return IntegrationFactor(Q, solve, time.perf_counter() - t0)
     if preconditioner == "cholesky":
         return None
@@ -449,10 +451,7 @@ def _preconditioner(system, sparse_rows, backend, preconditioner, sweeps, cache)
             build = functools.partial(amg_preconditioner, sweeps=sweeps)
             solve = light_vertex_jacobi(A, mass, cached(("amg", sweeps), A, build, cache))
         else:
-            solve = cached(
-                ("factor", backend), A,
-                lambda B: factorize_spd(B, backend=backend, orderings=orderings_of(cache)), cache,
-            )  # fmt: skip
+            solve = _factor(("factor", backend), A, backend, cache)
 
     def apply(r):
         return solve(mass * solve(r))
