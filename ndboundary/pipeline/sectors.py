@@ -68,11 +68,11 @@ def region_sectors(domain, codes, region):
         return sectors
     # a shortest path from outside enters the region from the ring of outside elements
     # next to it and then stays inside: the walk needs the region and that ring alone
-    A = domain.adjacency
-    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-    cols = A.indices
-    keep = inside[rows] & (rows != cols)
-    rows, cols = rows[keep], cols[keep]
+    ids = np.flatnonzero(inside)
+    A = domain.adjacency[ids]  # the rows of the region's elements alone
+    rows = np.repeat(ids, np.diff(A.indptr))
+    keep = rows != A.indices
+    rows, cols = rows[keep], A.indices[keep]
     nodes = inside.copy()
     nodes[cols] = True
     nodes = np.flatnonzero(nodes)
