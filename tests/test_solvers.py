@@ -5,6 +5,7 @@ import re
 import sys
 import types
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -1068,3 +1069,21 @@ def test_products_on_several_threads_change_no_bit_of_the_relaxation(monkeypatch
     single = relax(cloud, labels, on="vertices", band=None)
     np.testing.assert_array_equal(threaded.phi, single.phi)
     np.testing.assert_array_equal(threaded.u, single.u)
+
+
+def test_cvxopt_factorisations_on_two_threads_keep_their_options_and_solve():
+    # the relaxation factorises beside its field: two factorisations may overlap
+    _skip_unless_available("cvxopt")
+    import cvxopt.cholmod
+
+    before = dict(cvxopt.cholmod.options)
+    systems = []
+    for n in (20, 24, 28, 32):
+        K, mass, S = _system(n, 2)
+        A = (K @ sp.diags(1 / mass) @ K + 0.1 * K + S.T @ S).tocsr()
+        systems.append((A, np.random.default_rng(n).standard_normal(A.shape[0])))
+    with ThreadPoolExecutor(2) as pool:
+        solves = list(pool.map(lambda sys_: solvers.factorize_spd(sys_[0], backend="cvxopt"), systems))
+    for (A, b), solve in zip(systems, solves, strict=True):
+        assert np.linalg.norm(A @ solve(b) - b) < 1e-9 * np.linalg.norm(b)
+    assert dict(cvxopt.cholmod.options) == before
