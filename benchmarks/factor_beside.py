@@ -38,7 +38,7 @@ CASES = ("regions2", "regions8", "flower", "sphere")
 
 def one(case, beside):
     """Seconds of one ``relax`` of ``case`` in this process, the factor built beside or not."""
-    from regions_truths import VoronoiTruth
+    from regions import speed_case
 
     from ndboundary import relax
     from ndboundary.datasets import flower, icosphere, kuhn_grid, label_by
@@ -56,9 +56,7 @@ def one(case, beside):
     relax(warm, label_by(warm, flower), on="elements")
     band = "auto"
     if case.startswith("regions"):
-        mesh = kuhn_grid(500, 2, jitter=0.25, random_state=0)
-        sites = np.random.default_rng(0).uniform(-0.8, 0.8, (8, 2))
-        labels = VoronoiTruth(sites[: int(case[len("regions") :])]).labels(mesh.element_centroids())
+        mesh, labels = speed_case(0, int(case[len("regions") :]))
     elif case == "flower":
         mesh = kuhn_grid(250, 2, jitter=0.2, random_state=0)
         labels, band = label_by(mesh, flower), None

@@ -318,12 +318,18 @@ def measure_volume(name, mesh, sites):
                    ("volume error %", err.max(), 1.0))  # fmt: skip
 
 
+def speed_case(seed, n_regions):
+    """The speed case's mesh (251 001 vertices) and its labels: the first ``n_regions`` of
+    8 Voronoi sites."""
+    mesh = kuhn_grid(500, 2, jitter=0.25, random_state=0)
+    sites = np.random.default_rng(seed).uniform(-0.8, 0.8, (8, 2))
+    return mesh, VoronoiTruth(sites[:n_regions]).labels(mesh.element_centroids())
+
+
 def speed_one(seed, n_regions):
     """One cold relaxation (this process's first, on a fresh domain): relax seconds, and
     with ``interfaces().junctions()``; the mesh's construction is not timed."""
-    mesh = kuhn_grid(500, 2, jitter=0.25, random_state=0)
-    sites = np.random.default_rng(seed).uniform(-0.8, 0.8, (8, 2))
-    labels = VoronoiTruth(sites[:n_regions]).labels(mesh.element_centroids())
+    mesh, labels = speed_case(seed, n_regions)
     t0 = time.perf_counter()
     res = relax(mesh, labels, on="elements")
     seconds = time.perf_counter() - t0

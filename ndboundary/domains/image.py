@@ -23,7 +23,7 @@ from scipy import ndimage
 
 from .._arrays import ragged_next, unique_values, used_vertices
 from .polygon import PolygonMesh
-from .queries import _check_codes, as_mask, boundaries_by_code
+from .queries import as_mask
 from .polyhedral import PolyhedralMesh
 from .cell_operators import check_laplacian_options
 from .voxels import (
@@ -428,12 +428,10 @@ class _Voxels(PolyhedralMesh):
             out |= vertices[corners[:, c]]
         return out
 
-    def code_boundaries(self, codes, n_codes):
-        """Every region's jagged boundary at once
-        (:meth:`~ndboundary.Domain.code_boundaries`), read off the voxels' corners
-        without the incidence.
+    def _meeting_codes(self, codes, n_codes):
+        """The (vertex, code) pairs of :meth:`~ndboundary.Domain.code_boundaries`, read
+        off the voxels' corners without the incidence.
         """
-        codes = _check_codes(codes, self.n_elements, n_codes)
         corners = _corners_of(self)
         lowest = np.full(self.n_vertices, n_codes, dtype=np.int64)
         highest = np.zeros(self.n_vertices, dtype=np.int64)
@@ -444,7 +442,7 @@ class _Voxels(PolyhedralMesh):
         near = np.flatnonzero(self.elements_at(mixed))
         vertex = corners[near].ravel()
         keep = mixed[vertex]
-        return boundaries_by_code(vertex[keep], np.repeat(codes[near], 8)[keep], self.n_vertices, n_codes)
+        return vertex[keep], np.repeat(codes[near], 8)[keep]
 
     def element_centroids(self):
         """Vertex means of the voxels, shape (n_elements, 3): their corners summed in

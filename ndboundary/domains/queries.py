@@ -17,7 +17,7 @@ import scipy.sparse as sp
 
 from .distances import GraphDistances
 
-__all__ = ["IncidenceQueries", "as_mask", "boundaries_by_code"]
+__all__ = ["IncidenceQueries", "as_mask"]
 
 
 def as_mask(mask, n, what):
@@ -81,7 +81,27 @@ class IncidenceQueries:
         [[2, 7, 12, 17, 22], [2, 7, 12, 13, 14], [12, 13, 14, 17, 22]]
         """
         codes = _check_codes(codes, self.n_elements, n_codes)
-        return _structure_boundaries(self._vertex_elements, codes, n_codes)
+        vertex, code = self._meeting_codes(codes, n_codes)
+        key = np.unique(np.asarray(code, dtype=np.int64) * self.n_vertices + vertex)
+        of_code = key // self.n_vertices
+        bounds = np.searchsorted(of_code, np.arange(n_codes + 1))
+        vertices = key - of_code * self.n_vertices
+        return [vertices[bounds[r] : bounds[r + 1]] for r in range(n_codes)]
+
+    def _meeting_codes(self, codes, n_codes):
+        """The (vertex, code) pairs of :meth:`code_boundaries`, repeats allowed: the codes
+        of the elements at the vertices where codes differ, read off the rows of
+        :attr:`_vertex_elements` (the lowest and highest code at every vertex first).
+        """
+        A = self._vertex_elements
+        used = np.flatnonzero(np.diff(A.indptr))
+        at = codes[A.indices]
+        mixed = np.zeros(0, dtype=np.int64)
+        if used.size:
+            starts = A.indptr[used]
+            mixed = used[np.minimum.reduceat(at, starts) != np.maximum.reduceat(at, starts)]
+        rows = A[mixed]
+        return np.repeat(mixed, np.diff(rows.indptr)), codes[rows.indices]
 
     @property
     def _vertex_elements(self):
@@ -139,36 +159,3 @@ def _check_codes(codes, n_elements, n_codes):
     if codes.size and (codes.min() < 0 or codes.max() >= n_codes):
         raise ValueError(f"codes must lie in 0 .. {n_codes - 1}, got {codes.min()} .. {codes.max()}")
     return codes
-
-
-def _structure_boundaries(A, codes, n_codes):
-    """:meth:`IncidenceQueries.code_boundaries` read off ``A``, the elements at each vertex
-    as the rows of a CSR matrix: the lowest and highest code at every vertex, then the
-    codes at the vertices where they differ.
-    """
-    n = A.shape[0]
-    used = np.flatnonzero(np.diff(A.indptr))
-    at = codes[A.indices]
-    mixed = np.zeros(0, dtype=np.int64)
-    if used.size:
-        starts = A.indptr[used]
-        mixed = used[np.minimum.reduceat(at, starts) != np.maximum.reduceat(at, starts)]
-    rows = A[mixed]
-    return boundaries_by_code(np.repeat(mixed, np.diff(rows.indptr)), codes[rows.indices], n, n_codes)
-
-
-def boundaries_by_code(vertex, code, n_vertices, n_codes):
-    """The (vertex, code) pairs where codes meet, split by code: ``n_codes`` increasing
-    arrays of vertices, each pair counted once.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> [b.tolist() for b in boundaries_by_code(np.array([4, 1, 4, 1]), np.array([1, 0, 1, 1]), 5, 3)]
-    [[1], [1, 4], []]
-    """
-    key = np.unique(np.asarray(code, dtype=np.int64) * n_vertices + vertex)
-    of_code = key // n_vertices
-    bounds = np.searchsorted(of_code, np.arange(n_codes + 1))
-    vertices = key - of_code * n_vertices
-    return [vertices[bounds[r] : bounds[r + 1]] for r in range(n_codes)]
