@@ -7,9 +7,9 @@ heat, the field and the smoothing run (``IntegrationFactor``, returned by
 ``ndboundary.solvers.integration.integration_preconditioner``). The other way is the one
 the solve takes without it: this benchmark makes ``integration_preconditioner`` return
 None for the direct path in the processes that measure it. Each repeat runs every case
-both ways, each in a fresh process (its first ``relax`` after a warm-up on a small mesh;
-the mesh's construction not timed), so that the drifts of a shared machine hit both
-alike. The phi of both ways are the same to the bit (``tests``); this prints times only.
+both ways, each in a fresh process whose first ``relax`` it times, cold as a user's first
+call (the imports and the mesh's construction not timed), so that the drifts of a shared
+machine hit both alike. The phi of both ways are the same to the bit (``tests``); this prints times only.
 
 Cases:
 
@@ -20,7 +20,7 @@ Cases:
 
 Usage::
 
-    python benchmarks/factor_beside.py [--repeats 6] [--cases regions2,regions8,flower,sphere]
+    python benchmarks/factor_beside.py [--repeats 3] [--cases regions2,regions8,flower,sphere]
 """
 
 from __future__ import annotations
@@ -52,8 +52,6 @@ def one(case, beside):
             return None if isinstance(built, IntegrationFactor) else built
 
         pipeline_integration.integration_preconditioner = in_the_solve
-    warm = kuhn_grid(20, 2)
-    relax(warm, label_by(warm, flower), on="elements")
     band = "auto"
     if case.startswith("regions"):
         mesh, labels = speed_case(0, int(case[len("regions") :]))
@@ -70,7 +68,7 @@ def one(case, beside):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=6)
+    ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--one", nargs=2, help=argparse.SUPPRESS)  # CASE beside|solve: one run, in this process
     args = ap.parse_args(argv)
