@@ -386,6 +386,8 @@ class Relaxer:
         sub_labels = labels_of(mask, vertices)
         relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
         relaxer._vertex_pins = self._vertex_pins
+        # every element at a vertex of zeta lies in the band: its zeta is the parent's, renumbered
+        relaxer._zeta = np.searchsorted(vertices, boundary.sources) if on == "elements" else None
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
         elements = np.flatnonzero(mask)
 
