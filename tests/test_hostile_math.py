@@ -57,6 +57,21 @@ def test_skinny_triangles_say_why_not(squash):
     assert np.all(np.isfinite(res.phi))
 
 
+def test_a_flat_element_in_the_band_is_named_by_its_index_in_the_mesh():
+    grid = kuhn_grid(160, 2)  # enough vertices for relax to work on the band around zeta
+    labels = label_by(grid, lambda x: np.linalg.norm(x, axis=1) - 0.5)
+    c = grid.element_centroids()
+    e = int(np.flatnonzero(np.abs(np.linalg.norm(c, axis=1) - 0.5) < 0.01)[0])  # on zeta
+    a, b, d = grid.simplices[e]
+    points = grid.points.copy()
+    points[d] += (1 - 1e-7) * (0.5 * (points[a] + points[b]) - points[d])  # onto the opposite edge
+    flat = SimplicialComplex(points, grid.simplices)
+    worst = int(np.argmax(flat.aspect_ratios()))
+    with pytest.warns(MeshQualityWarning, match=rf"Worst elements \(aspect ratio\): {worst} \("):
+        res = relax(flat, labels, on="elements")
+    assert res.params["band_vertices"] < flat.n_vertices
+
+
 def test_well_shaped_meshes_do_not_warn():
     grid = kuhn_grid(24, 3, jitter=0.25, random_state=0)  # a few slivers among well-shaped tetrahedra
     with warnings.catch_warnings():

@@ -17,9 +17,12 @@ ANISOTROPIC_MEDIAN = 10.0
 FLAT_ASPECT = 1e4
 
 
-def check_element_shapes(domain, stacklevel=3):
+def check_element_shapes(domain, stacklevel=3, element_ids=None):
     """Warn (:class:`~ndboundary.domains.MeshQualityWarning`) when the domain's elements are
     too thin to trust the relaxation, naming the worst elements and their aspect ratios.
+
+    ``element_ids``, when ``domain`` was cut from the caller's (a band), holds each of its
+    elements' index in the caller's domain: the warning names those.
 
     Examples
     --------
@@ -43,7 +46,8 @@ def check_element_shapes(domain, stacklevel=3):
         return
     top = np.argpartition(ratios, -3)[-3:] if ratios.size > 3 else np.arange(ratios.size)
     worst = top[np.argsort(ratios[top])[::-1]]
-    named = ", ".join(f"{int(e)} ({ratios[e]:.3g})" for e in worst)
+    ids = np.arange(ratios.size) if element_ids is None else np.asarray(element_ids)
+    named = ", ".join(f"{int(ids[e])} ({ratios[e]:.3g})" for e in worst)
     why = (
         f"the median element has an aspect ratio of {median:.3g}: the heat and the field "
         "smoothing are isotropic, so they blur what lies across such thin elements"

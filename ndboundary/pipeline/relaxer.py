@@ -129,6 +129,7 @@ class Relaxer:
         self._sectors = None  # (every element's region, this region): smooth within sectors
         self._vertex_pins = False  # True: zeta's vertices pinned on image grids too (many regions)
         self._zeta = None  # zeta's vertices, found with every other region's (many regions)
+        self._element_ids = None  # a band's elements' indices in the domain it was cut from
         # on the band of an image grid: (its vertices' graph distance from zeta, inf beyond
         # the band's width, and the integration's reach), both in units of h: the far
         # field's direction (field.initial_field) and the integration's inner band
@@ -332,7 +333,9 @@ class Relaxer:
             if self._band_relaxer is not None and self._band_relaxer[0] == mask_key:
                 return self._band_relaxer
             sub, vertices = domain.subdomain(mask)
-            return mask_key, Relaxer(sub, _keep=self._keep, _h=h, _private=not self._keep), vertices
+            relaxer = Relaxer(sub, _keep=self._keep, _h=h, _private=not self._keep)
+            relaxer._element_ids = np.flatnonzero(mask)  # what its warnings name
+            return mask_key, relaxer, vertices
 
         def labels_of(mask, vertices):
             return region1[mask] if on == "elements" else region1[vertices]
@@ -388,8 +391,8 @@ class Relaxer:
         relaxer._vertex_pins = self._vertex_pins
         # every element at a vertex of zeta lies in the band: its zeta is the parent's, renumbered
         relaxer._zeta = np.searchsorted(vertices, boundary.sources) if on == "elements" else None
+        elements = relaxer._element_ids
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
-        elements = np.flatnonzero(mask)
 
         def outside():
             """The fill's walk and every vertex's side: they depend on the band alone. A
@@ -479,7 +482,7 @@ class Relaxer:
             boundary = self._boundary(region1, on)
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
-        check_element_shapes(domain, stacklevel=5)
+        check_element_shapes(domain, stacklevel=5, element_ids=self._element_ids)
         padded = pad_domain(domain, region1, boundary, on, pad, vertex_pins=self._vertex_pins)
         _ = padded.work.K, padded.work.mass  # assembled (and timed) with the padding
         if self._keep or keep:
