@@ -67,6 +67,9 @@ sksparse-minimal and SuperLU, the others on request):
 - ``auto``: ``solve_integration``'s default;
 - ``pardiso-direct`` / ``pardiso-pcg``: MKL PARDISO from pypardiso (direct on the whole
   matrix / factor of the ``K + D`` preconditioner);
+- ``pardiso-md-direct`` / ``pardiso-metis-direct``: ``pardiso-direct`` ordered by
+  minimum degree / by METIS whatever the size (``pardiso.MINIMUM_DEGREE_MAX`` chooses
+  between them by the number of unknowns);
 - ``cvxopt-direct`` / ``cvxopt-pcg``: cvxopt's supernodal CHOLMOD;
 - ``cholmod-direct`` / ``cholmod-pcg``: CHOLMOD from sksparse-minimal;
 - ``superlu-direct`` / ``superlu-pcg``: scipy SuperLU, the pure-scipy paths;
@@ -125,6 +128,8 @@ ALL_METHODS = [
     "auto-nolight",
     "auto-repeat",
     "pardiso-direct-repeat",
+    "pardiso-md-direct",
+    "pardiso-metis-direct",
     "amg-pcg-sweeps1",
     "amg-pcg-sweeps2",
 ]
@@ -317,6 +322,10 @@ def worker(path, method, repeats, factor_threads=None):
         kw = {"method": "direct", "backend": base}
     else:
         kw = {"method": "pcg", "preconditioner": "cholesky", "backend": base}
+    if method in ("pardiso-md-direct", "pardiso-metis-direct"):
+        from ndboundary.solvers import pardiso
+
+        pardiso.MINIMUM_DEGREE_MAX = sys.maxsize if "-md-" in method else 0
     if method == "auto-nolight":
         solvers.amg.LIGHT_VERTEX_SHARE = 0.0
     if method == "auto-blasthreads":

@@ -128,10 +128,8 @@ def test_band_partition_needs_no_fill():
     alone; it is the partition of the filled functions, which are read only when asked for."""
     from ndboundary.partition import partition
 
-    mesh = kuhn_grid(150, 2, jitter=0.25, random_state=0)  # 22 801 vertices: the band is used
+    mesh, labels = _band_voronoi()
     sites = np.array([[-0.5, -0.4], [0.5, -0.5], [0.1, 0.6], [-0.6, 0.5], [0.7, 0.3]])
-    c = mesh.element_centroids()
-    labels = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
     res = relax(mesh, labels, on="elements")
     assert "band" in res.regions[0].params
     bounded = res.region_measures()
@@ -143,6 +141,65 @@ def test_band_partition_needs_no_fill():
     assert np.isfinite(res.phi).all()
     far = np.linalg.norm(mesh.points - sites[2], axis=1) < 0.1  # deep inside region 2
     assert far.any() and (res.phi[far, 2] > 0.5).all() and (res.phi[far][:, [0, 1, 3, 4]] < 0.5).all()
+
+
+def _band_voronoi():
+    mesh = kuhn_grid(150, 2, jitter=0.25, random_state=0)  # 22 801 vertices: the band is used
+    sites = np.array([[-0.5, -0.4], [0.5, -0.5], [0.1, 0.6], [-0.6, 0.5], [0.7, 0.3]])
+    c = mesh.element_centroids()
+    return mesh, np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+
+
+def test_each_region_goes_on_while_the_last_ones_factor_is_built(monkeypatch):
+    """On two threads a region's steps run while the previous region's factor is built
+    beside, and that region is finished after them; on one thread every region runs in
+    turn. The regions come back in order with the same functions (to the rounding of
+    another factorisation, PARDISO's where installed, beside)."""
+    from ndboundary import _threads
+
+    mesh, labels = _band_voronoi()
+    monkeypatch.setattr(_threads, "available_threads", lambda: 2)
+    beside = relax(mesh, labels, on="elements")
+    monkeypatch.setattr(_threads, "available_threads", lambda: 1)
+    in_turn = relax(mesh, labels, on="elements")
+    for a, b in zip(beside.regions, in_turn.regions, strict=True):
+        np.testing.assert_allclose(a.phi, b.phi, rtol=0, atol=1e-9)
+        assert a.timings["total"] <= beside.timings["total"]
+    assert sum(r.timings["total"] for r in beside.regions) <= beside.timings["total"]
+
+
+def test_a_region_that_fails_stops_the_one_waiting_for_its_factor(monkeypatch):
+    """A region that raises while the one before waits for its factor closes that one: no
+    factorisation goes on after relax has raised."""
+    import threading
+
+    from ndboundary import _threads
+    from ndboundary.pipeline import relaxer
+
+    mesh, labels = _band_voronoi()
+    monkeypatch.setattr(_threads, "available_threads", lambda: 2)
+    real, regions, closed = relaxer.Relaxer._relax_steps, [], []
+
+    def steps(self, labels, **kwargs):
+        region = None
+        if self.domain is mesh and labels.dtype == bool:  # a region's relaxation (not its band's)
+            region = len(regions)
+            regions.append(region)
+            if region == 2:
+                raise ArithmeticError("the third region failed")
+        try:
+            return (yield from real(self, labels, **kwargs))
+        except GeneratorExit:
+            if region is not None:
+                closed.append(region)
+            raise
+
+    monkeypatch.setattr(relaxer.Relaxer, "_relax_steps", steps)
+    before = threading.active_count()
+    with pytest.raises(ArithmeticError, match="third region"):
+        relax(mesh, labels, on="elements")
+    assert closed == [1]  # the second region, paused when the third started, was closed
+    assert threading.active_count() == before
 
 
 def test_regions_relax_the_same_with_what_they_share(voronoi):

@@ -197,16 +197,25 @@ def with_rhs(system, work, Xs, h, padded):
     return dataclasses.replace(system, rhs=field + system.lam * (padded.S.T @ padded.targets))
 
 
-def prepare(system, *, solver, cache=None):
+def prepare(system, *, solver, cache=None, concurrent=False):
     """The preconditioner or the factor :func:`integrate` will use for ``system``, built
     before its right-hand side is known
-    (:func:`~ndboundary.solvers.integration.integration_preconditioner`); None when the
-    solve builds its own, and for the first-order form.
+    (:func:`~ndboundary.solvers.integration.integration_preconditioner`, ``concurrent``
+    when built beside the steps that compute the field); None when the solve builds its
+    own, and for the first-order form.
     """
     if system.form == "gradient":
         return None
     return integration_preconditioner(
-        system.K, system.mass, system.S, system.lam, mu=system.mu, method=solver, sweeps=system.sweeps, cache=cache
+        system.K,
+        system.mass,
+        system.S,
+        system.lam,
+        mu=system.mu,
+        method=solver,
+        sweeps=system.sweeps,
+        cache=cache,
+        concurrent=concurrent,
     )
 
 

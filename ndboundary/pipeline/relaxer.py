@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .._arrays import held_bytes
-from .._threads import Beside
+from .._threads import Beside, available_threads
 from .._validation import check_labels
 from ..domains.base import Domain
 from ..solvers import FactorCache
@@ -66,6 +66,10 @@ class _Progress:
         self.verbose = bool(verbose)
         self.times = {}
         self.tick = time.perf_counter()
+
+    def resume(self, paused):
+        """Count none of the ``paused`` seconds just spent outside the relaxation."""
+        self.tick += paused
 
     def step(self, name):
         now = time.perf_counter()
@@ -178,6 +182,21 @@ class Relaxer:
         Takes the parameters of :func:`relax` (without ``domain``) and returns the same
         :class:`~ndboundary.RelaxResult`.
         """
+        return _run(
+            self._relax_steps(
+                labels, on=on, lam=lam, smoothing=smoothing, mu=mu, t=t, form=form, pad=pad, rtol=rtol,
+                solver=solver, band=band, verbose=verbose,
+            )
+        )  # fmt: skip
+
+    def _relax_steps(self, labels, *, on, lam, smoothing, mu, t, form, pad, rtol, solver, band, verbose, clock=None):
+        """:meth:`relax` as a generator whose value is the result. It pauses (yields) once,
+        when the integration waits only for its factor, built beside: a relaxation of many
+        regions goes on meanwhile with the next region's steps (:meth:`_relax_regions`).
+        The seconds it stays paused are added to ``clock[0]`` and counted in no timing.
+        """
+        clock = [0.0] if clock is None else clock
+        paused = clock[0]
         p = check_params(
             on=on, lam=lam, smoothing=smoothing, mu=mu, t=t, form=form, rtol=rtol, solver=solver, band=band
         )
@@ -199,9 +218,9 @@ class Relaxer:
         if p["band"] is not None and not (
             auto and (band_width(p, domain) is None or domain.n_vertices < AUTO_BAND_MIN_VERTICES)
         ):
-            result = self._relax_band(key, region1, classes, h, p, pad, verbose, t0)
+            result = yield from self._relax_band(key, region1, classes, h, p, pad, verbose, t0, clock)
             if not isinstance(result, Boundary):
-                result.timings["total"] = time.perf_counter() - t0
+                result.timings["total"] = time.perf_counter() - t0 - (clock[0] - paused)
                 return result
             zeta = result  # the band would hold (nearly) everything: the whole domain, with its zeta
         boundary, padded = self._padded(key, region1, on, bool(pad), zeta)
@@ -217,6 +236,10 @@ class Relaxer:
                 groups = region_sectors(self.domain, *self._sectors)[padded.parent]
             Xs = smooth(padded.work, X, p["smoothing"], groups)
             prog.step("smoothing")
+            start = time.perf_counter()
+            yield  # the factor may still be built beside: the caller can go on meanwhile
+            prog.resume(time.perf_counter() - start)
+            clock[0] += time.perf_counter() - start
             system, preconditioner, on_band, inner, kept, constraints = terms.result()
         work = padded.work
         system = with_rhs(system, on_band, Xs if inner is None else Xs[inner], h, constraints)
@@ -252,7 +275,7 @@ class Relaxer:
             _forget(domain, ("K",))
 
         timings = dict(prog.times)
-        timings["total"] = time.perf_counter() - t0
+        timings["total"] = time.perf_counter() - t0 - (clock[0] - paused)
         if verbose:
             print(f"[ndboundary] {'total':<12s} {timings['total']:8.3f} s", file=sys.stderr, flush=True)
         V = domain.n_vertices
@@ -276,36 +299,52 @@ class Relaxer:
         t0 = time.perf_counter()
         h = self.domain.mean_edge_length() if self._h is None else self._h
         params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
-        results, distances = [], self._distances
+        results, distances, waiting = [], self._distances, None
         # the squared operator and PARDISO's ordering serve every region; each factor its own
         shared = self._factors if self._keep else FactorCache(keep_factor=False)
         # every region's zeta in one pass over the domain, where each alone would take one
         zetas = self.domain.code_boundaries(codes, classes.size) if p["on"] == "elements" else None
-        for r in range(classes.size):
-            relaxer = Relaxer(self.domain, _keep=False, _h=h)
-            relaxer._distances = distances  # the band's searches serve every region
-            relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
-            relaxer._shared = shared
-            relaxer._vertex_pins = True
-            relaxer._zeta = None if zetas is None else zetas[r]
-            if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
-                relaxer._sectors = (codes, r)
-            results.append(relaxer.relax(codes == r, pad=pad, verbose=verbose, **params))
-            distances = relaxer._distances
+        try:
+            for r in range(classes.size):
+                relaxer = Relaxer(self.domain, _keep=False, _h=h)
+                relaxer._distances = distances  # the band's searches serve every region
+                relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
+                relaxer._shared = shared
+                relaxer._vertex_pins = True
+                relaxer._zeta = None if zetas is None else zetas[r]
+                if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
+                    relaxer._sectors = (codes, r)
+                steps = relaxer._relax_steps(codes == r, pad=pad, verbose=verbose, **params)
+                # up to its pause, while the last region's factor is still built beside; then
+                # the last region is finished, its factor built meanwhile
+                ready = _advance(steps)
+                last, waiting = waiting, (steps if ready is steps else None)
+                if last is not None:
+                    results.append(_run(last))
+                if waiting is None:
+                    results.append(ready)
+                distances = relaxer._distances
+            if waiting is not None:
+                last, waiting = waiting, None
+                results.append(_run(last))
+        finally:
+            if waiting is not None:  # a region failed: the one paused stops its factor's thread
+                waiting.close()
         if self._keep:
             self._distances = distances
         timings = summed_timings(results)
         timings["total"] = time.perf_counter() - t0
         return RegionsResult(classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
 
-    def _relax_band(self, key, region1, classes, h, p, pad, verbose, start):
+    def _relax_band(self, key, region1, classes, h, p, pad, verbose, start, clock):
         """Relax on the elements near zeta and extend phi outside them; zeta alone (a
         :class:`~ndboundary.pipeline.boundary.Boundary`, for the whole-domain relaxation)
         when the band holds every element (the whole-domain relaxation is then the same)
         or, for ``band="auto"``, most of them (the whole domain then costs no more).
 
         The edge distances serve every labelling, the band's relaxer (operators, orderings,
-        factor) every labelling with the same band. "locate" counts from ``start``.
+        factor) every labelling with the same band. "locate" counts from ``start``. A generator,
+        as :meth:`_relax_steps`: it pauses where the band's relaxation does.
         """
         domain, on = self.domain, p["on"]
         tick = start  # locating zeta and the band includes the mesh size h
@@ -408,7 +447,9 @@ class Relaxer:
             # on the second core while the band is relaxed, if the band is large enough to hide it
             beside = vertices.size >= FILL_BESIDE_MIN_SHARE * domain.n_vertices
             prepared = pool.submit(outside) if beside else None
-            res = relaxer.relax(sub_labels, on=on, pad=pad, verbose=verbose, band=None, **params)
+            res = yield from relaxer._relax_steps(
+                sub_labels, on=on, pad=pad, verbose=verbose, band=None, clock=clock, **params
+            )
             tick = time.perf_counter()
             fill, side = prepared.result() if beside else outside()
         rate = growth_rate(res.phi, dist[vertices], width)
@@ -461,7 +502,9 @@ class Relaxer:
             on, kept = work.subdomain(inner)
             constraints, sources = _cut_rows(padded, sources, kept, work.n_vertices)
         system = integration_terms(on, h, constraints, sources, lam=p["lam"], mu=p["mu"], form=p["form"])
-        return system, prepare(system, solver=p["solver"], cache=self._cache), on, inner, kept, constraints
+        # on a thread of its own beside the field's steps (Beside), when there are two
+        pre = prepare(system, solver=p["solver"], cache=self._cache, concurrent=available_threads() > 1)
+        return system, pre, on, inner, kept, constraints
 
     def _lam_scale(self, region1, on, pad, h):
         """``lam_scale`` of the labelling (:func:`boundary_weight_scale`) on this domain (a
@@ -511,6 +554,28 @@ class Relaxer:
         if self._keep:
             self._heat = ((key, t, rtol), u, heat_info, X)
         return u, heat_info, X
+
+
+def _advance(steps):
+    """Run a relaxation's steps (:meth:`Relaxer._relax_steps`) to their pause: ``steps``
+    when they paused, their result when they ended without one. Steps that raise are closed.
+    """
+    try:
+        next(steps)
+    except StopIteration as done:
+        return done.value
+    except BaseException:
+        steps.close()
+        raise
+    return steps
+
+
+def _run(steps):
+    """Run a relaxation's steps (:meth:`Relaxer._relax_steps`) to their end: their result."""
+    while True:
+        out = _advance(steps)
+        if out is not steps:
+            return out
 
 
 def _cut_rows(padded, sources, kept, n):

@@ -18,6 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import common
+from . import pardiso
 from .common import blas_threads, load_optional
 from .pardiso import PardisoFactor
 
@@ -148,6 +149,16 @@ FACTORISERS = {"pardiso": _pardiso, "cvxopt": _cvxopt, "cholmod": _cholmod, "sup
 _PACKAGE = {"pardiso": "pypardiso", "cvxopt": "cvxopt", "cholmod": "sksparse-minimal"}
 
 
+def _installed(name):
+    """Whether the backend ``name`` of :data:`BACKENDS` can run here (PARDISO's runtime
+    is found without importing pypardiso, whose import alone takes about a second).
+    """
+    if name == "pardiso":
+        return pardiso.available()
+    mod = BACKENDS[name]
+    return mod is None or load_optional(mod) is not None
+
+
 def factorize_spd(A, backend="auto", orderings=None):
     """Return a function solving ``A x = b`` for a sparse symmetric positive definite ``A``.
 
@@ -201,8 +212,7 @@ def factorize_spd(A, backend="auto", orderings=None):
         names = "', '".join(["auto", *BACKENDS])
         raise ValueError(f"backend must be one of '{names}', got {backend!r}")
     if backend != "auto":
-        mod = BACKENDS[backend]
-        if mod is not None and load_optional(mod) is None:
+        if not _installed(backend):
             raise ImportError(f"backend={backend!r} needs the package {_PACKAGE[backend]}")
         return _factorise(backend, A, orderings)
     n = A.shape[0]
@@ -212,8 +222,7 @@ def factorize_spd(A, backend="auto", orderings=None):
         except np.linalg.LinAlgError:  # not numerically positive definite: the sparse backends decide
             pass
     for name in auto_order(A.shape[0]):
-        mod = BACKENDS[name]
-        if mod is None or load_optional(mod) is None:
+        if BACKENDS[name] is None or not _installed(name):
             continue
         try:
             return _factorise(name, A, orderings)
@@ -257,7 +266,7 @@ def fast_cholesky_available():
     >>> fast_cholesky_available() == any(b in available_backends() for b in ("cvxopt", "pardiso", "cholmod"))
     True
     """
-    return any(mod is not None and load_optional(mod) is not None for mod in BACKENDS.values())
+    return any(mod is not None and _installed(name) for name, mod in BACKENDS.items())
 
 
 def available_backends():
@@ -274,7 +283,7 @@ def available_backends():
     >>> [b for b in names if b != "amg"] == [b for b in BACKENDS if b in names]
     True
     """
-    out = [name for name, mod in BACKENDS.items() if mod is None or load_optional(mod) is not None]
+    out = [name for name in BACKENDS if _installed(name)]
     if load_optional("pyamg") is not None:
         out.append("amg")
     return out

@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .._compiled import ThreadedMatvec, plus_diagonal
+from .._compiled import ThreadedMatvec, plus_diagonal, squared_upper
 from .amg import AMG_DENSE_ROWS, amg_preconditioner, light_vertex_jacobi
 from .cache import cached, orderings_of
 from .cholesky import LARGE_SYSTEM, factorize_spd, fast_cholesky_available
@@ -51,7 +51,8 @@ from .common import (
     relres,
     warn_unconverged,
 )
-from .pardiso import refined_single
+from . import pardiso
+from .pardiso import PardisoFactor, refined_single
 
 __all__ = [
     "DENSE_ROW_THRESHOLD",
@@ -274,12 +275,7 @@ def _factor(kind, A, backend, cache):
 
 def _refines_single(refine_single, backend, n):
     """Whether the direct path factorises in single precision (PARDISO) and refines."""
-    return (
-        refine_single
-        and backend in ("auto", "pardiso")
-        and n >= SINGLE_PRECISION_MIN
-        and load_optional("pypardiso") is not None
-    )
+    return refine_single and backend in ("auto", "pardiso") and n >= SINGLE_PRECISION_MIN and pardiso.available()
 
 
 def _solve_factored(factor, rhs, rtol):
@@ -363,25 +359,54 @@ class Preconditioner(NamedTuple):
     setup_time: float
 
 
+class _SymmetricUpper:
+    """A symmetric matrix held by its upper triangle ``U`` (CSR): ``Q @ x`` is
+    ``U x + U^T x - diag(U) x``, without the lower triangle.
+    """
+
+    def __init__(self, U):
+        self.U, self.shape, self._diagonal = U, U.shape, U.diagonal()
+
+    def __matmul__(self, x):
+        return self.U @ x + self.U.T @ x - self._diagonal * x
+
+
 class IntegrationFactor(NamedTuple):
     """The double-precision Cholesky factor of ``Q`` that :func:`solve_integration`'s
     direct path computes, built by :func:`integration_preconditioner` ahead of the
     right-hand side: ``solve(b)`` solves ``Q x = b``; ``setup_time`` the seconds the
-    assembly of ``Q`` and its factorisation took (reported as the solve's setup).
+    assembly of ``Q`` and its factorisation took (reported as the solve's setup). ``Q``
+    is the matrix, or an operator that multiplies by it (``Q @ x``; its upper triangle,
+    which is all PARDISO reads, when built beside other work).
     """
 
-    Q: sp.csr_matrix
+    Q: object
     solve: object
     setup_time: float
 
 
 def integration_preconditioner(
-    K, mass, S, lam, *, mu=0.0, method="auto", backend="auto", preconditioner="auto", sweeps=2, cache=None
+    K,
+    mass,
+    S,
+    lam,
+    *,
+    mu=0.0,
+    method="auto",
+    backend="auto",
+    preconditioner="auto",
+    sweeps=2,
+    cache=None,
+    concurrent=False,
 ):
     """Build the AMG preconditioner :func:`solve_integration` would build for this
     system, before its right-hand side is known: the relaxation builds it beside the steps
     that compute the field (which only the right-hand side reads). Its arguments are those
-    of :func:`solve_integration`.
+    of :func:`solve_integration`, and ``concurrent``: whether it runs beside that Python
+    work, on another thread. The direct path then assembles ``Q``'s upper triangle in
+    one compiled call and factorises it by PARDISO where installed, both without holding
+    the GIL, so that the work beside goes on; the CHOLMOD of cvxopt (the fastest
+    otherwise) and the sparse products of the assembly hold it.
 
     Returns
     -------
@@ -423,6 +448,14 @@ def integration_preconditioner(
         ):
             return None
         t0 = time.perf_counter()
+        if concurrent and backend in ("auto", "pardiso") and pardiso.available():
+            U = squared_upper(K, system.mass, mu, S.T @ S, lam)
+            with one_blas_thread():
+                solve = cached(
+                    ("direct", "pardiso-upper"), U,
+                    lambda A: PardisoFactor(A, upper=True, orderings=orderings_of(cache)).solve, cache,
+                )  # fmt: skip
+            return IntegrationFactor(_SymmetricUpper(U), solve, time.perf_counter() - t0)
         Q = _assemble(system, cache)
         with one_blas_thread():
             solve = _factor(("direct", backend), Q, backend, cache)

@@ -1,16 +1,26 @@
 """A ctypes binding to the sparse Cholesky factorisation of MKL PARDISO.
 
-pypardiso is used only to find MKL's library. :class:`PardisoFactor` calls PARDISO
-itself, to keep one factor per object (released with it), to hand the METIS ordering
-of one matrix to the next matrix of the same sparsity pattern, and to set the number
-of threads of each phase.
+The package pypardiso brings MKL's runtime library (``mkl_rt``), which
+:func:`mkl_library` finds next to the interpreter, as pypardiso would, without importing
+pypardiso: that import and pypardiso's search of every folder of the environment took
+1.3 s of a process's first factorisation, where loading MKL takes milliseconds.
+:class:`PardisoFactor` calls PARDISO itself, to keep one factor per object (released
+with it), to hand the ordering of one matrix to the next matrix of the same sparsity
+pattern, and to set the number of threads of each phase. Its calls release the GIL
+(ctypes does so around every foreign call), so that a factorisation on one thread lets
+Python work on another go on.
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import glob
 import importlib
+import importlib.util
+import os
+import site
+import sys
 import threading
 import time
 import weakref
@@ -22,16 +32,24 @@ import scipy.sparse.linalg as spla
 from . import common
 from .cache import cached, digest, orderings_of
 
-__all__ = ["PardisoFactor", "refined_single"]
+__all__ = ["MINIMUM_DEGREE_MAX", "PardisoFactor", "available", "mkl_library", "refined_single"]
+
+#: Below this many unknowns PARDISO orders the matrix by minimum degree, from there by
+#: METIS nested dissection: on the integration matrices of triangle meshes minimum
+#: degree factorises faster up to about 10^5 unknowns, METIS beyond
+#: (``benchmarks/solvers.py --methods
+#: pardiso-md-direct,pardiso-metis-direct,cvxopt-direct``).
+MINIMUM_DEGREE_MAX = 100_000
 
 
 class PardisoFactor:
     """Cholesky factor of a sparse SPD matrix by MKL PARDISO (matrix type 2).
 
-    The upper triangle is passed in CSR form with zero-based indices; METIS nested
-    dissection orders it, and the ordering is kept for the next matrix with the same
-    sparsity pattern (the integration matrix of a mesh has one pattern whatever the
-    labels and parameters), which skips most of the analysis phase. The factorisation
+    The upper triangle is passed in CSR form with zero-based indices; minimum degree or
+    METIS nested dissection orders it (:data:`MINIMUM_DEGREE_MAX`), and the ordering is
+    kept for the next matrix with the same sparsity pattern (the integration matrix of a
+    mesh has one pattern whatever the labels and parameters), which skips most of the
+    analysis phase. The factorisation
     runs with :data:`~ndboundary.solvers.common.FACTOR_THREADS` MKL threads (read when
     the factor is built), the triangular solves with one (they are memory bound, and may
     be called from inside an iteration). The MKL memory of the factor is released when
@@ -47,17 +65,22 @@ class PardisoFactor:
         returns double precision). Off by default, because a direct solve needs the
         double-precision factor to reach a small residual.
     orderings : dict, optional
-        Where the METIS ordering is kept (key ``"entry"``) for the next matrix of the
-        same sparsity pattern, and where a kept one is looked up
+        Where the ordering is kept (key ``"entry"``) for the next matrix of the same
+        sparsity pattern, and where a kept one is looked up
         (:attr:`~ndboundary.solvers.FactorCache.orderings`). None, the default, orders
-        every matrix afresh and keeps nothing.
+        every matrix afresh and keeps nothing. The ordering is minimum degree below
+        :data:`MINIMUM_DEGREE_MAX` unknowns, METIS nested dissection from there.
+    upper : bool, default=False
+        ``A`` is the upper triangle already, in CSR form with sorted columns and no
+        duplicates (:func:`~ndboundary._compiled.squared_upper` builds it so): taken as
+        it is, without the copies that extract and sort it.
 
     Attributes
     ----------
     n : int
         Number of unknowns.
     reused_ordering : bool
-        Whether the ordering came from ``orderings`` instead of METIS.
+        Whether the ordering came from ``orderings`` instead of PARDISO's analysis.
 
     Raises
     ------
@@ -89,12 +112,15 @@ class PardisoFactor:
         + [ctypes.POINTER(ctypes.c_int32)]  # error
     )
 
-    def __init__(self, A, single=False, orderings=None):
+    def __init__(self, A, single=False, orderings=None, upper=False):
         self._pardiso, self._set_threads = _mkl_functions()
         self._dtype = np.float32 if single else np.float64
-        U = sp.triu(sp.csr_matrix(A), format="csr")
-        U.sum_duplicates()
-        U.sort_indices()
+        if upper:  # the caller's upper triangle, as it is
+            U = sp.csr_matrix(A)
+        else:
+            U = sp.triu(sp.csr_matrix(A), format="csr")
+            U.sum_duplicates()
+            U.sort_indices()
         self.n = U.shape[0]
         self._a = np.ascontiguousarray(U.data, dtype=self._dtype)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
@@ -103,7 +129,7 @@ class PardisoFactor:
         self._pt = np.zeros(64, dtype=np.int64)  # PARDISO's handle
         self._iparm = np.zeros(64, dtype=np.int32)
         self._iparm[0] = 1  # these parameters, not the defaults
-        self._iparm[1] = 2  # METIS nested dissection ordering
+        self._iparm[1] = 0 if self.n < MINIMUM_DEGREE_MAX else 2  # minimum degree, or METIS (read now)
         self._iparm[17] = -1  # report the number of non-zeros of the factor
         self._iparm[27] = int(single)  # single-precision factor and solves
         self._iparm[34] = 1  # zero-based indices
@@ -180,11 +206,72 @@ class PardisoFactor:
         return X.reshape(b.shape).astype(np.float64, copy=False)
 
 
+def mkl_library():
+    """The path of MKL's runtime library that pypardiso would load, or None.
+
+    Looked for where pypardiso looks, in its order, but without its search of every
+    folder below the environment's: the file named by ``PYPARDISO_MKL_RT``, then
+    ``lib/libmkl_rt.so*`` (``lib/libmkl_rt*.dylib``, ``Library/bin/mkl_rt*.dll``) of the
+    environment and of the user's site; None where none is found there.
+
+    Examples
+    --------
+    >>> path = mkl_library()
+    >>> path is None or "mkl_rt" in path
+    True
+    """
+    return _mkl_library()
+
+
+@functools.lru_cache(maxsize=1)
+def _mkl_library():
+    named = os.environ.get("PYPARDISO_MKL_RT")
+    if named:
+        return named
+    patterns = ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
+    for root in (sys.prefix, site.USER_BASE or ""):
+        for pattern in patterns:
+            found = sorted(glob.glob(os.path.join(root, pattern)), key=len)
+            if found:
+                return found[0]
+    return None
+
+
+def available():
+    """Whether PARDISO can run: pypardiso is installed (whose presence makes PARDISO a
+    backend; it is not imported) and MKL's library loads.
+
+    Examples
+    --------
+    >>> available() in (True, False)
+    True
+    """
+    try:
+        if sys.modules["pypardiso"] is None:  # marked missing
+            return False
+    except KeyError:
+        try:
+            if importlib.util.find_spec("pypardiso") is None:
+                return False
+        except (ImportError, ValueError):
+            return False
+    try:
+        _mkl_functions()
+    except Exception:  # noqa: BLE001 - no pypardiso, or an MKL that does not load
+        return False
+    return True
+
+
 @functools.lru_cache(maxsize=1)
 def _mkl_functions():
-    """MKL's ``pardiso`` and ``MKL_Set_Num_Threads_Local``, from the library pypardiso finds."""
-    pypardiso = importlib.import_module("pypardiso")
-    lib = pypardiso.PyPardisoSolver(mtype=2).libmkl
+    """MKL's ``pardiso`` and ``MKL_Set_Num_Threads_Local``, from :func:`mkl_library`
+    (from the library pypardiso finds, where that finds none).
+    """
+    path = _mkl_library()
+    if path is not None:
+        lib = ctypes.CDLL(path)
+    else:  # pypardiso's own search: the conda layouts, and find_library's
+        lib = importlib.import_module("pypardiso").PyPardisoSolver(mtype=2).libmkl
     pardiso = ctypes.CFUNCTYPE(None, *PardisoFactor._ARGTYPES)(("pardiso", lib))
     set_threads = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int)(("MKL_Set_Num_Threads_Local", lib))
     return pardiso, set_threads
