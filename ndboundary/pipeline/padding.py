@@ -73,7 +73,7 @@ class Padded:
     slabs: tuple | None = None
 
 
-def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=False):
+def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=False, all_reached=False):
     """Split the elements all of whose vertices receive heat, and carry the labels over.
 
     Parameters
@@ -93,6 +93,11 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=Fa
         regions, and on a face all of treads, such as a frame one pixel thick, the
         lighter pins let a neighbour's function overtake the frame's at the image's
         border (``tests/test_images.py``).
+    all_reached : bool, default=False
+        Zeta is known to reach every connected part of the domain, as it reaches every
+        part of a band around it: no part needs to be held on its own side of 1/2
+        (:func:`~ndboundary.pipeline.boundary.pinned_rows`), and the domain's components
+        are not sought.
 
     Returns
     -------
@@ -135,10 +140,13 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=Fa
     slabs = None
     if on == "elements" and not vertex_pins and isinstance(domain, (ImageGrid, GridBand)):
         S, targets, (inside, outside, lift) = facet_pins(domain, region1, boundary.sources)
-        S, targets = pinned_rows(domain, S, vert_region1, targets)
+        if not all_reached:
+            S, targets = pinned_rows(domain, S, vert_region1, targets)
         more = S.shape[0] - lift.size  # the rows of parts that zeta does not reach
         slabs = tuple(np.concatenate([a, np.full((more,) + a.shape[1:], -1)]) for a in (inside, outside))
         slabs += (np.concatenate([lift, np.zeros(more)]),)
+    elif all_reached:
+        S, targets = boundary.S, np.full(boundary.S.shape[0], 0.5)
     else:
         S, targets = pinned_rows(domain, boundary.S, vert_region1)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()

@@ -134,6 +134,7 @@ class Relaxer:
         self._vertex_pins = False  # True: zeta's vertices pinned on image grids too (many regions)
         self._zeta = None  # zeta's vertices, found with every other region's (many regions)
         self._element_ids = None  # a band's elements' indices in the domain it was cut from
+        self._all_reached = False  # True: zeta reaches every connected part of the domain (a band)
         # on the band of an image grid: (its vertices' graph distance from zeta, inf beyond
         # the band's width, and the integration's reach), both in units of h: the far
         # field's direction (field.initial_field) and the integration's inner band
@@ -374,6 +375,8 @@ class Relaxer:
             sub, vertices = domain.subdomain(mask)
             relaxer = Relaxer(sub, _keep=self._keep, _h=h, _private=not self._keep)
             relaxer._element_ids = np.flatnonzero(mask)  # what its warnings name
+            # every element of a band lies within its width of zeta along edges of the band
+            relaxer._all_reached = True
             return mask_key, relaxer, vertices
 
         def labels_of(mask, vertices):
@@ -526,7 +529,9 @@ class Relaxer:
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
         check_element_shapes(domain, stacklevel=5, element_ids=self._element_ids)
-        padded = pad_domain(domain, region1, boundary, on, pad, vertex_pins=self._vertex_pins)
+        padded = pad_domain(
+            domain, region1, boundary, on, pad, vertex_pins=self._vertex_pins, all_reached=self._all_reached
+        )
         _ = padded.work.K, padded.work.mass  # assembled (and timed) with the padding
         if self._keep or keep:
             self._labelling = (key, boundary, padded)
