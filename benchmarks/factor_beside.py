@@ -9,7 +9,11 @@ the solve takes without it: this benchmark makes ``integration_preconditioner`` 
 None for the direct path in the processes that measure it. Each repeat runs every case
 both ways, each in a fresh process whose first ``relax`` it times, cold as a user's first
 call (the imports and the mesh's construction not timed), so that the drifts of a shared
-machine hit both alike. The phi of both ways are the same to the bit (``tests``); this prints times only.
+machine hit both alike. Beside, the factor is PARDISO's where installed (its calls
+release the GIL), of the upper triangle a compiled call assembles; in the solve it is
+the fastest backend's (cvxopt's CHOLMOD): the two phi agree to the rounding of the two
+factorisations (``tests``). For many regions, each region goes on while the previous
+one's factor is built. This prints times only.
 
 Cases:
 

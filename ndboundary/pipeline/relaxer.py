@@ -59,11 +59,46 @@ from .smoothing import smooth
 __all__ = ["Relaxer"]
 
 
+class _Lines:
+    """Where a relaxation's progress lines go: to stderr, or held until :meth:`release`
+    (those of a region whose first steps run while the region before it finishes), so
+    that every region's lines come out together and in order.
+    """
+
+    def __init__(self, held=False):
+        self._held = [] if held else None
+
+    def write(self, line):
+        if self._held is None:
+            print(line, file=sys.stderr, flush=True)
+        else:
+            self._held.append(line)
+
+    def release(self):
+        """Print the lines held, and the next ones as they come."""
+        held, self._held = self._held or [], None
+        for line in held:
+            print(line, file=sys.stderr, flush=True)
+
+
+def _say(verbose, name, seconds):
+    """A step's progress line, when ``verbose`` (True: to stderr; or a :class:`_Lines`)."""
+    if not verbose:
+        return
+    line = f"[ndboundary] {name:<12s} {seconds:8.3f} s"
+    if isinstance(verbose, _Lines):
+        verbose.write(line)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
 class _Progress:
-    """Per-step wall times, printed to stderr as each step ends when ``verbose``."""
+    """Per-step wall times, printed to stderr as each step ends when ``verbose`` (True,
+    or a :class:`_Lines`).
+    """
 
     def __init__(self, verbose):
-        self.verbose = bool(verbose)
+        self.verbose = verbose
         self.times = {}
         self.tick = time.perf_counter()
 
@@ -74,8 +109,7 @@ class _Progress:
     def step(self, name):
         now = time.perf_counter()
         self.times[name] = now - self.tick
-        if self.verbose:
-            print(f"[ndboundary] {name:<12s} {self.times[name]:8.3f} s", file=sys.stderr, flush=True)
+        _say(self.verbose, name, self.times[name])
         self.tick = time.perf_counter()
 
 
@@ -277,8 +311,7 @@ class Relaxer:
 
         timings = dict(prog.times)
         timings["total"] = time.perf_counter() - t0 - (clock[0] - paused)
-        if verbose:
-            print(f"[ndboundary] {'total':<12s} {timings['total']:8.3f} s", file=sys.stderr, flush=True)
+        _say(verbose, "total", timings["total"])
         V = domain.n_vertices
         params = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "on")}
         params.update(lam_scale=lam_scale, pad=bool(pad), h=h, lifted_pins=lifted)
@@ -315,13 +348,17 @@ class Relaxer:
                 relaxer._zeta = None if zetas is None else zetas[r]
                 if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
                     relaxer._sectors = (codes, r)
-                steps = relaxer._relax_steps(codes == r, pad=pad, verbose=verbose, **params)
+                # its progress held while the region before it finishes
+                lines = _Lines(held=waiting is not None) if verbose else False
+                steps = relaxer._relax_steps(codes == r, pad=pad, verbose=lines, **params)
                 # up to its pause, while the last region's factor is still built beside; then
                 # the last region is finished, its factor built meanwhile
                 ready = _advance(steps)
                 last, waiting = waiting, (steps if ready is steps else None)
                 if last is not None:
                     results.append(_run(last))
+                if lines:
+                    lines.release()
                 if waiting is None:
                     results.append(ready)
                 distances = relaxer._distances
@@ -426,8 +463,7 @@ class Relaxer:
         self._band_relaxer = band if self._keep else None
         self._band = (key, boundary, scale, (width, mask, dist)) if self._keep else None
         locate = time.perf_counter() - tick
-        if verbose:
-            print(f"[ndboundary] {'locate':<12s} {locate:8.3f} s", file=sys.stderr, flush=True)
+        _say(verbose, "locate", locate)
         sub_labels = labels_of(mask, vertices)
         relaxer._sectors = None if self._sectors is None else (self._sectors[0][mask], self._sectors[1])
         relaxer._vertex_pins = self._vertex_pins
@@ -467,8 +503,7 @@ class Relaxer:
             keep_band(res, elements, vertices, side, distances, rate)
         res.boundary, res.classes, res.domain = boundary, classes, domain
         fill = time.perf_counter() - tick
-        if verbose:
-            print(f"[ndboundary] {'fill':<12s} {fill:8.3f} s", file=sys.stderr, flush=True)
+        _say(verbose, "fill", fill)
         res.timings = {"locate": locate, **res.timings, "fill": fill}
         res.timings["pad"] += padding
         res.params.update(band=width, band_vertices=int(vertices.size))
