@@ -37,7 +37,8 @@ __all__ = [
 
 #: From this many unknowns ``backend="auto"`` tries PARDISO before cvxopt: there its
 #: METIS ordering makes it as fast with less memory, while below, cvxopt is faster
-#: (PARDISO's first factorisation also loads MKL).
+#: (a relaxation still factorises by PARDISO beside its field's steps, whose Python
+#: work cvxopt would stop: :func:`~ndboundary.solvers.integration.integration_preconditioner`).
 LARGE_SYSTEM = 500_000
 
 #: Sparse Cholesky backends in the order ``backend="auto"`` tries them below

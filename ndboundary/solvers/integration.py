@@ -450,12 +450,17 @@ def integration_preconditioner(
         t0 = time.perf_counter()
         if concurrent and backend in ("auto", "pardiso") and pardiso.available():
             U = squared_upper(K, system.mass, mu, S.T @ S, lam)
-            with one_blas_thread():
-                solve = cached(
-                    ("direct", "pardiso-upper"), U,
-                    lambda A: PardisoFactor(A, upper=True, orderings=orderings_of(cache)).solve, cache,
-                )  # fmt: skip
-            return IntegrationFactor(_SymmetricUpper(U), solve, time.perf_counter() - t0)
+            try:
+                with one_blas_thread():
+                    solve = cached(
+                        ("direct", "pardiso-upper"), U,
+                        lambda A: PardisoFactor(A, upper=True, orderings=orderings_of(cache)).solve, cache,
+                    )  # fmt: skip
+            except RuntimeError:  # a pivot PARDISO rejects: the backends in turn, as in the solve
+                if backend == "pardiso":
+                    raise
+            else:
+                return IntegrationFactor(_SymmetricUpper(U), solve, time.perf_counter() - t0)
         Q = _assemble(system, cache)
         with one_blas_thread():
             solve = _factor(("direct", backend), Q, backend, cache)
