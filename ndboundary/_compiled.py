@@ -26,6 +26,35 @@ def _unit_row(B, i, x, y, z):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def sort_short(values, start, stop):  # pragma: no cover - compiled
+    """Sort ``values[start:stop]`` in place by insertion: a few dozen entries, where numba's
+    sort of a short slice costs ten times more.
+    """
+    for a in range(start + 1, stop):
+        value = values[a]
+        b = a - 1
+        while b >= start and values[b] > value:
+            values[b + 1] = values[b]
+            b -= 1
+        values[b + 1] = value
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _accumulate(i, j, value, mark, acc, columns, count):  # pragma: no cover - compiled
+    """Add ``value`` to column ``j`` of row ``i`` summed in the dense ``acc``, the column
+    appended to ``columns`` at ``count`` when first met (``mark[j] == i`` then); returns
+    the columns' new count.
+    """
+    if mark[j] != i:
+        mark[j] = i
+        acc[j] = 0.0
+        columns[count] = j
+        count += 1
+    acc[j] += value
+    return count
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def insert_sorted(values, count, b):  # pragma: no cover - compiled
     """Insert ``b`` into the increasing ``values[:count]``; a few dozen entries at most."""
     t = count
@@ -499,8 +528,8 @@ _SQUARED_UPPER = (
 def _squared_upper(indptr, indices, data, dinv, mu, tptr, tind, tdat, lam):  # pragma: no cover - compiled
     """The upper triangle of ``K diag(dinv) K + mu K + lam T`` (``K`` and ``T`` symmetric,
     in CSR form), in CSR form with sorted columns: two passes over the rows, the columns
-    of each marked in a table, the values summed in a dense row and the columns sorted
-    by insertion (numba's sort of a short slice costs ten times more).
+    of each marked in a table, the values summed in a dense row (:func:`_accumulate`) and
+    the columns sorted by :func:`sort_short`.
     """
     n = indptr.size - 1
     mark = np.full(n, -1, dtype=np.int64)
@@ -528,47 +557,21 @@ def _squared_upper(indptr, indices, data, dinv, mu, tptr, tind, tdat, lam):  # p
     acc = np.zeros(n)
     mark[:] = -1
     for i in range(n):
-        start = out_ptr[i]
-        count = 0
+        start = count = out_ptr[i]
         for p in range(indptr[i], indptr[i + 1]):
             k = indices[p]
             a = data[p] * dinv[k]
             for q in range(indptr[k], indptr[k + 1]):
-                j = indices[q]
-                if j < i:
-                    continue
-                if mark[j] != i:
-                    mark[j] = i
-                    acc[j] = 0.0
-                    out_ind[start + count] = j
-                    count += 1
-                acc[j] += a * data[q]
+                if indices[q] >= i:
+                    count = _accumulate(i, indices[q], a * data[q], mark, acc, out_ind, count)
         for p in range(indptr[i], indptr[i + 1]):
-            j = indices[p]
-            if j >= i:
-                if mark[j] != i:
-                    mark[j] = i
-                    acc[j] = 0.0
-                    out_ind[start + count] = j
-                    count += 1
-                acc[j] += mu * data[p]
+            if indices[p] >= i:
+                count = _accumulate(i, indices[p], mu * data[p], mark, acc, out_ind, count)
         for p in range(tptr[i], tptr[i + 1]):
-            j = tind[p]
-            if j >= i:
-                if mark[j] != i:
-                    mark[j] = i
-                    acc[j] = 0.0
-                    out_ind[start + count] = j
-                    count += 1
-                acc[j] += lam * tdat[p]
-        for a in range(start + 1, start + count):  # a few dozen columns: insertion sort
-            column = out_ind[a]
-            b = a - 1
-            while b >= start and out_ind[b] > column:
-                out_ind[b + 1] = out_ind[b]
-                b -= 1
-            out_ind[b + 1] = column
-        for t in range(start, start + count):
+            if tind[p] >= i:
+                count = _accumulate(i, tind[p], lam * tdat[p], mark, acc, out_ind, count)
+        sort_short(out_ind, start, count)
+        for t in range(start, count):
             out_dat[t] = acc[out_ind[t]]
     return out_ptr, out_ind, out_dat
 

@@ -52,9 +52,10 @@ def test_skinny_triangles_say_why_not(squash):
     grid = kuhn_grid(30, 2, jitter=0.25, random_state=0)
     labels = label_by(grid, flower)
     thin = SimplicialComplex(grid.points * [1, squash], grid.simplices)
-    with pytest.warns(MeshQualityWarning, match=r"aspect ratio of .*Worst elements \(aspect ratio\): \d+ \("):
+    with pytest.warns(MeshQualityWarning, match=r"aspect ratio of .*Worst elements \(aspect ratio\): \d+ \(") as caught:
         res = relax(thin, labels, on="elements")
     assert np.all(np.isfinite(res.phi))
+    assert [w.filename for w in caught if w.category is MeshQualityWarning] == [__file__]
 
 
 def test_a_flat_element_in_the_band_is_named_by_its_index_in_the_mesh():
@@ -67,9 +68,11 @@ def test_a_flat_element_in_the_band_is_named_by_its_index_in_the_mesh():
     points[d] += (1 - 1e-7) * (0.5 * (points[a] + points[b]) - points[d])  # onto the opposite edge
     flat = SimplicialComplex(points, grid.simplices)
     worst = int(np.argmax(flat.aspect_ratios()))
-    with pytest.warns(MeshQualityWarning, match=rf"Worst elements \(aspect ratio\): {worst} \("):
+    with pytest.warns(MeshQualityWarning, match=rf"Worst elements \(aspect ratio\): {worst} \(") as caught:
         res = relax(flat, labels, on="elements")
     assert res.params["band_vertices"] < flat.n_vertices
+    # at the line that called relax, not inside the band's steps
+    assert [w.filename for w in caught if w.category is MeshQualityWarning] == [__file__]
 
 
 def test_well_shaped_meshes_do_not_warn():

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import sys
 import warnings
 
 import numpy as np
 
 from ..domains.base import MeshQualityWarning
 
-__all__ = ["ANISOTROPIC_MEDIAN", "FLAT_ASPECT", "check_element_shapes"]
+__all__ = ["ANISOTROPIC_MEDIAN", "FLAT_ASPECT", "check_element_shapes", "outside_stacklevel"]
 
 #: A domain whose median element has an aspect ratio above this is too anisotropic for
 #: the isotropic heat and smoothing (:class:`~ndboundary.domains.MeshQualityWarning`).
@@ -17,9 +18,12 @@ ANISOTROPIC_MEDIAN = 10.0
 FLAT_ASPECT = 1e4
 
 
-def check_element_shapes(domain, stacklevel=3, element_ids=None):
+def check_element_shapes(domain, stacklevel=None, element_ids=None):
     """Warn (:class:`~ndboundary.domains.MeshQualityWarning`) when the domain's elements are
     too thin to trust the relaxation, naming the worst elements and their aspect ratios.
+
+    The warning names the line that called into ndboundary (``stacklevel`` None), whatever
+    the depth of the steps between (a band, a region among several), or ``stacklevel``.
 
     ``element_ids``, when ``domain`` was cut from the caller's (a band), holds each of its
     elements' index in the caller's domain: the warning names those.
@@ -60,5 +64,15 @@ def check_element_shapes(domain, stacklevel=3, element_ids=None):
         f"elements (aspect ratio): {named}. Remesh, or scale the coordinates to make the "
         "elements well shaped.",
         MeshQualityWarning,
-        stacklevel=stacklevel,
+        stacklevel=outside_stacklevel() if stacklevel is None else stacklevel,
     )
+
+
+def outside_stacklevel():
+    """The ``stacklevel`` that makes a warning raised by this function's caller name the
+    first frame outside ndboundary: the user's call.
+    """
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").split(".")[0] == "ndboundary":
+        frame, level = frame.f_back, level + 1
+    return level

@@ -563,7 +563,7 @@ class Relaxer:
             boundary = self._boundary(region1, on)
         if boundary.sources.size == 0:
             raise ValueError("the two regions never meet: labels form no boundary on this domain")
-        check_element_shapes(domain, stacklevel=5, element_ids=self._element_ids)
+        check_element_shapes(domain, element_ids=self._element_ids)
         padded = pad_domain(
             domain, region1, boundary, on, pad, vertex_pins=self._vertex_pins, all_reached=self._all_reached
         )

@@ -21,6 +21,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
+from .._compiled import sort_short
 from .._kernels import kernel
 
 __all__ = ["ENERGY_TOL", "Level", "energy_hierarchy", "strong_pattern"]
@@ -123,13 +124,7 @@ def _pattern(indptr, indices, data, agg, count):  # pragma: no cover - compiled
                 mark[a] = i
                 Pj[p] = a
                 p += 1
-        for u in range(start + 1, p):  # insertion sort: a few dozen entries
-            v = Pj[u]
-            w = u - 1
-            while w >= start and Pj[w] > v:
-                Pj[w + 1] = Pj[w]
-                w -= 1
-            Pj[w + 1] = v
+        sort_short(Pj, start, p)
         Pp[i + 1] = p
     return Pp, Pj[:p].copy()
 
