@@ -3,7 +3,7 @@
 The package pypardiso brings MKL's runtime library (``mkl_rt``), which
 :func:`mkl_library` finds next to the interpreter, as pypardiso would, without importing
 pypardiso: that import and pypardiso's search of every folder of the environment took
-1.3 s of a process's first factorisation, where loading MKL takes milliseconds.
+over a second of a process's first factorisation, where loading MKL takes milliseconds.
 :class:`PardisoFactor` calls PARDISO itself, to keep one factor per object (released
 with it), to hand the ordering of one matrix to the next matrix of the same sparsity
 pattern, and to set the number of threads of each phase. Its calls release the GIL
@@ -49,10 +49,10 @@ class PardisoFactor:
     METIS nested dissection orders it (:data:`MINIMUM_DEGREE_MAX`), and the ordering is
     kept for the next matrix with the same sparsity pattern (the integration matrix of a
     mesh has one pattern whatever the labels and parameters), which skips most of the
-    analysis phase. The factorisation
-    runs with :data:`~ndboundary.solvers.common.FACTOR_THREADS` MKL threads (read when
-    the factor is built), the triangular solves with one (they are memory bound, and may
-    be called from inside an iteration). The MKL memory of the factor is released when
+    analysis phase. The factorisation runs with
+    :data:`~ndboundary.solvers.common.FACTOR_THREADS` MKL threads (read when the factor is
+    built), the triangular solves with one (they are memory bound, and may be called from
+    inside an iteration). The MKL memory of the factor is released when
     the object is garbage collected.
 
     Parameters
@@ -129,7 +129,7 @@ class PardisoFactor:
         self._pt = np.zeros(64, dtype=np.int64)  # PARDISO's handle
         self._iparm = np.zeros(64, dtype=np.int32)
         self._iparm[0] = 1  # these parameters, not the defaults
-        self._iparm[1] = 0 if self.n < MINIMUM_DEGREE_MAX else 2  # minimum degree, or METIS (read now)
+        self._iparm[1] = 0 if self.n < MINIMUM_DEGREE_MAX else 2  # minimum degree, or METIS
         self._iparm[17] = -1  # report the number of non-zeros of the factor
         self._iparm[27] = int(single)  # single-precision factor and solves
         self._iparm[34] = 1  # zero-based indices
