@@ -20,11 +20,13 @@ Cases:
 - ``regions2``, ``regions8``: the speed case of ``regions.py`` (``kuhn_grid(500, 2,
   jitter=0.25)``, 251 001 vertices, 2 and 8 Voronoi regions, each relaxed on its band);
 - ``flower``: ``kuhn_grid(250, 2, jitter=0.2)`` (63 001 vertices), a flower, ``band=None``;
-- ``sphere``: ``icosphere(7)`` (163 842 vertices) cut by the plane z = 0.3, ``band=None``.
+- ``sphere``: ``icosphere(7)`` (163 842 vertices) cut by the plane z = 0.3, ``band=None``;
+- ``image24``: ``relax_image`` of the Voronoi partition of 24 random sites on 600 x 600
+  pixels, each region on its own band.
 
 Usage::
 
-    python benchmarks/factor_beside.py [--repeats 3] [--cases regions2,regions8,flower,sphere]
+    python benchmarks/factor_beside.py [--repeats 3] [--cases regions2,regions8,flower,sphere,image24]
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ import time
 
 import numpy as np
 
-CASES = ("regions2", "regions8", "flower", "sphere")
+CASES = ("regions2", "regions8", "flower", "sphere", "image24")
 
 
 def one(case, beside):
@@ -56,6 +58,17 @@ def one(case, beside):
             return None if isinstance(built, IntegrationFactor) else built
 
         pipeline_integration.integration_preconditioner = in_the_solve
+    if case == "image24":  # 24 Voronoi regions of a 600 x 600 label image, each on its band
+        from scipy.spatial import cKDTree
+
+        from ndboundary import relax_image
+
+        pixels = np.indices((600, 600)).reshape(2, -1).T
+        sites = np.random.default_rng(0).uniform(0, 600, (24, 2))
+        image = cKDTree(sites).query(pixels)[1].reshape(600, 600)
+        t0 = time.perf_counter()
+        relax_image(image)
+        return time.perf_counter() - t0
     band = "auto"
     if case.startswith("regions"):
         mesh, labels = speed_case(0, int(case[len("regions") :]))

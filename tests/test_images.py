@@ -268,6 +268,29 @@ def test_many_regions_of_an_image_band_partition_the_whole_image():
         assert result.region_boundary(r).measure() == pytest.approx(whole.region_boundary(r).measure(), rel=1e-10)
 
 
+def test_the_regions_of_a_2d_image_overlap_as_they_relax_in_turn(monkeypatch):
+    """In 2-D each region of an image goes on while the last one's factor is built beside:
+    the same functions, to the bit, as relaxing them one after another."""
+    from ndboundary import _threads
+    from ndboundary import images as images_module
+    from ndboundary.pipeline import relaxer
+
+    monkeypatch.setattr(_threads, "available_threads", lambda: 2)
+    labels = _voronoi((160, 170), 5, (1.0, 1.0))  # enough pixels for each region's own band
+    overlapped = relax_image(labels)
+    calls = []
+
+    def in_turn(count, start, verbose, overlap=True):
+        calls.append(overlap)
+        return relaxer.relax_in_turn(count, start, verbose, overlap=False)
+
+    monkeypatch.setattr(images_module, "relax_in_turn", in_turn)
+    one_by_one = relax_image(labels)
+    assert calls == [True]  # 2-D: overlapped by default
+    for a, b in zip(overlapped.regions, one_by_one.regions, strict=True):
+        np.testing.assert_array_equal(a.phi, b.phi)
+
+
 @pytest.mark.parametrize(
     ("shape", "spacing", "band"),
     [((30, 34, 28), (1.0, 1.2, 0.9), 4.3), ((60, 70), (1.0, 1.0), 5.3), ((20, 22, 18), (1.0, 1.0, 1.0), 10.3)],

@@ -333,43 +333,27 @@ class Relaxer:
         t0 = time.perf_counter()
         h = self.domain.mean_edge_length() if self._h is None else self._h
         params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
-        results, distances, waiting = [], self._distances, None
         # the squared operator and PARDISO's ordering serve every region; each factor its own
         shared = self._factors if self._keep else FactorCache(keep_factor=False)
         # every region's zeta in one pass over the domain, where each alone would take one
         zetas = self.domain.code_boundaries(codes, classes.size) if p["on"] == "elements" else None
-        try:
-            for r in range(classes.size):
-                relaxer = Relaxer(self.domain, _keep=False, _h=h)
-                relaxer._distances = distances  # the band's searches serve every region
-                relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
-                relaxer._shared = shared
-                relaxer._vertex_pins = True
-                relaxer._zeta = None if zetas is None else zetas[r]
-                if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
-                    relaxer._sectors = (codes, r)
-                # its progress held while the region before it finishes
-                lines = _Lines(held=waiting is not None) if verbose else False
-                steps = relaxer._relax_steps(codes == r, pad=pad, verbose=lines, **params)
-                # up to its pause, while the last region's factor is still built beside; then
-                # the last region is finished, its factor built meanwhile
-                ready = _advance(steps)
-                last, waiting = waiting, (steps if ready is steps else None)
-                if last is not None:
-                    results.append(_run(last))
-                if lines:
-                    lines.release()
-                if waiting is None:
-                    results.append(ready)
-                distances = relaxer._distances
-            if waiting is not None:
-                last, waiting = waiting, None
-                results.append(_run(last))
-        finally:
-            if waiting is not None:  # a region failed: the one paused stops its factor's thread
-                waiting.close()
+        last = [self]  # the last region's relaxer, whose band searches serve the next one
+
+        def region(r, lines):
+            relaxer = Relaxer(self.domain, _keep=False, _h=h)
+            relaxer._distances = last[0]._distances  # the band's searches serve every region
+            relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
+            relaxer._shared = shared
+            relaxer._vertex_pins = True
+            relaxer._zeta = None if zetas is None else zetas[r]
+            if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
+                relaxer._sectors = (codes, r)
+            last[0] = relaxer
+            return relaxer._relax_steps(codes == r, pad=pad, verbose=lines, **params)
+
+        results = relax_in_turn(classes.size, region, verbose)
         if self._keep:
-            self._distances = distances
+            self._distances = last[0]._distances
         timings = summed_timings(results)
         timings["total"] = time.perf_counter() - t0
         return RegionsResult(classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
@@ -594,6 +578,39 @@ class Relaxer:
         if self._keep:
             self._heat = ((key, t, rtol), u, heat_info, X)
         return u, heat_info, X
+
+
+def relax_in_turn(count, start, verbose, overlap=True):
+    """The results of ``count`` relaxations, in order: ``start(i, lines)`` returns the
+    steps of the i-th (a generator, as :meth:`Relaxer._relax_steps`, given ``lines`` as
+    its ``verbose``). With ``overlap``, each runs up to its pause, while the factor of the
+    one before it is still built beside; then that one is finished, its factor built
+    meanwhile. The progress lines of each are held until the one before it has printed its
+    own. When one raises, the one paused is closed, which stops its factor's thread.
+    Without ``overlap``, each runs to its end before the next starts.
+    """
+    if not overlap:
+        return [_run(start(i, verbose)) for i in range(count)]
+    results, waiting = [], None
+    try:
+        for i in range(count):
+            lines = _Lines(held=waiting is not None) if verbose else False
+            steps = start(i, lines)
+            ready = _advance(steps)
+            last, waiting = waiting, (steps if ready is steps else None)
+            if last is not None:
+                results.append(_run(last))
+            if lines:
+                lines.release()
+            if waiting is None:
+                results.append(ready)
+        if waiting is not None:
+            last, waiting = waiting, None
+            results.append(_run(last))
+    finally:
+        if waiting is not None:
+            waiting.close()
+    return results
 
 
 def _advance(steps):
