@@ -217,12 +217,14 @@ def facet_pins(grid, region1, sources):
     return S, 0.5 * root, (np.hstack([facets, inner]), np.hstack([facets, outer]), np.full(n, np.sqrt(n_pins / n)))
 
 
-def pinned_rows(domain, S, vert_region1, targets=None):
+def pinned_rows(domain, S, vert_region1, targets=None, all_reached=False):
     """Constraint rows and targets: ``S`` at ``targets`` (1/2 by default), and phi held at
     1/2 -/+ 1 on the connected parts of the domain that zeta does not reach.
 
     There the field term alone leaves phi free up to a constant; pinning it keeps the
-    system definite and puts the part on its own side of 1/2.
+    system definite and puts the part on its own side of 1/2. With ``all_reached``, zeta
+    is known to reach every part (as it reaches every part of a band around it): the
+    domain's components are not sought.
 
     Examples
     --------
@@ -240,6 +242,8 @@ def pinned_rows(domain, S, vert_region1, targets=None):
     ((4, 6), [0.5, 1.5, 1.5, 1.5])
     """
     targets = np.full(S.shape[0], 0.5) if targets is None else targets
+    if all_reached:
+        return S, targets
     n_comp, comp = domain.vertex_components
     if n_comp == 1:
         return S, targets

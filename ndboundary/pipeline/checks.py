@@ -18,12 +18,12 @@ ANISOTROPIC_MEDIAN = 10.0
 FLAT_ASPECT = 1e4
 
 
-def check_element_shapes(domain, stacklevel=None, element_ids=None):
+def check_element_shapes(domain, element_ids=None):
     """Warn (:class:`~ndboundary.domains.MeshQualityWarning`) when the domain's elements are
     too thin to trust the relaxation, naming the worst elements and their aspect ratios.
 
-    The warning names the line that called into ndboundary (``stacklevel`` None), whatever
-    the depth of the steps between (a band, a region among several), or ``stacklevel``.
+    The warning names the line that called into ndboundary, whatever the depth of the
+    steps between (a band, a region among several).
 
     ``element_ids``, when ``domain`` was cut from the caller's (a band), holds each of its
     elements' index in the caller's domain: the warning names those.
@@ -64,7 +64,7 @@ def check_element_shapes(domain, stacklevel=None, element_ids=None):
         f"elements (aspect ratio): {named}. Remesh, or scale the coordinates to make the "
         "elements well shaped.",
         MeshQualityWarning,
-        stacklevel=outside_stacklevel() if stacklevel is None else stacklevel,
+        stacklevel=outside_stacklevel(),
     )
 
 

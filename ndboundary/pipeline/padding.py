@@ -95,9 +95,7 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=Fa
         border (``tests/test_images.py``).
     all_reached : bool, default=False
         Zeta is known to reach every connected part of the domain, as it reaches every
-        part of a band around it: no part needs to be held on its own side of 1/2
-        (:func:`~ndboundary.pipeline.boundary.pinned_rows`), and the domain's components
-        are not sought.
+        part of a band around it (:func:`~ndboundary.pipeline.boundary.pinned_rows`).
 
     Returns
     -------
@@ -140,14 +138,11 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=Fa
     slabs = None
     if on == "elements" and not vertex_pins and isinstance(domain, (ImageGrid, GridBand)):
         S, targets, (inside, outside, lift) = facet_pins(domain, region1, boundary.sources)
-        if not all_reached:
-            S, targets = pinned_rows(domain, S, vert_region1, targets)
+        S, targets = pinned_rows(domain, S, vert_region1, targets, all_reached)
         more = S.shape[0] - lift.size  # the rows of parts that zeta does not reach
         slabs = tuple(np.concatenate([a, np.full((more,) + a.shape[1:], -1)]) for a in (inside, outside))
         slabs += (np.concatenate([lift, np.zeros(more)]),)
-    elif all_reached:
-        S, targets = boundary.S, np.full(boundary.S.shape[0], 0.5)
     else:
-        S, targets = pinned_rows(domain, boundary.S, vert_region1)
+        S, targets = pinned_rows(domain, boundary.S, vert_region1, all_reached=all_reached)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()
     return Padded(work, split, parent, elem_region1, straddle, left, S, targets, slabs)

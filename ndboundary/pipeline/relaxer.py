@@ -337,23 +337,24 @@ class Relaxer:
         shared = self._factors if self._keep else FactorCache(keep_factor=False)
         # every region's zeta in one pass over the domain, where each alone would take one
         zetas = self.domain.code_boundaries(codes, classes.size) if p["on"] == "elements" else None
-        last = [self]  # the last region's relaxer, whose band searches serve the next one
+        previous = self  # the last region's relaxer, whose band searches serve the next one
 
         def region(r, lines):
+            nonlocal previous
             relaxer = Relaxer(self.domain, _keep=False, _h=h)
-            relaxer._distances = last[0]._distances  # the band's searches serve every region
+            relaxer._distances = previous._distances  # the band's searches serve every region
             relaxer._fill = False  # the partition needs no fill: RegionsResult fills phi when read
             relaxer._shared = shared
             relaxer._vertex_pins = True
             relaxer._zeta = None if zetas is None else zetas[r]
             if p["on"] == "elements" and sectors.SECTOR_SMOOTHING:
                 relaxer._sectors = (codes, r)
-            last[0] = relaxer
+            previous = relaxer
             return relaxer._relax_steps(codes == r, pad=pad, verbose=lines, **params)
 
         results = relax_in_turn(classes.size, region, verbose)
         if self._keep:
-            self._distances = last[0]._distances
+            self._distances = previous._distances
         timings = summed_timings(results)
         timings["total"] = time.perf_counter() - t0
         return RegionsResult(classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
