@@ -35,11 +35,29 @@ from .io import (
     write_phi,
 )
 from .images import relax_image
-from .learn import LevelSetClassifier
 from .levelset import LevelSet, marching_simplices
 from .pipeline import DEFAULT_LAM, DEFAULT_MU, DEFAULT_SMOOTHING, PAPER, Boundary, Relaxer, RelaxResult, relax
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    """Load :mod:`ndboundary.learn` on first use of it or of ``LevelSetClassifier``.
+
+    The classifier needs scikit-learn, whose import takes longer than the rest of the
+    package's: the command line and the relaxation of meshes and images do without it.
+    """
+    if name in ("learn", "LevelSetClassifier"):
+        import importlib
+
+        learn = importlib.import_module(".learn", __name__)
+        return learn if name == "learn" else learn.LevelSetClassifier
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), "learn", *__all__})
+
 
 __all__ = [
     "DEFAULT_LAM",

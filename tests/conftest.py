@@ -3,6 +3,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _background import BackgroundRun
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -19,3 +20,25 @@ def shared_data():
     if not SHARED_DATA.is_dir():
         pytest.skip(f"shared data folder {SHARED_DATA} is absent")
     return SHARED_DATA
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "background_run: the test waits for a background run; it runs last")
+
+
+def pytest_collection_modifyitems(items):
+    """Tests that wait for a background run go last, which leaves the run the session to finish."""
+    items.sort(key=lambda item: item.get_closest_marker("background_run") is not None)
+
+
+def pytest_collection_finish(session):
+    """Start the background runs of the selected tests' modules (see ``_background.py``)."""
+    modules = {item.module: None for item in session.items if getattr(item, "module", None) is not None}
+    for module in modules:
+        for run in getattr(module, "BACKGROUND", ()):
+            run.start()
+
+
+def pytest_sessionfinish(session):
+    for run in BackgroundRun.every:
+        run.close()

@@ -5,13 +5,12 @@ import importlib
 import json
 import os
 import shutil
-import subprocess
-import sys
 import sysconfig
 import textwrap
 
 import numpy as np
 import pytest
+from _background import BackgroundRun
 
 from ndboundary import _kernels
 from ndboundary.datasets import kuhn_grid
@@ -66,28 +65,25 @@ WORKLOAD = textwrap.dedent(
         back = read_mesh(path)
         out[ext] = np.concatenate([back.points.ravel(), back.simplices.ravel().astype(float)])
     ours = sorted({name for name in compiled if name.startswith("ndboundary")})
-    np.savez(sys.argv[1], **out)
+    np.savez(os.path.join(sys.argv[1], "out.npz"), **out)
     print(json.dumps(ours))
     """
 )
 
 
-def _run(tmp_path, name, **env):
-    script = tmp_path / "workload.py"
-    script.write_text(WORKLOAD)
-    target = tmp_path / f"{name}.npz"
-    environ = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / f"cache-{name}"), **env}
-    done = subprocess.run(
-        [sys.executable, str(script), str(target)], env=environ, capture_output=True, text=True, check=False
-    )
-    assert done.returncode == 0, done.stderr[-3000:]
-    return json.loads(done.stdout.strip().splitlines()[-1]), dict(np.load(target))
+def _result(run):
+    folder = run.wait()
+    return json.loads(run.stdout.strip().splitlines()[-1]), dict(np.load(folder / "out.npz"))
+
+
+# started with the session, beside the other tests: the run without the built module
+# compiles every kernel it reaches, which takes a minute
+BACKGROUND = [] if _why_not_built() else [BackgroundRun(WORKLOAD), BackgroundRun(WORKLOAD, NDBOUNDARY_JIT="1")]
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("kernels")
-    return _run(tmp, "built"), _run(tmp, "jit", NDBOUNDARY_JIT="1")
+def runs():
+    return tuple(_result(run) for run in BACKGROUND)
 
 
 def test_every_kernel_signature_is_built():
@@ -126,6 +122,7 @@ def test_a_module_built_from_other_sources_is_not_used(monkeypatch):
     assert _kernels.aot_module() is not None
 
 
+@pytest.mark.background_run
 def test_a_first_run_compiles_no_kernel_of_ours(runs):
     (built_compiled, _), (jit_compiled, _) = runs
     assert built_compiled == []
@@ -133,6 +130,7 @@ def test_a_first_run_compiles_no_kernel_of_ours(runs):
     assert len(jit_compiled) >= 20, jit_compiled
 
 
+@pytest.mark.background_run
 def test_built_kernels_compute_what_numba_computes_bit_for_bit(runs):
     (_, built), (_, jit) = runs
     assert built.keys() == jit.keys()

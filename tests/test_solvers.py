@@ -834,16 +834,19 @@ def test_backend_rejects_indefinite_matrix_and_auto_recovers(backend):
     assert _rel(N @ x, b) < 1e-10
 
 
-def test_importing_ndboundary_does_not_load_optional_backends():
+def test_importing_ndboundary_does_not_load_optional_backends_nor_scikit_learn():
+    """Nor does the command line: scikit-learn loads with the classifier, on first use."""
     import subprocess
 
     code = (
-        "import sys, ndboundary, ndboundary.solvers; "
-        "print(sorted(m for m in ('pypardiso', 'cvxopt', 'sksparse_minimal', 'pyamg') "
-        "if m in sys.modules))"
+        "import sys, ndboundary, ndboundary.solvers, ndboundary.cli; "
+        "print(sorted(m for m in ('pypardiso', 'cvxopt', 'sksparse_minimal', 'pyamg', 'sklearn') "
+        "if m in sys.modules)); "
+        "from ndboundary import LevelSetClassifier; "
+        "print('sklearn' in sys.modules, ndboundary.learn.LevelSetClassifier is LevelSetClassifier)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
+    assert out.stdout.split("\n")[:2] == ["[]", "True True"]
 
 
 def test_pardiso_releases_its_memory():
