@@ -15,15 +15,15 @@ from pathlib import Path
 
 
 class BackgroundRun:
-    every = []
-
     """``python script <folder>`` in a subprocess, in a fresh folder, with extra environment.
 
-    A test module lists its runs in ``BACKGROUND``; the session starts every run that a
-    selected test's module lists. ``wait`` starts the run if nothing did, and returns the
-    folder once the script exited with status 0; otherwise it raises with the script's
-    standard error.
+    A test module lists its runs in ``BACKGROUND``; the session starts those of every
+    module with a selected test marked ``background_run``. ``wait`` starts the run if
+    nothing did, and returns the folder once the script exited with status 0; otherwise it
+    raises with the script's standard error.
     """
+
+    every = []  # every run made, which the session closes at its end
 
     def __init__(self, script, **env):
         self.script, self.env = script, env
@@ -45,10 +45,10 @@ class BackgroundRun:
             )
         return self
 
-    def wait(self):
+    def wait(self, timeout=1200):
         self.start()
         if self.stdout is None:
-            self.stdout, self.stderr = self.process.communicate()
+            self.stdout, self.stderr = self.process.communicate(timeout=timeout)
         if self.process.returncode != 0:
             raise AssertionError(f"background run failed with status {self.process.returncode}:\n{self.stderr[-3000:]}")
         return self.folder

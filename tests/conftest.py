@@ -32,10 +32,11 @@ def pytest_collection_modifyitems(items):
 
 
 def pytest_collection_finish(session):
-    """Start the background runs of the selected tests' modules (see ``_background.py``)."""
-    modules = {item.module: None for item in session.items if getattr(item, "module", None) is not None}
-    for module in modules:
-        for run in getattr(module, "BACKGROUND", ()):
+    """Start the background runs of the modules of the selected tests that wait for one
+    (see ``_background.py``)."""
+    waiting = [item for item in session.items if item.get_closest_marker("background_run") is not None]
+    for module in dict.fromkeys(item.module for item in waiting):
+        for run in module.BACKGROUND:
             run.start()
 
 
