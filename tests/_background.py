@@ -27,7 +27,7 @@ class BackgroundRun:
 
     def __init__(self, script, **env):
         self.script, self.env = script, env
-        self.folder = self.process = self.stdout = None
+        self.folder = self.process = self.stdout = self.stderr = None
         BackgroundRun.every.append(self)
 
     def start(self):
