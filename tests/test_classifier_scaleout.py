@@ -160,10 +160,14 @@ def test_a_local_cluster_leaves_the_process_that_started_it_its_threads(client):
     assert available_threads() == THREADS_BEFORE_ANY_CLUSTER
 
 
-def test_the_workers_keep_their_copy_until_a_refit(client, moons):
+def test_the_workers_keep_their_copy_until_a_refit(client, moons, request):
     from ndboundary.learn.scaleout import _workers_on_loopback, shipped_to_workers
 
     assert _workers_on_loopback(client)  # the copy goes to a worker directly, then to the other
+    # the active memory manager drops, every 2 s, the replicas no task waits for: stopped
+    # here, so that the replicas counted are the broadcast's, however slow the machine
+    client.amm.stop()
+    request.addfinalizer(client.amm.start)
     X, y, Xt, _ = moons
     clf = LevelSetClassifier().fit(X[:600], y[:600])
     Xd = da.from_array(Xt, chunks=(250, 2))

@@ -11,8 +11,9 @@ Two pieces serve large data:
   other rows predicted with it, so the blocks agree with the in-memory result exactly.
   Dask is an optional dependency (the ``dask`` extra); nothing here imports it unless a
   Dask array is given. On a ``distributed`` cluster the lean copy of the fitted
-  classifier (:func:`for_prediction`) is sent to every worker once and kept there while
-  the classifier lives (:func:`shipped_to_workers`), so later predictions start at once.
+  classifier (:func:`for_prediction`) is sent to every worker once and kept on the
+  cluster while the classifier lives (:func:`shipped_to_workers`), so later predictions
+  do not send it again.
 """
 
 from __future__ import annotations
@@ -167,7 +168,9 @@ def shipped_to_workers(est):
     client.
 
     The copy is sent (``scatter(..., broadcast=True)``) on the first call and reused by
-    later ones while ``est`` lives, the client runs and ``est`` is not refitted: the copy
+    later ones while ``est`` lives, the client runs and ``est`` is not refitted. Dask's
+    active memory manager, when it runs, drops the replicas that no task waits for; a
+    worker then fetches the copy from another worker when a task needs it. The copy
     holds the training samples and their neighbour index, which sent with each
     prediction would cost each call a transfer of that size. When every worker listens
     on this machine's loopback (a ``LocalCluster``) and the client was not told otherwise
