@@ -20,7 +20,8 @@ Each of ``--repeats`` rounds predicts the samples in memory, with no cluster run
 idle ``LocalCluster`` slows a process beside it on a small machine; the one closed before
 leaves ``OMP_NUM_THREADS=1`` in this process's environment, which ndboundary reads only
 as the process was started), then starts a fresh cluster of each layout in turn and
-predicts them there once each way. The ratios to the in-memory time are taken within a
+predicts them there each way of ``--ways`` (all by default), ``--calls`` times each (1 by
+default; the median of a round's calls is its time, in memory too). The ratios to the in-memory time are taken within a
 round, so that the drifts of a shared machine hit both sides alike; their median is
 printed with their range. The classifier's own ``predict`` ships its lean copy to the
 workers on its first call and reuses it after
@@ -29,13 +30,19 @@ workers on its first call and reuses it after
 ``--no-profiler`` and ``--no-malloc-trim`` start the workers without two of Dask's
 defaults: its statistical profiler, which samples every worker thread's stack 100 times a
 second, and ``MALLOC_TRIM_THRESHOLD_``, with which glibc hands freed memory back to the
-system (and faults it in again) at once. Prints a table and one JSON line.
+system (and faults it in again) at once. ``--quiet`` starts the clusters with
+:data:`QUIET`: no profiler, and the event loops' health check and the system monitor
+run every second or two instead of every 20 and 500 ms. Idle, a ``2x1`` cluster's
+processes then take 3 % of a core instead of 16 % (``--idle`` measures it for each
+setting first), which on a machine whose cores the cluster shares with nothing else
+is work taken from the predictions. Prints a table and one JSON line.
 
 Usage::
 
     python benchmarks/dask_predict.py [--fit-n 100000] [--max-samples 0.1] [--n 10000000]
                                       [--check-n 200000] [--chunk 100000] [--layouts 1x2,2x1]
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
+                                      [--quiet] [--idle] [--ways cluster,...] [--calls 1]
 """
 
 from __future__ import annotations
@@ -88,6 +95,13 @@ def check(labels, ref, way):
 
 WAYS = ("cluster", "parallelpostfit_lean", "parallelpostfit")
 
+#: Dask settings of ``--quiet``: the periodic work of an idle cluster, cut down.
+QUIET = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+}
+
 
 def layout(text):
     """``(workers, threads)`` of a layout ``WxT``."""
@@ -110,6 +124,20 @@ def cluster(workers, threads, settings):
         yield client
 
 
+def idle_share(workers, threads, settings, seconds=8.0):
+    """The CPU time the processes of an idle cluster take, as a share of one core."""
+    import psutil
+
+    with cluster(workers, threads, settings):
+        time.sleep(2.0)  # started
+        me = psutil.Process()
+        procs = [me, *me.children(recursive=True)]
+        cpu = lambda: sum(sum(p.cpu_times()[:2]) for p in procs)  # noqa: E731
+        c0 = cpu()
+        time.sleep(seconds)
+        return (cpu() - c0) / seconds
+
+
 def cluster_round(client, clf, Xc, ref, args):
     """Seconds to predict ``Xc`` on the cluster of ``client`` each way, once, after warming
     every worker; ``cluster_first`` is the classifier's own first call, which ships its
@@ -121,16 +149,26 @@ def cluster_round(client, clf, Xc, ref, args):
     Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
     wrapped, lean = ParallelPostFit(clf), ParallelPostFit(for_prediction(clf))
     ways = {
-        "cluster_first": lambda: clf.predict(Xd).compute(),
         "cluster": lambda: clf.predict(Xd).compute(),
         "parallelpostfit_lean": lambda: lean.predict(Xd).compute(),
         "parallelpostfit": lambda: wrapped.predict(Xd).compute(),
     }
     times = {}
-    for name, way in ways.items():
-        times[name], labels = timed(way)
-        check(labels, ref, name)
+    times["cluster_first"], labels = timed(ways["cluster"])
+    check(labels, ref, "cluster_first")
+    for name in args.ways:
+        times[name] = calls(ways[name], ref, name, args.calls)
     return times
+
+
+def calls(way, ref, name, count):
+    """The median seconds of ``count`` calls of ``way``, each checked against ``ref``."""
+    seconds = []
+    for _ in range(count):
+        t, labels = timed(way)
+        check(labels, ref, name)
+        seconds.append(t)
+    return float(np.median(seconds))
 
 
 def main(argv=None):
@@ -150,7 +188,14 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-profiler", action="store_true", help="workers without Dask's statistical profiler")
     ap.add_argument("--no-malloc-trim", action="store_true", help="workers without Dask's MALLOC_TRIM_THRESHOLD_")
+    ap.add_argument("--quiet", action="store_true", help="clusters with QUIET's settings")
+    ap.add_argument("--idle", action="store_true", help="first measure an idle cluster's CPU share, each setting")
+    ap.add_argument("--ways", default=",".join(WAYS), help=f"comma-separated, from {', '.join(WAYS)}")
+    ap.add_argument("--calls", type=int, default=1, help="calls per way and round, their median kept")
     args = ap.parse_args(argv)
+    args.ways = [way for way in args.ways.split(",") if way]
+    if unknown := sorted(set(args.ways) - set(WAYS)):
+        ap.error(f"unknown ways {unknown}; choose from {', '.join(WAYS)}")
     X, y = make_data(args.fit_n, args.features)
     m = args.max_samples
     clf = LevelSetClassifier(max_samples=None if m <= 0 else (int(m) if m > 1 else m), random_state=0)
@@ -162,17 +207,20 @@ def main(argv=None):
     ref = clf.predict(Xc)
     out["accuracy"] = float((ref == yc).mean())
     settings = {"distributed.worker.profile.enabled": not args.no_profiler}
+    if args.quiet:
+        settings.update(QUIET)
     if args.no_malloc_trim:
         environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ"))
         environ.pop("MALLOC_TRIM_THRESHOLD_", None)
         settings["distributed.nanny.pre-spawn-environ"] = environ
     layouts = [layout(text) for text in args.layouts.split(",")]
-    names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *WAYS)]
+    if args.idle:
+        for name, conf in (("default", {}), ("quiet", QUIET)):
+            out[f"idle_core_share_{name}@{layouts[0][0]}x{layouts[0][1]}"] = idle_share(*layouts[0], conf)
+    names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *args.ways)]
     times = {name: [] for name in ("memory", *names)}
     for _ in range(args.repeats):
-        t, labels = timed(lambda: clf.predict(Xc))  # no cluster running
-        check(labels, ref, "memory")
-        times["memory"].append(t)
+        times["memory"].append(calls(lambda: clf.predict(Xc), ref, "memory", args.calls))  # no cluster running
         for w, th in layouts:
             with cluster(w, th, settings) as client:
                 for name, t in cluster_round(client, clf, Xc, ref, args).items():
