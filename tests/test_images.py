@@ -91,6 +91,28 @@ def test_bad_input(make, match):
         make()
 
 
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: ImageGrid((4.5, 4)), "shape must be a sequence of integers"),
+        (lambda: ImageGrid((True, 4)), "shape must be a sequence of integers"),
+        (lambda: ImageGrid(4), "shape must be a sequence of integers"),
+        (lambda: ImageGrid((4, 4), spacing="a"), "spacing must be one number or one per axis"),
+        (lambda: ImageGrid((4, 4), origin=[1, "b"]), "origin must be one number or one per axis"),
+    ],
+)
+def test_grid_geometry_of_the_wrong_type(make, match):
+    """A fractional size would be truncated, a string would fail inside numpy: both are
+    refused, naming the argument."""
+    with pytest.raises(TypeError, match=match):
+        make()
+
+
+def test_grid_sizes_may_be_numpy_integers():
+    grid = ImageGrid(np.array([3, 4]), spacing=np.float32(0.5))
+    assert grid.shape == (3, 4) and grid.spacing == (0.5, 0.5)
+
+
 def test_oblique_grid_relaxes_like_the_straight_one_rotated():
     """A scan tilted by a rotation: pixels centred at origin + direction @ (index * spacing),
     and the relaxation is the straight grid's, rotated (measures equal, curve moved)."""

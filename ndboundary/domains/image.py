@@ -16,6 +16,8 @@ their indices.
 
 from __future__ import annotations
 
+import numbers
+
 from functools import cached_property
 
 import numpy as np
@@ -45,9 +47,12 @@ __all__ = ["GridBand", "ImageGrid", "PixelBand", "PixelGrid", "VoxelBand", "Voxe
 def grid_geometry(shape, spacing, origin):
     """``(shape, spacing, origin)`` checked, as tuples of one int / float per axis."""
     try:
-        shape = tuple(int(n) for n in shape)
+        sizes = tuple(shape)
     except TypeError:
         raise TypeError(f"shape must be a sequence of integers, got {shape!r}") from None
+    if not all(isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in sizes):
+        raise TypeError(f"shape must be a sequence of integers, got {shape!r}")
+    shape = tuple(int(n) for n in sizes)
     dim = len(shape)
     if dim not in (2, 3):
         raise ValueError(f"an image grid is 2-D or 3-D, got shape {shape}")
@@ -55,7 +60,10 @@ def grid_geometry(shape, spacing, origin):
         raise ValueError(f"shape must hold positive sizes, got {shape}")
     out = []
     for name, value in (("spacing", spacing), ("origin", origin)):
-        arr = np.asarray(value, dtype=np.float64)
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be one number or one per axis ({dim}), got {value!r}") from None
         arr = np.full(dim, float(arr)) if arr.ndim == 0 else arr
         if arr.shape != (dim,):
             raise ValueError(f"{name} must be one number or one per axis ({dim}), got {value!r}")
