@@ -20,6 +20,7 @@ from .cli_files import (
     PHI_EXTENSIONS,
     CLIError,
     atomic_outputs,
+    check_boundary_format,
     check_input,
     check_outputs,
     one_line,
@@ -170,8 +171,14 @@ def cmd_relax(args):
         where = "a 2-D mesh" if domain.dim == 2 else "a surface"
         raise CLIError(
             f"--surface-format stl: STL holds triangles, and the region boundaries on {where} are curves; "
-            "use obj, ply or vtk"
+            "use obj, ply, vtk or vtp"
         )
+    if args.region_surfaces and domain.element_dim > 3 and args.surface_format != "vtk":
+        raise CLIError(
+            f"--surface-format {args.surface_format}: the region boundaries of a 4-D mesh are tetrahedra; use vtk"
+        )
+    if args.boundary and domain.element_dim >= 2:
+        check_boundary_format("--boundary", args.boundary, domain.element_dim)
     show = not args.quiet and sys.stderr.isatty() and domain.n_vertices >= PROGRESS_VERTICES
     kwargs = {}
     if args.lam is not None:
@@ -303,9 +310,9 @@ def build_parser():
     rel.add_argument(
         "--boundary",
         metavar="OUT.obj",
-        help="where to write the relaxed boundary (.obj, .ply, .vtk or .vtu); for three or more labels the "
-        "interfaces between the regions, each piece with its pair of regions: an OBJ group 'A|B' per pair, "
-        "PLY face (or edge) properties and VTK cell data region_a and region_b",
+        help="where to write the relaxed boundary (.obj, .ply, .stl, .vtk, .vtp or .vtu); for three or more labels "
+        "the interfaces between the regions, each piece with its pair of regions: an OBJ group or an ASCII STL "
+        "solid 'A|B' per pair, PLY face (or edge) properties and VTK cell data region_a and region_b",
     )
     rel.add_argument(
         "--partition",
@@ -325,7 +332,7 @@ def build_parser():
         choices=SURFACE_FORMATS,
         default="obj",
         help="format of --region-surfaces (default obj); stl (binary, for 3-D printing) holds triangles, so "
-        "it needs a solid mesh: on 2-D meshes and surfaces the boundaries are curves",
+        "it needs a solid mesh: on 2-D meshes and surfaces the boundaries are curves; vtp is VTK's polygonal data",
     )
     rel.add_argument(
         "--background",

@@ -28,6 +28,7 @@ __all__ = [
     "atomic_outputs",
     "one_line",
     "reading",
+    "check_boundary_format",
     "check_input",
     "check_outputs",
     "writable_labels",
@@ -36,13 +37,42 @@ __all__ = [
 #: The extensions ``write_phi`` writes.
 PHI_EXTENSIONS = (".vtk", ".vtu")
 #: The extensions ``write_level_set`` and ``write_interfaces`` write.
-BOUNDARY_EXTENSIONS = (".obj", ".ply", ".vtk", ".vtu")
+BOUNDARY_EXTENSIONS = (".obj", ".ply", ".stl", ".vtk", ".vtp", ".vtu")
 #: The extensions written through meshio.
 _MESHIO_EXTENSIONS = (".vtk", ".vtu")
 
 
 class CLIError(Exception):
     """An error reported as one line on stderr, with a non-zero exit status."""
+
+
+def check_boundary_format(option, path, element_dim):
+    """Check, before any work, that the file ``path`` can hold the boundaries of a domain
+    of elements of dimension ``element_dim``: curves (2), surfaces (3) or solids (4).
+
+    Raises
+    ------
+    CLIError
+        For STL, which holds triangles only, or OBJ, PLY and VTP, which hold no solids.
+
+    Examples
+    --------
+    >>> check_boundary_format("--boundary", "out.stl", 3)
+    >>> check_boundary_format("--boundary", "out.stl", 2)
+    Traceback (most recent call last):
+    ...
+    ndboundary.cli_files.CLIError: --boundary out.stl: STL holds triangles, and these boundaries are curves; ...
+    """
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext == ".stl" and element_dim != 3:
+        what = "curves" if element_dim == 2 else "tetrahedra"
+        raise CLIError(
+            f"{option} {path}: STL holds triangles, and these boundaries are {what}; use .obj, .ply, .vtk, .vtp or .vtu"
+        )
+    if ext in (".obj", ".ply", ".vtp") and element_dim > 3:
+        raise CLIError(
+            f"{option} {path}: a 4-D domain's boundaries are tetrahedra, which {ext} does not hold; use .vtk or .vtu"
+        )
 
 
 class Output(NamedTuple):

@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-from .cli_files import BOUNDARY_EXTENSIONS, CLIError, atomic_outputs, check_outputs, reading
+from .cli_files import BOUNDARY_EXTENSIONS, CLIError, atomic_outputs, check_boundary_format, check_outputs, reading
 from .cli_regions import RegionProgress, check_folder, region_surface_paths
 from .io.images import IMAGE_READ_SUFFIXES, IMAGE_WRITE_SUFFIXES
 
@@ -89,6 +89,8 @@ def cmd_relax_image(args):
     with reading(args.mesh):
         image = io.read_image(args.mesh, oblique=True)  # a tilted scan is relaxed in its world coordinates
     labels = image.labels
+    if args.boundary:
+        check_boundary_format("--boundary", args.boundary, labels.ndim)
     classes = np.unique(labels)
     if classes.size < 2:
         raise CLIError(f"{args.mesh}: the image holds one label only ({classes.tolist()}); two or more are needed")

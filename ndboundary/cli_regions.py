@@ -18,7 +18,7 @@ from .cli_files import CLIError
 __all__ = ["SURFACE_FORMATS", "RegionProgress", "check_folder", "region_surface_paths"]
 
 #: The formats of ``--surface-format``: the region boundaries ``write_level_set`` writes.
-SURFACE_FORMATS = ("obj", "stl", "ply", "vtk")
+SURFACE_FORMATS = ("obj", "stl", "ply", "vtk", "vtp")
 
 
 def check_folder(option, folder):

@@ -337,12 +337,11 @@ def _denied_folder(monkeypatch, folder):
         (["-o", "o.obj"], "-o o.obj: cannot write '.obj' files; use .vtk or .vtu"),
         (["-o", "phi"], "-o phi: cannot write extension-less files; use .vtk or .vtu"),
         (["-o", "o.vtu", "--boundary", "b.xyz"],
-         "--boundary b.xyz: cannot write '.xyz' files; use .obj, .ply, .vtk or .vtu"),
-        (["-o", "o.vtu", "--boundary", "b.stl"], "--boundary b.stl: cannot write '.stl' files"),
+         "--boundary b.xyz: cannot write '.xyz' files; use .obj, .ply, .stl, .vtk, .vtp or .vtu"),
         (["-o", "folder.vtu"], "-o folder.vtu is a directory"),
     ],
     ids=["missing-folder", "missing-boundary-folder", "folder-is-a-file", "read-only-folder",
-         "read-only-boundary-folder", "phi-extension", "no-extension", "boundary-extension", "boundary-stl",
+         "read-only-boundary-folder", "phi-extension", "no-extension", "boundary-extension",
          "output-is-a-directory"],
 )
 def test_relax_checks_the_outputs_before_reading_the_mesh(work, capsys, monkeypatch, outputs, message):
@@ -383,6 +382,17 @@ def test_relax_refuses_a_boundary_file_for_a_curve_before_relaxing(tmp_path, cap
     assert code == 1 and not relaxed
     _one_error(err, "--boundary b.obj: the boundary on a curve is points, which no format holds")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ring.obj", "v.txt"]
+
+
+def test_relax_refuses_stl_for_the_curves_of_a_2d_mesh_before_relaxing(work, capsys, monkeypatch):
+    """STL holds triangles: the boundary of a 2-D mesh is curves, known once the mesh is read."""
+    import ndboundary.pipeline
+
+    before = _snapshot(work)
+    relaxed = _spy(monkeypatch, ndboundary.pipeline, "relax")
+    code, _, err = _relax(capsys, "m.obj", "el.txt", "-o", "o.vtu", "--boundary", "b.stl")
+    assert code == 1 and not relaxed and _snapshot(work) == before
+    _one_error(err, "--boundary b.stl: STL holds triangles, and these boundaries are curves; use .obj, .ply, .vtk")
 
 
 # 4. labels of every dtype relax accepts reach the VTU file (booleans and strings as region indices 0/1)

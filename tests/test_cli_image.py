@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from _checks import read_vtp, stl_solids
 from ndboundary import read_mesh
 from ndboundary.cli import main
 
@@ -39,6 +40,28 @@ def test_volume_surfaces_per_region_without_the_background(tmp_path, capsys):
         volume = _enclosed_volume(read_mesh(tmp_path / "parts" / name))  # closed and outward
         assert volume == pytest.approx(float((labels == r).sum()), rel=0.015)
     assert "boundary closed" in out and "wrote 2 region boundaries" in out
+
+
+def test_volume_interfaces_as_stl_solids_and_surfaces_as_vtp(tmp_path, capsys):
+    """``--boundary OUT.stl`` on a volume of three labels: one named solid per pair of
+    regions that meet; ``--surface-format vtp``: each region's closed surface as VTK
+    polygonal data."""
+    labels = _two_balls()
+    np.save(tmp_path / "seg.npy", labels)
+    code, out, err = _run(
+        capsys, tmp_path / "seg.npy", "--boundary", tmp_path / "i.stl", "--surfaces", tmp_path / "parts",
+        "--surface-format", "vtp", "--background", "0",
+    )  # fmt: skip
+    assert code == 0, err
+    solids = stl_solids(tmp_path / "i.stl")
+    assert [name for name, _, _ in solids] == ["0|1", "0|2"]  # the balls are apart: no 1|2
+    assert all(len(corners) > 100 for _, _, corners in solids)
+    for r in (1, 2):
+        back = read_vtp(tmp_path / "parts" / f"region_{r}.vtp")
+        tri = back["Polys"]["connectivity"].reshape(-1, 3)
+        p = back["Points"][""][tri]
+        volume = float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+        assert volume == pytest.approx(float((labels == r).sum()), rel=0.03)  # closed and outward
 
 
 def test_two_label_image_phi_at_the_pixel_centres(tmp_path, capsys):
@@ -79,6 +102,7 @@ def test_phi_of_a_large_image_relaxed_on_its_band_covers_every_pixel(tmp_path, c
         (["seg.npy", "-o", "phi.npy"], "written for two labels"),
         (["seg.npy", "--surfaces", "out", "--background", "7"], "not one of the labels"),
         (["flat.npy", "--surfaces", "out", "--surface-format", "stl"], "STL holds triangles"),
+        (["flat.npy", "--boundary", "b.stl"], "STL holds triangles, and these boundaries are curves"),
     ],
 )
 def test_image_errors_write_nothing(tmp_path, capsys, monkeypatch, argv, message):

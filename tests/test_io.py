@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from _checks import obj_groups
+from _checks import obj_groups, read_vtp, stl_solids
 from ndboundary import (
     PolygonMesh,
     PolyhedralMesh,
@@ -379,8 +379,15 @@ def test_interfaces_writer_groups_and_pairs(tmp_path):
     assert f"element edge {len(faces)}" in text[: text.index("end_header")] and "property int region_b" in text
     rows = np.array([line.split() for line in text[-len(faces):]], dtype=int)
     np.testing.assert_array_equal(rows[:, 2:], faces.pairs)
-    with pytest.raises(ValueError, match="unknown interfaces format"):
+    with pytest.raises(ValueError, match="STL holds triangles, not curves"):
         write_interfaces(tmp_path / "i.stl", res)
+    with pytest.raises(ValueError, match="unknown interfaces format"):
+        write_interfaces(tmp_path / "i.off", res)
+    write_interfaces(tmp_path / "i.vtp", res)  # curves: VTK's lines
+    back = read_vtp(tmp_path / "i.vtp")
+    assert back["Piece"]["NumberOfLines"] == len(faces) and back["Piece"]["NumberOfPolys"] == 0
+    np.testing.assert_array_equal(back["Lines"]["connectivity"].reshape(-1, 2), faces.simplices)
+    np.testing.assert_array_equal(np.c_[back["CellData"]["region_a"], back["CellData"]["region_b"]], faces.pairs)
     with pytest.raises(TypeError, match="what ndboundary.relax returns"):
         write_interfaces(tmp_path / "i.obj", faces)
 
@@ -402,6 +409,72 @@ def test_interfaces_writer_on_a_solid_numeric_classes(tmp_path):
     pairs, counts = np.unique(faces.pairs, axis=0, return_counts=True)
     write_interfaces(tmp_path / "i.obj", res)
     assert obj_groups(tmp_path / "i.obj") == [(f"{a}|{b}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)]
+
+
+def test_interfaces_as_named_stl_solids_and_vtk_polygonal_data(tmp_path):
+    """A solid's interfaces: one ASCII STL solid per pair, named as the OBJ groups, holding
+    that pair's triangles, oriented from the smaller region to the larger, at the shared
+    points to full precision; VTP holds the triangles with their pairs and labels, and a
+    region's boundary as written by ``write_level_set``."""
+    res = relax(TET3, _ball_in_halves(TET3) * 10 + 1, on="elements")  # labels 1, 11, 21
+    faces = res.interfaces()
+    write_interfaces(tmp_path / "i.stl", res)
+    pairs, counts = np.unique(faces.pairs, axis=0, return_counts=True)
+    solids = stl_solids(tmp_path / "i.stl")
+    assert [(name, len(c)) for name, _, c in solids] == [
+        (f"{res.classes[a]}|{res.classes[b]}", int(n)) for (a, b), n in zip(pairs, counts, strict=True)
+    ]
+    for (a, b), (_, normals, corners) in zip(pairs, solids, strict=True):
+        mine = faces.simplices[(faces.pairs[:, 0] == a) & (faces.pairs[:, 1] == b)]
+        np.testing.assert_array_equal(corners, faces.points[mine])  # %.17g: the doubles themselves
+        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        np.testing.assert_allclose(normals, cross / np.linalg.norm(cross, axis=1, keepdims=True), atol=1e-8)
+    write_interfaces(tmp_path / "i.vtp", res)
+    back = read_vtp(tmp_path / "i.vtp")
+    assert back["Piece"]["NumberOfPolys"] == len(faces) and back["Piece"]["NumberOfLines"] == 0
+    np.testing.assert_array_equal(back["Points"][""], faces.points)
+    np.testing.assert_array_equal(back["Polys"]["connectivity"].reshape(-1, 3), faces.simplices)
+    np.testing.assert_array_equal(back["Polys"]["offsets"], 3 * np.arange(1, len(faces) + 1))
+    np.testing.assert_array_equal(back["CellData"]["label_a"], res.classes[faces.pairs[:, 0]])
+    np.testing.assert_array_equal(back["CellData"]["region_b"], faces.pairs[:, 1])
+    ball = res.region_boundary(2)
+    write_level_set(tmp_path / "ball.vtp", ball)
+    back = read_vtp(tmp_path / "ball.vtp")
+    np.testing.assert_array_equal(back["Polys"]["connectivity"].reshape(-1, 3), ball.simplices)
+    assert _enclosed_volume(back["Points"][""], back["Polys"]["connectivity"].reshape(-1, 3)) == pytest.approx(
+        res.region_measures()[2], rel=1e-12
+    )
+    flat = relax(REGIONS2, ds.label_by(REGIONS2, ds.circle), on="elements").level_set()
+    write_level_set(tmp_path / "curve.vtp", flat)
+    back = read_vtp(tmp_path / "curve.vtp")
+    assert back["Piece"]["NumberOfLines"] == flat.n_simplices
+    np.testing.assert_array_equal(back["Points"][""][:, :2], flat.points)
+    assert not back["Points"][""][:, 2].any()  # a plane curve: zeros appended
+
+
+def test_vtk_reads_the_polygonal_data_and_the_named_solids(tmp_path):
+    """VTK's own readers (the ``[bench]`` extra) read the files: the VTP's cells and arrays,
+    and one tag per STL solid."""
+    vtk = pytest.importorskip("vtk")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    res = relax(TET3, _ball_in_halves(TET3), on="elements")
+    faces = res.interfaces()
+    write_interfaces(tmp_path / "i.vtp", res)
+    write_interfaces(tmp_path / "i.stl", res)
+    reader = vtk.vtkXMLPolyDataReader()
+    reader.SetFileName(str(tmp_path / "i.vtp"))
+    reader.Update()
+    out = reader.GetOutput()
+    assert out.GetNumberOfPolys() == len(faces) and out.GetNumberOfPoints() == len(faces.points)
+    np.testing.assert_array_equal(vtk_to_numpy(out.GetCellData().GetArray("region_a")), faces.pairs[:, 0])
+    stl = vtk.vtkSTLReader()
+    stl.SetFileName(str(tmp_path / "i.stl"))
+    stl.SetScalarTags(True)
+    stl.Update()
+    tags = vtk_to_numpy(stl.GetOutput().GetCellData().GetArray(0))
+    assert stl.GetOutput().GetNumberOfPolys() == len(faces)
+    assert np.unique(tags).size == np.unique(faces.pairs, axis=0).shape[0]
 
 
 def test_two_region_interfaces_are_the_level_set_with_its_pair(tmp_path):

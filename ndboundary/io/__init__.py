@@ -14,6 +14,8 @@ extension                 read                            write
 ``.msh`` (Gmsh)           hexahedra, wedges, pyramids
 ``.vtk``, ``.vtu``        any of the above; ``.vtu``      any (``.vtu`` also general
                           also general polyhedra          polyhedra)
+``.vtp``                                                  level sets and interfaces:
+                                                          segments, triangles
 ========================  ==============================  ==============================
 
 meshio (optional dependency, ``meshio>=5.3``) is imported only for the formats it
@@ -62,8 +64,11 @@ module                          holds
 :mod:`.cell_blocks`             cell blocks (the form between files and domains) to domains
                                 and back
 :mod:`.obj`, :mod:`.off`,       one format each: Wavefront OBJ, OFF, CinoLib HEDRA, PLY (its
-:mod:`.hedra`, :mod:`.ply`,     common layouts, and the ASCII level-set writer), binary STL
-:mod:`.stl`                     (the level-set writer)
+:mod:`.hedra`, :mod:`.ply`,     common layouts, and the ASCII level-set writer), STL (the
+:mod:`.stl`                     binary level-set writer, and ASCII named solids for the
+                                interfaces)
+:mod:`.vtu`                     VTK XML files written in VTK's compressed layout: ``.vtu``
+                                of cells of fixed size, ``.vtp`` of segments or triangles
 :mod:`.meshio_formats`          PLY, STL, MEDIT, Gmsh, VTK and VTU through meshio; VTK data
                                 types
 :mod:`.text_scan`,              compiled (numba) scans of OBJ, OFF and PLY text; decimal

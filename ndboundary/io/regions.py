@@ -15,7 +15,9 @@ import numpy as np
 
 from .common import format_suffix, points_3d
 from .meshio_formats import SIMPLEX_KINDS, vtk_values, write_with_meshio
+from .stl import write_ascii_stl_solids
 from .text_format import points_text, rows_text
+from .vtu import write_vtp
 
 __all__ = ["MAX_NAME_LENGTH", "region_names", "write_interfaces", "write_partition"]
 
@@ -175,7 +177,7 @@ def write_interfaces(path, result):
     Parameters
     ----------
     path : str or path-like
-        ``.obj``, ``.ply``, ``.vtk`` or ``.vtu``.
+        ``.obj``, ``.ply``, ``.stl``, ``.vtk``, ``.vtp`` or ``.vtu``.
     result : RelaxResult or RegionsResult
         What :func:`~ndboundary.relax` returned. Its interfaces
         (:meth:`~ndboundary.pipeline.result.RegionsResult.interfaces`) are written: curves
@@ -192,14 +194,17 @@ def write_interfaces(path, result):
       ``result.classes`` (``g air|bone``), its pieces listed under it;
     - PLY: the edge or face properties ``region_a`` and ``region_b`` (ints; comments
       name the regions);
-    - VTK, VTU: the cell data ``region_a`` and ``region_b`` (int64), and ``label_a`` and
-      ``label_b``, the class values, when the classes are numbers.
+    - STL (surfaces only): ASCII, one ``solid <a>|<b>`` per pair, named as OBJ's groups
+      (binary STL, which :func:`write_level_set` writes, has no names);
+    - VTK, VTP, VTU: the cell data ``region_a`` and ``region_b`` (int64), and ``label_a``
+      and ``label_b``, the class values, when the classes are numbers.
 
     Raises
     ------
     ValueError
         On another extension, interfaces made of points (a curve's regions meet at
-        points), or tetrahedra (the interfaces of 4-D domains) to OBJ or PLY.
+        points), curves to STL, or tetrahedra (the interfaces of 4-D domains) to OBJ,
+        PLY, STL or VTP.
     TypeError
         When ``result`` is not a relaxation result.
 
@@ -220,24 +225,33 @@ def write_interfaces(path, result):
     >>> groups
     ['air|fat', 'bone|fat']
     """
-    ext = format_suffix(path, {".obj", ".ply", ".vtk", ".vtu"}, "interfaces")
+    ext = format_suffix(path, {".obj", ".ply", ".stl", ".vtk", ".vtp", ".vtu"}, "interfaces")
     points, simplices, pairs = _interface_pieces(result)
     k = simplices.shape[1]
     kind = SIMPLEX_KINDS.get(k)
     if kind is None:
         what = "points" if k == 1 else f"{k - 1}-simplices"
         raise ValueError(f"{path}: cannot write interfaces made of {what}")
-    if kind == "tetra" and ext in (".obj", ".ply"):
+    if kind == "tetra" and ext in (".obj", ".ply", ".stl", ".vtp"):
         raise ValueError(f"{path}: the {ext} format cannot hold tetrahedra; use .vtu or .vtk")
+    if kind == "line" and ext == ".stl":
+        raise ValueError(f"{path}: STL holds triangles, not curves; use .obj, .ply, .vtk, .vtp or .vtu")
     names = region_names(result.classes)
     if ext == ".obj":
         _write_obj_groups(path, points, simplices, pairs, names)
     elif ext == ".ply":
         _write_ply_pairs(path, points, simplices, pairs, names)
+    elif ext == ".stl":
+        pair_ids, group = np.unique(pairs, axis=0, return_inverse=True)
+        solids = {g: f"{names[a]}|{names[b]}" for g, (a, b) in enumerate(pair_ids.tolist())}
+        write_ascii_stl_solids(path, points, simplices, group.reshape(-1), solids)
     else:
         cell_data = {"region_a": pairs[:, 0], "region_b": pairs[:, 1]}
         labels = vtk_values(np.asarray(result.classes))
         if labels is not None:
             cell_data.update(label_a=labels[pairs[:, 0]], label_b=labels[pairs[:, 1]])
-        order = [np.arange(pairs.shape[0])]
-        write_with_meshio(path, points, [(kind, simplices)], order=order, cell_data=cell_data)
+        if ext == ".vtp":
+            write_vtp(path, points, kind, simplices, cell_data=cell_data)
+        else:
+            order = [np.arange(pairs.shape[0])]
+            write_with_meshio(path, points, [(kind, simplices)], order=order, cell_data=cell_data)

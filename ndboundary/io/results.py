@@ -19,6 +19,7 @@ from .obj import write_obj
 from .ply import write_ascii_ply
 from .regions import region_names
 from .stl import write_binary_stl
+from .vtu import write_vtp
 
 __all__ = ["write_level_set", "write_phi"]
 
@@ -125,7 +126,7 @@ def write_phi(path, result, labels=None):
 
 
 def write_level_set(path, level_set):
-    """Write a level set (segments, triangles or tetrahedra) to ``.obj``, ``.ply``, ``.stl``, ``.vtk`` or ``.vtu``.
+    """Write a level set (segments, triangles or tetrahedra) to OBJ, PLY, STL, VTK, VTP or VTU.
 
     Parameters
     ----------
@@ -134,13 +135,14 @@ def write_level_set(path, level_set):
         E.g. ``result.level_set()`` or ``result.region_boundary(r)``. Curves are written
         as line segments (OBJ ``l`` lines, PLY ``edge`` elements), surfaces as triangles.
         STL, the format of 3-D printing, holds triangles only: surfaces are written as
-        binary STL (float32 coordinates, the triangles' unit normals).
+        binary STL (float32 coordinates, the triangles' unit normals). VTP is VTK's
+        polygonal data, which ParaView and 3D Slicer open as a curve or a surface.
 
     Raises
     ------
     ValueError
         On another extension, curves or tetrahedra to STL, or tetrahedra (3-D level sets
-        of 4-D domains) to OBJ or PLY.
+        of 4-D domains) to OBJ, PLY or VTP.
 
     Examples
     --------
@@ -156,21 +158,23 @@ def write_level_set(path, level_set):
     >>> back.simplex_dim, back.n_elements == line.n_simplices
     (1, True)
     """
-    ext = format_suffix(path, {".obj", ".ply", ".stl", ".vtk", ".vtu"}, "level set")
+    ext = format_suffix(path, {".obj", ".ply", ".stl", ".vtk", ".vtp", ".vtu"}, "level set")
     k = level_set.simplices.shape[1]
     kind = SIMPLEX_KINDS.get(k)
     if kind is None:
         raise ValueError(f"{path}: cannot write a level set made of {k - 1}-simplices")
-    if kind == "tetra" and ext in (".obj", ".ply"):
+    if kind == "tetra" and ext in (".obj", ".ply", ".vtp"):
         raise ValueError(f"{path}: the {ext} format cannot hold tetrahedra; use .vtu or .vtk")
     if ext == ".stl" and kind != "triangle":
         what = "a curve" if kind == "line" else "tetrahedra"
-        raise ValueError(f"{path}: STL holds triangles, not {what}; use .obj, .ply, .vtk or .vtu")
+        raise ValueError(f"{path}: STL holds triangles, not {what}; use .obj, .ply, .vtk, .vtp or .vtu")
     if ext == ".obj":
         write_obj(path, level_set.points, [(kind, level_set.simplices)])
     elif ext == ".ply":
         write_ascii_ply(path, level_set.points, level_set.simplices)
     elif ext == ".stl":
         write_binary_stl(path, level_set.points, level_set.simplices)
+    elif ext == ".vtp":
+        write_vtp(path, level_set.points, kind, level_set.simplices)
     else:
         write_with_meshio(path, level_set.points, [(kind, level_set.simplices)])

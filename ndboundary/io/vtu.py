@@ -1,4 +1,5 @@
-"""VTK XML unstructured grids (``.vtu``) of cells of fixed size, written fast.
+"""VTK XML unstructured grids (``.vtu``) of cells of fixed size, and polygonal data
+(``.vtp``) of segments or triangles, written fast.
 
 The file is VTK's own default layout: every array zlib-compressed in blocks, behind the
 block sizes (``header_type="UInt64"``), in one raw appended section. meshio writes the
@@ -6,7 +7,8 @@ same arrays base64-encoded, compressed at zlib's default level in blocks of 32 K
 thread, and that compression takes most of the time of writing a relaxed mesh of a
 million vertices. Here the blocks are of 256 KB, compressed at level 1 on a few threads
 (zlib releases the GIL). Cells that are not of fixed size (VTK polyhedra) are left to
-meshio.
+meshio. meshio does not write ``.vtp``, the polygonal data that ParaView and 3D Slicer
+read as surfaces and curves.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 from .common import points_3d
 from .meshio_formats import vtk_values
 
-__all__ = ["VTK_CELL_TYPES", "write_vtu"]
+__all__ = ["VTK_CELL_TYPES", "write_vtp", "write_vtu"]
 
 #: The VTK cell type of each block kind this writer holds.
 VTK_CELL_TYPES = {"line": 3, "triangle": 5, "polygon": 7, "quad": 9, "tetra": 10, "hexahedron": 12}
@@ -120,6 +122,67 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
             "types": types,
         },
     }
+    n_points = sections["Points"][""].shape[0]
+    _write_xml(path, "UnstructuredGrid", f'NumberOfPoints="{n_points}" NumberOfCells="{types.size}"', sections)
+
+
+#: The section of VTK's polygonal data that holds each kind of cell ``write_vtp`` writes.
+_POLYDATA_SECTIONS = {"line": "Lines", "triangle": "Polys"}
+
+
+def write_vtp(path, points, kind, cells, *, point_data=None, cell_data=None):
+    """Write segments or triangles and their data arrays as VTK polygonal data (``.vtp``).
+
+    Parameters
+    ----------
+    path : path-like
+    points : array-like of shape (n_vertices, d), d <= 3
+        Written with three coordinates (zeros appended), as VTK wants.
+    kind : {"line", "triangle"}
+        Segments (VTK's ``Lines``: a curve) or triangles (``Polys``: a surface).
+    cells : array-like of int of shape (n_cells, 2) or (n_cells, 3)
+    point_data, cell_data : dict of str to ndarray, optional
+        Per-vertex and per-cell arrays of shape (n,) or (n, k), of types VTK holds.
+
+    Raises
+    ------
+    ValueError
+        On another kind of cell, cells of the wrong width, or an array of a type VTK does
+        not hold.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "t.vtp")
+    ...     write_vtp(path, [[0, 0], [1, 0], [0, 1]], "triangle", [[0, 1, 2]])
+    ...     head = open(path, "rb").read(400).decode(errors="replace")
+    >>> 'type="PolyData"' in head, 'NumberOfPolys="1"' in head
+    (True, True)
+    """
+    if kind not in _POLYDATA_SECTIONS:
+        raise ValueError(f"{path}: VTK polygonal data is written of {' or '.join(_POLYDATA_SECTIONS)}, not {kind!r}")
+    width = 2 if kind == "line" else 3
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, width)
+    n = cells.shape[0]
+    section = _POLYDATA_SECTIONS[kind]
+    sections = {
+        "PointData": dict(point_data or {}),
+        "CellData": dict(cell_data or {}),
+        "Points": {"": points_3d(points)},
+        section: {"connectivity": cells.ravel(), "offsets": np.arange(width, width * n + 1, width, dtype=np.int64)},
+    }
+    counts = {name: n if name == section else 0 for name in ("Verts", "Lines", "Strips", "Polys")}
+    piece = f'NumberOfPoints="{sections["Points"][""].shape[0]}" ' + " ".join(
+        f'NumberOf{name}="{count}"' for name, count in counts.items()
+    )
+    _write_xml(path, "PolyData", piece, sections)
+
+
+def _write_xml(path, data_type, piece, sections):
+    """A VTK XML file of ``data_type`` with one piece of attributes ``piece``: each
+    section's arrays compressed into one raw appended section.
+    """
     xml, parts, offset = [], [], 0
     with ThreadPoolExecutor(min(4, os.cpu_count() or 1)) as pool:
         for section, arrays in sections.items():
@@ -134,11 +197,9 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
                 offset += sum(map(len, packed))
             xml.append(f"</{section}>")
     head = (
-        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
-        'header_type="UInt64" compressor="vtkZLibDataCompressor">\n<UnstructuredGrid>\n'
-        f'<Piece NumberOfPoints="{sections["Points"][""].shape[0]}" NumberOfCells="{types.size}">\n'
-        + "\n".join(xml)
-        + '\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding="raw">\n_'
+        f'<?xml version="1.0"?>\n<VTKFile type="{data_type}" version="1.0" byte_order="LittleEndian" '
+        f'header_type="UInt64" compressor="vtkZLibDataCompressor">\n<{data_type}>\n'
+        f"<Piece {piece}>\n" + "\n".join(xml) + f'\n</Piece>\n</{data_type}>\n<AppendedData encoding="raw">\n_'
     )
     with open(os.fspath(path), "wb") as f:
         f.write(head.encode())
