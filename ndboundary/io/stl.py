@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .common import points_3d
+from .text_format import points_text
 
 __all__ = ["write_ascii_stl_solids", "write_binary_stl"]
 
@@ -57,8 +58,8 @@ def _corners_and_normals(points, triangles):
 
 
 _FACET = (
-    "facet normal %.9g %.9g %.9g\n outer loop\n  vertex %.17g %.17g %.17g\n  vertex %.17g %.17g %.17g\n"
-    "  vertex %.17g %.17g %.17g\n endloop\nendfacet"
+    "facet normal %.17g %.17g %.17g\n outer loop\n  vertex %.17g %.17g %.17g\n  vertex %.17g %.17g %.17g\n"
+    "  vertex %.17g %.17g %.17g\n endloop\nendfacet\n"
 )
 
 
@@ -69,7 +70,8 @@ def write_ascii_stl_solids(path, points, triangles, groups, names):
     ----------
     path : str or path-like
     points : array-like of shape (n_vertices, d), d <= 3
-        Written with three coordinates (zeros appended), to full double precision.
+        Written with three coordinates (zeros appended), to full double precision, in one
+        compiled pass (:func:`~ndboundary.io.text_format.points_text`).
     triangles : array-like of int, shape (n_triangles, 3)
     groups : array-like of int, shape (n_triangles,)
         Each triangle's group; the solids follow in increasing order of group.
@@ -100,5 +102,5 @@ def write_ascii_stl_solids(path, points, triangles, groups, names):
             if not name or any(c.isspace() for c in name):
                 raise ValueError(f"{path}: the solid name {name!r} must be one word, without whitespace")
             fh.write(f"solid {name}\n")
-            np.savetxt(fh, rows[groups == group], fmt=_FACET)
+            fh.write(points_text(rows[groups == group], _FACET))
             fh.write(f"endsolid {name}\n")
