@@ -305,7 +305,9 @@ def build_parser():
         metavar="OUT.vtu",
         help="where to write phi and the labels (.vtu or .vtk; needed for a mesh): for two labels the point "
         "data phi; for more, one array phi_NAME per region (NAME: the label, made safe for names, or the "
-        "region's index). For a two-label image: phi at the pixel centres (.nii, .nii.gz, .nrrd, .tif, .npy)",
+        "region's index). For an image: phi at the pixel centres (.nii, .nii.gz, .nrrd, .tif, .npy); for three "
+        "or more labels one channel per region, in the labels' order (a 4-D NIfTI, an NRRD list axis first, "
+        "a last axis of .npy)",
     )
     rel.add_argument(
         "--boundary",

@@ -36,34 +36,42 @@ def is_image(path):
 
 
 def voxel_values(result, labels):
-    """Phi of a two-region relaxation of the image ``labels`` at the pixel centres, shape
-    ``labels.shape``: the mean of each pixel's corners (phi is linear along the grid's edges).
+    """Phi of the relaxation of the image ``labels`` at the pixel centres: the mean of each
+    pixel's corners (phi is linear along the grid's edges). Shape ``labels.shape`` for two
+    regions, ``labels.shape + (n_regions,)`` for more, one function per region in
+    ``result.classes`` order.
 
     On the band of a large image (:class:`~ndboundary.domains.image.GridBand`), the pixels
-    outside it get their region's side of 1/2, ``1/2 -/+ c`` with ``c`` one more than the
-    largest ``|phi - 1/2|`` on the band: the level set ``phi = 1/2`` is the band's, and the
-    whole grid's phi is never built.
+    outside it get their region's side of 1/2 (each function's), ``1/2 -/+ c`` with ``c``
+    one more than the largest ``|phi - 1/2|`` on the band: the level sets ``phi = 1/2``
+    are the band's, and the whole grid's phi is never built.
     """
     from .domains.image import GridBand
 
     domain = result.domain
     corners = tuple(n + 1 for n in domain.shape)
-    phi = result.phi
+    phi = np.asarray(result.phi, dtype=np.float64)
+    columns = phi.reshape(phi.shape[0], -1)
+    if phi.ndim == 1:  # two regions: the function of the second
+        sides = np.asarray(labels == result.classes[1]).reshape(-1, 1)
+    else:
+        sides = np.asarray(labels).reshape(-1, 1) == np.asarray(result.classes).reshape(1, -1)
     if isinstance(domain, GridBand):
-        c = float(np.abs(phi - 0.5).max()) + 1.0
-        out = np.where(labels == result.classes[1], 0.5 + c, 0.5 - c).reshape(-1)
-        full = np.zeros(int(np.prod(corners)))
-        full[domain.corners] = phi
-        phi = full
-    phi = phi.reshape(corners)
-    mean = np.zeros(domain.shape)
+        c = float(np.abs(columns - 0.5).max()) + 1.0
+        out = np.where(sides, 0.5 + c, 0.5 - c)
+        full = np.zeros((int(np.prod(corners)), columns.shape[1]))
+        full[domain.corners] = columns
+        columns = full
+    grid = columns.reshape(corners + (-1,))
+    mean = np.zeros(domain.shape + (columns.shape[1],))
     for corner in np.ndindex(*(2,) * len(domain.shape)):
-        mean += phi[tuple(slice(c, c + n) for c, n in zip(corner, domain.shape, strict=True))]
+        mean += grid[tuple(slice(c, c + n) for c, n in zip(corner, domain.shape, strict=True))]
     mean /= 2 ** len(domain.shape)
-    if not isinstance(domain, GridBand):
-        return mean
-    out[domain.pixels] = mean.reshape(-1)[domain.pixels]
-    return out.reshape(domain.shape)
+    if isinstance(domain, GridBand):
+        flat = mean.reshape(-1, columns.shape[1])
+        out[domain.pixels] = flat[domain.pixels]
+        mean = out.reshape(mean.shape)
+    return mean[..., 0] if phi.ndim == 1 else mean
 
 
 def cmd_relax_image(args):
@@ -100,10 +108,10 @@ def cmd_relax_image(args):
         if not matches:
             raise CLIError(f"--background {args.background}: not one of the labels {classes.tolist()}")
         background = matches[0]
-    if args.output and classes.size > 2:
+    if args.output and classes.size > 2 and args.output.lower().endswith((".tif", ".tiff")):
         raise CLIError(
-            f"-o {args.output}: phi of an image is written for two labels; {args.mesh} holds {classes.size}, "
-            "whose boundaries --surfaces and --boundary write"
+            f"-o {args.output}: {args.mesh} holds {classes.size} labels, whose functions phi are written as "
+            "the channels of a .nii, .nii.gz, .nrrd or .npy file; TIFF is written without channels"
         )
     surfaces = [r for r in range(classes.size) if classes[r] != background]
     if args.region_surfaces:
@@ -132,7 +140,8 @@ def cmd_relax_image(args):
         rest = iter(temporary)
         if args.output:
             io.write_image(next(rest), voxel_values(res, labels).astype(np.float32), spacing=image.spacing,
-                           origin=image.origin, direction=image.direction, overwrite=True)  # fmt: skip
+                           origin=image.origin, direction=image.direction, overwrite=True,
+                           channels=classes.size > 2)  # fmt: skip
         if args.boundary:
             if classes.size == 2:
                 io.write_level_set(next(rest), res.level_set())

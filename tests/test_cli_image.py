@@ -78,6 +78,29 @@ def test_two_label_image_phi_at_the_pixel_centres(tmp_path, capsys):
     assert curve.n_elements > 0
 
 
+@pytest.mark.parametrize("band", ["auto", "none"])
+def test_phi_of_three_labels_one_channel_per_region(tmp_path, capsys, band):
+    """Three labels: -o writes one function per region at the pixel centres, in the labels'
+    order; the largest is the pixel's own label, well inside each region above 1/2 and
+    below it elsewhere. On the band (``auto``: a small disc and a strip on a large image)
+    the pixels outside it are on their own region's side of every function, as the whole
+    grid's are."""
+    i, j = np.indices((300, 240))
+    labels = np.where((i - 100.3) ** 2 + (j - 120.6) ** 2 < 15.0**2, 7, np.where(i > 250, 3, 0)).astype(np.int16)
+    np.save(tmp_path / "seg.npy", labels)
+    code, out, err = _run(capsys, tmp_path / "seg.npy", "-o", tmp_path / "phi.npy", "--band", band)
+    assert code == 0, err
+    phi = np.load(tmp_path / "phi.npy")
+    assert phi.shape == labels.shape + (3,) and phi.dtype == np.float32 and np.isfinite(phi).all()
+    classes = np.array([0, 3, 7])
+    assert (classes[np.argmax(phi, axis=-1)] == labels).mean() > 0.999  # the partition at the pixel centres
+    own = phi[..., [0, 1, 2]][labels[..., None] == classes]  # each pixel's own function
+    far = (np.hypot(i - 100.3, j - 120.6) > 20) & (np.abs(i - 250) > 5) | (np.hypot(i - 100.3, j - 120.6) < 10)
+    assert (own.reshape(labels.shape)[far] > 0.5).all()
+    others = np.where(labels[..., None] == classes, -np.inf, phi).max(axis=-1)
+    assert (others[far] < 0.5).all()
+
+
 def test_phi_of_a_large_image_relaxed_on_its_band_covers_every_pixel(tmp_path, capsys):
     """A small disc on a large image is relaxed on its band: phi is written for every pixel,
     the band's own values there, and outside it its side of 1/2."""
@@ -99,7 +122,7 @@ def test_phi_of_a_large_image_relaxed_on_its_band_covers_every_pixel(tmp_path, c
     [
         (["seg.npy", "labels.txt", "-o", "o.vtu"], "a label image, which holds its labels"),
         (["m.obj"], "give its labels file too"),
-        (["seg.npy", "-o", "phi.npy"], "written for two labels"),
+        (["seg.npy", "-o", "phi.tif"], "TIFF is written without channels"),
         (["seg.npy", "--surfaces", "out", "--background", "7"], "not one of the labels"),
         (["flat.npy", "--surfaces", "out", "--surface-format", "stl"], "STL holds triangles"),
         (["flat.npy", "--boundary", "b.stl"], "STL holds triangles, and these boundaries are curves"),

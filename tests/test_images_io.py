@@ -285,3 +285,31 @@ def test_write_refuses_geometry_the_format_cannot_hold(tmp_path):
     with pytest.raises(ValueError, match="2-D or 3-D"):
         write_image(tmp_path / "a.nii", np.zeros(4))
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("ndim", [2, 3])
+def test_channels_are_written_beside_the_spatial_axes(tmp_path, rng, ndim):
+    """One value per channel (a function per region) and pixel: NIfTI's fourth axis after
+    three spatial ones, with the spatial geometry in the affine; NRRD's list axis first,
+    with no direction; .npy as given; TIFF refused."""
+    values = rng.random((4, 5, 6)[:ndim] + (3,)).astype(np.float32)
+    spacing, origin = SPACING[:ndim], ORIGIN[:ndim]
+    write_image(tmp_path / "phi.nii.gz", values, spacing=spacing, origin=origin, channels=True)
+    img = nib.load(tmp_path / "phi.nii.gz")
+    assert img.shape == ((4, 5, 6) if ndim == 3 else (4, 5, 1)) + (3,)
+    np.testing.assert_array_equal(np.asarray(img.dataobj).reshape(values.shape), values)
+    np.testing.assert_allclose(img.affine[:ndim, :ndim], np.diag(spacing), atol=1e-6)
+    np.testing.assert_allclose(img.affine[:ndim, 3], origin, atol=1e-6)
+    write_image(tmp_path / "phi.nrrd", values, spacing=spacing, origin=origin, channels=True)
+    data, header = nrrd.read(str(tmp_path / "phi.nrrd"))
+    np.testing.assert_array_equal(np.moveaxis(data, 0, -1), values)
+    assert header["kinds"] == ["list"] + ["domain"] * ndim
+    assert np.isnan(header["space directions"][0]).all()
+    np.testing.assert_allclose(header["space directions"][1:], np.diag(spacing))
+    write_image(tmp_path / "phi.npy", values, channels=True)
+    np.testing.assert_array_equal(np.load(tmp_path / "phi.npy"), values)
+    with pytest.raises(ValueError, match="written without channels"):
+        write_image(tmp_path / "phi.tif", values, channels=True)
+    with pytest.raises(ValueError, match="and one axis of channels"):
+        write_image(tmp_path / "bad.nii", values[..., 0, 0], channels=True)
+    assert not (tmp_path / "phi.tif").exists() and not (tmp_path / "bad.nii").exists()

@@ -301,7 +301,9 @@ def _values(path, data: np.ndarray, labels: bool) -> np.ndarray:
     return data.astype(np.int64)
 
 
-def write_image(path, array, *, spacing=1.0, origin=0.0, direction=None, overwrite: bool = False) -> None:
+def write_image(
+    path, array, *, spacing=1.0, origin=0.0, direction=None, overwrite: bool = False, channels: bool = False
+) -> None:
     """Write labels or values (such as φ) and their geometry, the inverse of :func:`read_image`.
 
     Parameters
@@ -318,6 +320,11 @@ def write_image(path, array, *, spacing=1.0, origin=0.0, direction=None, overwri
         The rotation of an oblique image (:attr:`Image.direction`); NIfTI and NRRD only.
     overwrite : bool, default False
         Replace an existing file; without it, an existing file is an error.
+    channels : bool, default False
+        The last axis of ``array`` holds several values per pixel (one function per
+        region), not a spatial axis: NIfTI gets a 4-D image (x, y, z, channel; a 2-D
+        image as x, y, 1, channel), NRRD a ``list`` axis first, ``.npy`` the array as
+        given. TIFF is refused.
 
     Raises
     ------
@@ -348,19 +355,23 @@ def write_image(path, array, *, spacing=1.0, origin=0.0, direction=None, overwri
     if suffix not in IMAGE_WRITE_SUFFIXES:
         raise ValueError(f"{path}: cannot write images as {suffix!r}; use one of {', '.join(IMAGE_WRITE_SUFFIXES)}")
     arr = np.asarray(array)
-    if arr.ndim not in (2, 3) or arr.size == 0 or arr.dtype.kind not in "biuf":
-        raise ValueError(f"{path}: expected a non-empty 2-D or 3-D array of numbers, got {arr.dtype} {arr.shape}")
+    ndim = arr.ndim - bool(channels)  # the spatial axes
+    if ndim not in (2, 3) or arr.size == 0 or arr.dtype.kind not in "biuf":
+        what = "2-D or 3-D array, and one axis of channels," if channels else "2-D or 3-D array"
+        raise ValueError(f"{path}: expected a non-empty {what} of numbers, got {arr.dtype} {arr.shape}")
+    if channels and suffix in (".tif", ".tiff"):
+        raise ValueError(f"{path}: a {suffix} file is written without channels; write .nii, .nii.gz, .nrrd or .npy")
     try:
-        sp = np.broadcast_to(np.asarray(spacing, dtype=float), (arr.ndim,)).copy()
-        og = np.broadcast_to(np.asarray(origin, dtype=float), (arr.ndim,)).copy()
+        sp = np.broadcast_to(np.asarray(spacing, dtype=float), (ndim,)).copy()
+        og = np.broadcast_to(np.asarray(origin, dtype=float), (ndim,)).copy()
     except ValueError:
-        raise ValueError(f"{path}: spacing and origin need one value or {arr.ndim}") from None
+        raise ValueError(f"{path}: spacing and origin need one value or {ndim}") from None
     if not (np.isfinite(sp).all() and (sp > 0).all() and np.isfinite(og).all()):
         raise ValueError(f"{path}: spacing must be positive and finite and origin finite, got {sp} and {og}")
-    rot = np.eye(arr.ndim) if direction is None else np.asarray(direction, dtype=float)
-    if rot.shape != (arr.ndim, arr.ndim) or np.abs(rot.T @ rot - np.eye(arr.ndim)).max() > _ORTHOGONAL:
-        raise ValueError(f"{path}: direction must be a {arr.ndim} x {arr.ndim} rotation")
-    if suffix in (".npy", ".tif", ".tiff") and not np.array_equal(rot, np.eye(arr.ndim)):
+    rot = np.eye(ndim) if direction is None else np.asarray(direction, dtype=float)
+    if rot.shape != (ndim, ndim) or np.abs(rot.T @ rot - np.eye(ndim)).max() > _ORTHOGONAL:
+        raise ValueError(f"{path}: direction must be a {ndim} x {ndim} rotation")
+    if suffix in (".npy", ".tif", ".tiff") and not np.array_equal(rot, np.eye(ndim)):
         raise ValueError(f"{path}: a {suffix} file cannot hold a direction; write .nii or .nrrd")
     if suffix == ".npy" and ((sp != 1).any() or (og != 0).any()):
         raise ValueError(f"{path}: a .npy file holds no spacing or origin; write .nii, .nrrd or .tif to keep them")
@@ -374,14 +385,20 @@ def write_image(path, array, *, spacing=1.0, origin=0.0, direction=None, overwri
     elif suffix in (".nii", ".nii.gz"):
         nib = _require("nibabel", path)
         affine = np.eye(4)
-        affine[: arr.ndim, : arr.ndim], affine[: arr.ndim, 3] = rot * sp, og
+        affine[:ndim, :ndim], affine[:ndim, 3] = rot * sp, og
+        if channels and ndim == 2:  # NIfTI's fourth axis follows three spatial ones
+            arr = arr[:, :, None, :]
         img = nib.Nifti1Image(arr, affine, dtype=arr.dtype)
         img.set_qform(affine, code=1)  # scanner coordinates, in both forms
         img.set_sform(affine, code=1)
         nib.save(img, str(path))
     elif suffix == ".nrrd":
         nrrd = _require("nrrd", path)
-        header = {"space dimension": arr.ndim, "space directions": (rot * sp).T, "space origin": og}
+        header = {"space dimension": ndim, "space directions": (rot * sp).T, "space origin": og}
+        if channels:  # NRRD's convention: the list of values per pixel on the first axis
+            arr = np.moveaxis(arr, -1, 0)
+            header["space directions"] = np.vstack([np.full((1, ndim), np.nan), header["space directions"]])
+            header["kinds"] = ["list"] + ["domain"] * ndim
         nrrd.write(str(path), arr, header)
     else:
         _write_tiff(path, arr, sp, og)
