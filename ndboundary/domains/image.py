@@ -17,7 +17,6 @@ their indices.
 from __future__ import annotations
 
 import numbers
-
 from functools import cached_property
 
 import numpy as np

@@ -312,7 +312,7 @@ def write_image(
         ``.npy``, ``.nii``, ``.nii.gz``, ``.nrrd``, ``.tif`` or ``.tiff``. TIFF is written in ImageJ's format for
         uint8, uint16, int16 and float32 (Fiji reads its spacing), else with tifffile's JSON metadata (both with
         X and Y resolution tags); NIfTI and NRRD write booleans as uint8, and keep other types.
-    array : array_like, 2-D or 3-D
+    array : array_like, 2-D or 3-D (with ``channels``, one axis more, last)
         Booleans, integers or floats, indexed as :attr:`Image.labels`.
     spacing, origin : float or sequence of float
         One per axis, or one for all; spacing positive. A ``.npy`` file keeps neither: it takes only 1 and 0.

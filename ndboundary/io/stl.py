@@ -5,9 +5,9 @@
 triangle's unit normal. :func:`~ndboundary.io.write_interfaces` writes the interfaces
 between regions with :func:`write_ascii_stl_solids`: one named ``solid`` per pair of
 regions, the ASCII layout in which CFD meshers (OpenFOAM's ``snappyHexMesh``) and VTK's
-reader (``ScalarTags``) tell named surfaces apart; binary STL has no names. Reading STL (ASCII or binary) goes through
-:func:`~ndboundary.io.meshio_formats.read_with_meshio`, and the triangle soup it gives
-is welded by :func:`~ndboundary.io.read_mesh`.
+reader (``ScalarTags``) tell named surfaces apart; binary STL has no names. Reading STL
+(ASCII or binary) goes through :func:`~ndboundary.io.meshio_formats.read_with_meshio`,
+and the triangle soup it gives is welded by :func:`~ndboundary.io.read_mesh`.
 """
 
 from __future__ import annotations
@@ -94,13 +94,16 @@ def write_ascii_stl_solids(path, points, triangles, groups, names):
     ['solid a|b', 'endsolid a|b', 'solid a|c', 'endsolid a|c']
     """
     groups = np.asarray(groups)
+    order = np.unique(groups)
+    for group in order:  # before the file is opened
+        name = names[int(group)]
+        if not name or any(c.isspace() for c in name):
+            raise ValueError(f"{path}: the solid name {name!r} must be one word, without whitespace")
     corners, normals = _corners_and_normals(points, triangles)
     rows = np.hstack([normals, corners.reshape(-1, 9)])
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        for group in np.unique(groups):
+        for group in order:
             name = names[int(group)]
-            if not name or any(c.isspace() for c in name):
-                raise ValueError(f"{path}: the solid name {name!r} must be one word, without whitespace")
             fh.write(f"solid {name}\n")
             fh.write(points_text(rows[groups == group], _FACET))
             fh.write(f"endsolid {name}\n")
