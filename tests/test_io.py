@@ -452,6 +452,14 @@ def test_interfaces_as_named_stl_solids_and_vtk_polygonal_data(tmp_path):
     assert not back["Points"][""][:, 2].any()  # a plane curve: zeros appended
 
 
+def test_stl_solid_names_are_one_word_or_nothing_is_written(tmp_path):
+    from ndboundary.io.stl import write_ascii_stl_solids
+
+    with pytest.raises(ValueError, match="must be one word"):
+        write_ascii_stl_solids(tmp_path / "s.stl", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], [0], {0: "a b"})
+    assert not (tmp_path / "s.stl").exists()
+
+
 def test_vtk_reads_the_polygonal_data_and_the_named_solids(tmp_path):
     """VTK's own readers (the ``[bench]`` extra) read the files: the VTP's cells and arrays,
     and one tag per STL solid."""
