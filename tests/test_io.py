@@ -452,6 +452,20 @@ def test_interfaces_as_named_stl_solids_and_vtk_polygonal_data(tmp_path):
     assert not back["Points"][""][:, 2].any()  # a plane curve: zeros appended
 
 
+def test_empty_vtk_and_stl_files_are_valid(tmp_path):
+    """No cells (an empty level set): the files still follow their formats."""
+    from ndboundary.io.stl import write_ascii_stl_solids
+    from ndboundary.io.vtu import write_vtp, write_vtu
+
+    write_vtp(tmp_path / "e.vtp", np.zeros((0, 3)), "triangle", np.zeros((0, 3), int))
+    back = read_vtp(tmp_path / "e.vtp")
+    assert back["Piece"]["NumberOfPoints"] == 0 and back["Polys"]["connectivity"].size == 0
+    write_vtu(tmp_path / "e.vtu", np.zeros((0, 3)), [("triangle", np.zeros((0, 3), int))])
+    assert "NumberOfCells=\"0\"" in (tmp_path / "e.vtu").read_bytes()[:600].decode(errors="replace")
+    write_ascii_stl_solids(tmp_path / "e.stl", np.zeros((0, 3)), np.zeros((0, 3), int), np.zeros(0, int), {})
+    assert (tmp_path / "e.stl").read_text() == "solid\nendsolid\n"
+
+
 def test_stl_solid_names_are_one_word_or_nothing_is_written(tmp_path):
     from ndboundary.io.stl import write_ascii_stl_solids
 

@@ -102,6 +102,8 @@ def write_ascii_stl_solids(path, points, triangles, groups, names):
     corners, normals = _corners_and_normals(points, triangles)
     rows = np.hstack([normals, corners.reshape(-1, 9)])
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        if not order.size:  # no triangles: one empty solid, which readers take
+            fh.write("solid\nendsolid\n")
         for group in order:
             name = names[int(group)]
             fh.write(f"solid {name}\n")

@@ -45,7 +45,10 @@ _VTK_TYPES = {
 
 def _compressed(values, pool):
     """An array as VTK's compressed layout: the header of block sizes, then the blocks."""
-    raw = memoryview(np.ascontiguousarray(values.astype(values.dtype.newbyteorder("<"), copy=False))).cast("B")
+    # the bytes, as a flat view (an empty array too: memoryview's cast refuses zeros in a shape)
+    raw = memoryview(
+        np.ascontiguousarray(values.astype(values.dtype.newbyteorder("<"), copy=False)).reshape(-1).view(np.uint8)
+    )
     starts = range(0, max(len(raw), 1), BLOCK_BYTES)
     packed = list(pool.map(partial(zlib.compress, level=LEVEL), [raw[s : s + BLOCK_BYTES] for s in starts]))
     last = len(raw) - starts[-1]
@@ -100,7 +103,8 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
     bad = sorted({kind for kind, _ in blocks} - set(VTK_CELL_TYPES))
     if bad:
         raise ValueError(f"{path}: this writer holds cells of fixed size ({', '.join(VTK_CELL_TYPES)}); got {bad}")
-    cells = [np.asarray(data, dtype=np.int64).reshape(len(data), -1) for _, data in blocks]
+    cells = [np.asarray(data, dtype=np.int64) for _, data in blocks]
+    cells = [c if c.ndim == 2 else c.reshape(len(c), -1) for c in cells]
     sizes = np.concatenate([np.full(len(c), c.shape[1], dtype=np.int64) for c in cells])
     kinds = [VTK_CELL_TYPES[kind] for kind, _ in blocks]
     types = np.concatenate([np.full(len(c), t, dtype=np.uint8) for t, c in zip(kinds, cells, strict=True)])
