@@ -1,4 +1,5 @@
-"""Reading and writing a 1 M-vertex triangle mesh: OBJ, OFF, binary and ASCII PLY, and the phi writer (VTU).
+"""Reading and writing a 1 M-vertex triangle mesh: OBJ, OFF, binary and ASCII PLY, the phi writer (VTU),
+and the surface writers: binary STL, VTP and the STL of named solids.
 
 The mesh is a jittered Kuhn grid of ``--n`` cells a side (999: 1,000,000 vertices and
 1,996,002 triangles) lifted onto the surface ``z = 0.1 sin(3x) cos(2y)``, so that every
@@ -8,7 +9,10 @@ machine may be shared: CPU time is the steadier figure).
 
 - write: ``write_mesh`` (OBJ, OFF; binary PLY through meshio), ``write_ascii_ply`` (the
   ASCII PLY of ``write_level_set``), and ``write_mesh`` to ``.vtu`` with the point data
-  ``phi`` and ``u`` and three cell arrays, what ``write_phi`` writes.
+  ``phi`` and ``u`` and three cell arrays, what ``write_phi`` writes. Written only: the
+  binary STL and the VTP of ``write_level_set``, a VTP with a pair of regions per
+  triangle and the ASCII STL of one named solid per pair, what ``write_interfaces``
+  writes (the triangles dealt into four pairs).
 - read: ``read_mesh`` (parsing and building the domain) and, on its own, the format's
   reader (``parse``). The peer, timed once in the same run: the line-by-line reader the
   compiled scans fall back on (OBJ, OFF), meshio (PLY), and the ratio to ``parse``.
@@ -46,6 +50,8 @@ from ndboundary.io.meshio_formats import read_with_meshio
 from ndboundary.io.obj import read_obj, read_obj_lines
 from ndboundary.io.off import read_off, read_off_lines
 from ndboundary.io.ply import read_ply, write_ascii_ply
+from ndboundary.io.stl import write_ascii_stl_solids, write_binary_stl
+from ndboundary.io.vtu import write_vtp
 
 
 def surface(n):
@@ -73,12 +79,22 @@ def formats(mesh, folder):
     ascii_ply = lambda p: write_ascii_ply(p, mesh.points, mesh.simplices)  # noqa: E731
     cells = {"labels": np.arange(mesh.n_elements) % 2, "field": np.ones((mesh.n_elements, 3))}
     cells["smoothed_field"] = cells["field"]
+    group = np.arange(mesh.n_elements) % 4
+    pairs = np.array([[0, 1], [0, 2], [1, 2], [1, 3]])[group]
+    pair_data = {"region_a": pairs[:, 0], "region_b": pairs[:, 1]}
+    names = {g: f"{a}|{b}" for g, (a, b) in enumerate([[0, 1], [0, 2], [1, 2], [1, 3]])}
     return [
         ("obj", folder / "m.obj", lambda p: write_mesh(p, mesh), read_obj, read_obj_lines),
         ("off", folder / "m.off", lambda p: write_mesh(p, mesh), read_off, read_off_lines),
         ("ply-binary", folder / "b.ply", lambda p: write_mesh(p, mesh), read_ply, read_with_meshio),
         ("ply-ascii", folder / "a.ply", ascii_ply, read_ply, read_with_meshio),
         ("vtu-phi", folder / "phi.vtu", lambda p: write_mesh(p, mesh, point_data=phi, cell_data=cells), None, None),
+        ("stl-binary", folder / "s.stl", lambda p: write_binary_stl(p, mesh.points, mesh.simplices), None, None),
+        ("vtp", folder / "s.vtp", lambda p: write_vtp(p, mesh.points, "triangle", mesh.simplices), None, None),
+        ("vtp-pairs", folder / "i.vtp", lambda p: write_vtp(p, mesh.points, "triangle", mesh.simplices,
+                                                            cell_data=pair_data), None, None),
+        ("stl-solids", folder / "i.stl", lambda p: write_ascii_stl_solids(p, mesh.points, mesh.simplices, group, names),
+         None, None),
     ]
 
 
