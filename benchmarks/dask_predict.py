@@ -139,9 +139,9 @@ def idle_share(workers, threads, settings, seconds=8.0):
 
 
 def cluster_round(client, clf, Xc, ref, args):
-    """Seconds to predict ``Xc`` on the cluster of ``client`` each way, once, after warming
-    every worker; ``cluster_first`` is the classifier's own first call, which ships its
-    lean copy to the workers.
+    """Seconds to predict ``Xc`` on the cluster of ``client`` each way of ``args.ways`` (the
+    median of ``args.calls`` calls), after warming every worker; ``cluster_first`` is the
+    classifier's own first call, which ships its lean copy to the workers.
     """
     shipped = client.scatter(clf, broadcast=True)
     client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()  # warm every worker

@@ -12,7 +12,8 @@ machine may be shared: CPU time is the steadier figure).
   ``phi`` and ``u`` and three cell arrays, what ``write_phi`` writes. Written only: the
   binary STL and the VTP of ``write_level_set``, a VTP with a pair of regions per
   triangle and the ASCII STL of one named solid per pair, what ``write_interfaces``
-  writes (the triangles dealt into four pairs).
+  writes (the triangles dealt into four pairs), beside meshio's ASCII STL of one unnamed
+  solid, the peer.
 - read: ``read_mesh`` (parsing and building the domain) and, on its own, the format's
   reader (``parse``). The peer, timed once in the same run: the line-by-line reader the
   compiled scans fall back on (OBJ, OFF), meshio (PLY), and the ratio to ``parse``.
@@ -77,12 +78,19 @@ def formats(mesh, folder):
     """Per format: (name, path, writer, reader, peer reader)."""
     phi = {"phi": mesh.points[:, 0], "u": mesh.points[:, 2]}
     ascii_ply = lambda p: write_ascii_ply(p, mesh.points, mesh.simplices)  # noqa: E731
+
+    def ascii_stl_meshio(path):  # the peer of the named solids: one unnamed solid
+        import meshio
+
+        meshio.write(path, meshio.Mesh(mesh.points, [("triangle", mesh.simplices)]), file_format="stl", binary=False)
+
     cells = {"labels": np.arange(mesh.n_elements) % 2, "field": np.ones((mesh.n_elements, 3))}
     cells["smoothed_field"] = cells["field"]
     group = np.arange(mesh.n_elements) % 4
-    pairs = np.array([[0, 1], [0, 2], [1, 2], [1, 3]])[group]
+    kinds = np.array([[0, 1], [0, 2], [1, 2], [1, 3]])
+    pairs = kinds[group]
     pair_data = {"region_a": pairs[:, 0], "region_b": pairs[:, 1]}
-    names = {g: f"{a}|{b}" for g, (a, b) in enumerate([[0, 1], [0, 2], [1, 2], [1, 3]])}
+    names = {g: f"{a}|{b}" for g, (a, b) in enumerate(kinds.tolist())}
     return [
         ("obj", folder / "m.obj", lambda p: write_mesh(p, mesh), read_obj, read_obj_lines),
         ("off", folder / "m.off", lambda p: write_mesh(p, mesh), read_off, read_off_lines),
@@ -95,6 +103,7 @@ def formats(mesh, folder):
                                                             cell_data=pair_data), None, None),
         ("stl-solids", folder / "i.stl", lambda p: write_ascii_stl_solids(p, mesh.points, mesh.simplices, group, names),
          None, None),
+        ("stl-ascii-meshio", folder / "m.stl", ascii_stl_meshio, None, None),
     ]
 
 

@@ -104,7 +104,7 @@ def write_vtu(path, points, blocks, *, order=None, point_data=None, cell_data=No
     if bad:
         raise ValueError(f"{path}: this writer holds cells of fixed size ({', '.join(VTK_CELL_TYPES)}); got {bad}")
     cells = [np.asarray(data, dtype=np.int64) for _, data in blocks]
-    cells = [c if c.ndim == 2 else c.reshape(len(c), -1) for c in cells]
+    cells = [c if c.ndim == 2 else c.reshape(len(c), -1) for c in cells]  # (n, k), also with n = 0
     sizes = np.concatenate([np.full(len(c), c.shape[1], dtype=np.int64) for c in cells])
     kinds = [VTK_CELL_TYPES[kind] for kind, _ in blocks]
     types = np.concatenate([np.full(len(c), t, dtype=np.uint8) for t, c in zip(kinds, cells, strict=True)])
