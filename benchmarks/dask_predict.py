@@ -12,21 +12,25 @@ predicts, and reports rows per second:
   the same samples as a Dask array, through the classifier's own block-wise ``predict``
   and through dask-ml's ``ParallelPostFit`` (wrapping the fitted classifier, then its
   lean copy ``for_prediction(clf)``), checked equal to the in-memory predictions;
+* on ``--plain`` plain processes (one per core by default; 0 skips this), each started
+  with ``OMP_NUM_THREADS=1`` as Dask starts its workers and holding the lean classifier
+  and the samples: the same blocks of rows, without Dask. This is what any split of the
+  work across processes can reach on this machine, the cluster's ceiling;
 * ``--n`` samples (10 M by default; 0 skips this) generated block by block on the workers
   of the first layout and predicted there, the generation timed alone too: the
   throughput of a data set that never sits in one process's memory.
 
-Each of ``--repeats`` rounds predicts the samples in memory, with no cluster running (an
-idle ``LocalCluster`` slows a process beside it on a small machine; the one closed before
-leaves ``OMP_NUM_THREADS=1`` in this process's environment, which ndboundary reads only
-as the process was started), then starts a fresh cluster of each layout in turn and
-predicts them there each way of ``--ways`` (all by default), ``--calls`` times each (1 by
-default; the median of a round's calls is its time, in memory too). The ratios to the in-memory time are taken within a
-round, so that the drifts of a shared machine hit both sides alike; their median is
-printed with their range. The classifier's own ``predict`` ships its lean copy to the
-workers on its first call and reuses it after
-(``ndboundary.learn.scaleout.shipped_to_workers``): that first call is timed on its own
-(``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
+Each of ``--repeats`` rounds predicts the samples in memory, then on the plain processes,
+with no cluster running (an idle ``LocalCluster`` slows a process beside it on a small
+machine; the one closed before leaves ``OMP_NUM_THREADS=1`` in this process's environment,
+which ndboundary reads only as the process was started), then starts a fresh cluster of
+each layout in turn and predicts them there each way of ``--ways`` (all by default),
+``--calls`` times each (1 by default; the median of a round's calls is its time, in memory
+too). The ratios to the in-memory time are taken within a round, so that the drifts of a
+shared machine hit both sides alike; their median is printed with their range. The
+classifier's own ``predict`` ships its lean copy to the workers on its first call and
+reuses it after (``ndboundary.learn.scaleout.shipped_to_workers``): that first call is
+timed on its own (``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
 ``--no-profiler`` and ``--no-malloc-trim`` start the workers without two of Dask's
 defaults: its statistical profiler, which samples every worker thread's stack 100 times a
 second, and ``MALLOC_TRIM_THRESHOLD_``, with which glibc hands freed memory back to the
@@ -43,12 +47,14 @@ Usage::
                                       [--check-n 200000] [--chunk 100000] [--layouts 1x2,2x1]
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--ways cluster,...] [--calls 1]
+                                      [--plain 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import time
 from contextlib import contextmanager
@@ -80,6 +86,48 @@ def generated(n, chunk, features):
         chunks=chunks,
         meta=np.empty((0, 0)),
     ), n_blocks
+
+
+_PLAIN = None  # (lean classifier, samples) in each plain process
+
+
+def _plain_init(est, X):
+    """A plain process's start: it keeps the lean classifier and the samples, and predicts
+    a few rows (the neighbour index's query compiled, as the cluster's workers are warmed)."""
+    global _PLAIN
+    _PLAIN = (est, X)
+    est.predict(X[:1000])
+
+
+def _plain_rows(bounds):
+    est, X = _PLAIN
+    return est.predict(X[bounds[0] : bounds[1]])
+
+
+@contextmanager
+def plain_processes(count, clf, X):
+    """A pool of ``count`` plain processes, each started as Dask starts a worker process
+    (``OMP_NUM_THREADS=1``) and holding the lean classifier and the samples ``X``: the
+    same split of the work across processes, without Dask.
+    """
+    before = os.environ.get("OMP_NUM_THREADS")
+    os.environ["OMP_NUM_THREADS"] = "1"  # read by each process as it starts
+    try:
+        pool = multiprocessing.get_context("spawn").Pool(count, _plain_init, (for_prediction(clf), X))
+    finally:
+        if before is None:
+            del os.environ["OMP_NUM_THREADS"]
+        else:
+            os.environ["OMP_NUM_THREADS"] = before
+    with pool:
+        yield pool
+
+
+def plain_round(pool, n, chunk, ref, count):
+    """Seconds to predict the ``n`` samples in blocks of ``chunk`` rows on the plain
+    processes of ``pool`` (the median of ``count`` calls)."""
+    blocks = [(a, min(a + chunk, n)) for a in range(0, n, chunk)]
+    return calls(lambda: np.concatenate(pool.map(_plain_rows, blocks, chunksize=1)), ref, "plain", count)
 
 
 def timed(fn):
@@ -192,6 +240,12 @@ def main(argv=None):
     ap.add_argument("--idle", action="store_true", help="first measure an idle cluster's CPU share, each setting")
     ap.add_argument("--ways", default=",".join(WAYS), help=f"comma-separated, from {', '.join(WAYS)}")
     ap.add_argument("--calls", type=int, default=1, help="calls per way and round, their median kept")
+    ap.add_argument(
+        "--plain",
+        type=int,
+        default=cores,
+        help="plain processes of one thread each round, without Dask (0: none)",
+    )
     args = ap.parse_args(argv)
     args.ways = [way for way in args.ways.split(",") if way]
     if unknown := sorted(set(args.ways) - set(WAYS)):
@@ -218,9 +272,14 @@ def main(argv=None):
         for name, conf in (("default", {}), ("quiet", QUIET)):
             out[f"idle_core_share_{name}@{layouts[0][0]}x{layouts[0][1]}"] = idle_share(*layouts[0], conf)
     names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *args.ways)]
+    if args.plain > 0:
+        names.insert(0, f"plain@{args.plain}")
     times = {name: [] for name in ("memory", *names)}
     for _ in range(args.repeats):
         times["memory"].append(calls(lambda: clf.predict(Xc), ref, "memory", args.calls))  # no cluster running
+        if args.plain > 0:
+            with plain_processes(args.plain, clf, Xc) as pool:
+                times[f"plain@{args.plain}"].append(plain_round(pool, args.check_n, args.chunk, ref, args.calls))
         for w, th in layouts:
             with cluster(w, th, settings) as client:
                 for name, t in cluster_round(client, clf, Xc, ref, args).items():
