@@ -489,18 +489,35 @@ def test_voxels_with_every_corner_on_the_staircase_take_their_neighbours_field()
     assert d.mean() < 0.005 and d.max() < 0.03
 
 
+@pytest.mark.parametrize("inset", [False, True])
 @pytest.mark.parametrize("shape", [(9, 10, 11), (12, 13)])
-def test_a_grid_bands_components_edges_and_operators_are_its_meshs(shape):
+def test_a_grid_bands_components_edges_and_operators_are_its_meshs(shape, inset):
     """The band's vertex components come from its pixels on the index grid: the same
     partition as the mesh's edges give, with pixels that touch at a corner joined. Its
     voxels' edges, stiffness and gradient, built from the one box they all are, are
-    those of the general hexahedra, to the bit."""
-    from ndboundary import Domain, PolyhedralMesh
+    those of the general hexahedra, to the bit. Pixels set in from the grid's sides (as a
+    region's band in a large image) are numbered through their own box, not the grid:
+    their corners are the grid's, at the grid's points."""
+    from ndboundary import Domain, ImageGrid, PolyhedralMesh
     from ndboundary.domains.image import GridBand
 
     rng = np.random.default_rng(1)
-    pixels = np.flatnonzero(rng.uniform(size=int(np.prod(shape))) < 0.12)
+    keep = rng.uniform(size=shape) < 0.12
+    if inset:  # the pixels of a box set in from the grid's sides
+        box = np.zeros(shape, dtype=bool)
+        box[tuple(slice(2, n - 1) for n in shape)] = True
+        keep &= box
+    pixels = np.flatnonzero(keep)
     band = GridBand(shape, pixels, spacing=0.7)
+    if inset:
+        grid = ImageGrid(shape, spacing=0.7)
+        np.testing.assert_array_equal(band.points, grid.points[band.corners])
+        assert np.all(np.diff(band.corners) > 0)
+        if len(shape) == 3:  # each voxel's corners surround its pixel's centre
+            rows, cols = band.cell_vertices
+            centres = np.zeros((pixels.size, 3))
+            np.add.at(centres, rows, band.points[cols] / 8)
+            np.testing.assert_allclose(centres, grid.element_centroids()[pixels], atol=1e-12)
     n, comp = band.vertex_components
     n_edges, comp_edges = Domain.vertex_components.func(band)
     assert n == n_edges > 3

@@ -546,12 +546,13 @@ class GridBand:
         pixels on the index grid with diagonal neighbours (:func:`scipy.ndimage.label`),
         found without the mesh's edges.
         """
-        mask = np.zeros(int(np.prod(self.shape)), dtype=bool)
-        mask[self.pixels] = True
-        labels, n = ndimage.label(mask.reshape(self.shape), structure=np.ones((3,) * len(self.shape), dtype=bool))
+        _, box, index = _pixel_box(self.shape, self.pixels)  # the pixels' box, not the grid
+        mask = np.zeros(box, dtype=bool)
+        mask[index] = True
+        labels, n = ndimage.label(mask, structure=np.ones((3,) * len(self.shape), dtype=bool))
         element, vertex = self._element_vertex_pairs()
         comp = np.empty(self.n_vertices, dtype=np.int32)
-        comp[vertex] = labels.reshape(-1)[self.pixels][element] - 1
+        comp[vertex] = labels[index][element] - 1
         return int(n), comp
 
     def subdomain(self, mask):
@@ -703,6 +704,28 @@ def _lowest_corners(shape, pixels):
     return np.ravel_multi_index(np.unravel_index(pixels, shape), tuple(n + 1 for n in shape))
 
 
+def _pixel_box(shape, pixels):
+    """``(start, box, index)``: the lowest index along each axis of the ``pixels`` (indices
+    into a grid of ``shape``, at least one), the shape of the box of pixels from there to
+    their highest, and each pixel's index in that box, one array per axis.
+
+    Tables over the box instead of the grid keep the work on a band of a large image to
+    the size of the band.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.domains.image import _pixel_box
+    >>> start, box, index = _pixel_box((4, 5), np.array([6, 8, 13]))  # (1, 1), (1, 3), (2, 3)
+    >>> start.tolist(), box, [i.tolist() for i in index]
+    ([1, 1], (2, 3), [[0, 0, 1], [0, 2, 2]])
+    """
+    index = np.unravel_index(pixels, shape)
+    start = np.array([int(i.min()) for i in index], dtype=np.int64)
+    box = tuple(int(i.max()) - int(s) + 1 for i, s in zip(index, start, strict=True))
+    return start, box, tuple(i - s for i, s in zip(index, start, strict=True))
+
+
 def _pixel_strides(grid):
     """The corners' strides along the two axes, swapped for a reflection (the quads stay
     counter-clockwise in the grid's axes).
@@ -722,14 +745,23 @@ def _init_voxels(mesh, voxels, kwargs):
     if kwargs:
         raise TypeError(f"{type(mesh).__name__} got unexpected keyword arguments {sorted(kwargs)}")
     shape = mesh.shape
-    lowest = _lowest_corners(shape, np.arange(int(np.prod(shape))) if voxels is None else voxels)
-    cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(shape)
     if voxels is None:
+        lowest = _lowest_corners(shape, np.arange(int(np.prod(shape))))
+        cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(shape)
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction)
     else:
-        # the corners the voxels hold, numbered by a table over the grid's, without a sort
-        mesh.corners, remap = used_vertices(cell_vertices, int(np.prod([n + 1 for n in shape])))
+        # the corners the voxels hold, numbered by a table over the corners of the voxels'
+        # bounding box, without a sort: its size follows the band, not the grid
+        start, box, index = _pixel_box(shape, voxels)
+        cshape = tuple(n + 1 for n in box)
+        lowest = np.ravel_multi_index(index, cshape)
+        cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(box)
+        used, remap = used_vertices(cell_vertices, int(np.prod(cshape)))
         cell_vertices = remap[cell_vertices]
+        mesh.corners = np.ravel_multi_index(
+            tuple(i + s for i, s in zip(np.unravel_index(used, cshape), start, strict=True)),
+            tuple(n + 1 for n in shape),
+        )  # increasing: the box's C order is the grid's
         points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
     mesh.stabilization, mesh.laplacian, mesh.points = stabilization, laplacian, points
     mesh._n_voxels = cell_vertices.shape[0]
