@@ -63,16 +63,20 @@ def check_boundary_format(option, path, element_dim):
     ...
     ndboundary.cli_files.CLIError: --boundary out.stl: STL holds triangles, and these boundaries are curves; ...
     """
+    from .io.meshio_formats import SIMPLEX_KINDS, holds_simplices
+
     ext = os.path.splitext(os.fspath(path))[1].lower()
-    if ext == ".stl" and element_dim != 3:
-        what = "curves" if element_dim == 2 else "tetrahedra"
+    kind = SIMPLEX_KINDS.get(element_dim, "tetra")
+    if holds_simplices(ext, kind):
+        return
+    if ext == ".stl":
+        what = "curves" if kind == "line" else "tetrahedra"
         raise CLIError(
             f"{option} {path}: STL holds triangles, and these boundaries are {what}; use .obj, .ply, .vtk, .vtp or .vtu"
         )
-    if ext in (".obj", ".ply", ".vtp") and element_dim > 3:
-        raise CLIError(
-            f"{option} {path}: a 4-D domain's boundaries are tetrahedra, which {ext} does not hold; use .vtk or .vtu"
-        )
+    raise CLIError(
+        f"{option} {path}: a 4-D domain's boundaries are tetrahedra, which {ext} does not hold; use .vtk or .vtu"
+    )
 
 
 class Output(NamedTuple):

@@ -2,8 +2,9 @@
 
 meshio (``meshio>=5.3``, the ``io`` extra) is imported on the first use of one of
 these formats, so that OBJ, OFF and HEDRA work without it. :func:`vtk_values` gives
-data arrays the types VTK files hold, and :data:`SIMPLEX_KINDS` the cell type of a
-simplex, for the writers of results.
+data arrays the types VTK files hold, :data:`SIMPLEX_KINDS` the cell type of a
+simplex, and :func:`check_simplices_format` whether a results file holds it, for the
+writers of results and the command line's checks before any work.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ __all__ = [
     "MESHIO_EXTENSIONS",
     "SIMPLEX_KINDS",
     "WRITABLE_KINDS",
+    "check_simplices_format",
+    "holds_simplices",
     "read_with_meshio",
     "vtk_values",
     "write_with_meshio",
@@ -41,6 +44,40 @@ WRITABLE_KINDS = {
 MESHIO_EXTENSIONS = set(WRITABLE_KINDS)
 #: The block kind of a simplex of k + 1 vertices, by k + 1.
 SIMPLEX_KINDS = {2: "line", 3: "triangle", 4: "tetra"}
+
+#: The simplices of level sets and interfaces each format of the results' writers holds
+#: (``.vtk`` and ``.vtu`` hold every kind).
+_SIMPLICES_HELD = {".obj": ("line", "triangle"), ".ply": ("line", "triangle"), ".stl": ("triangle",),
+                   ".vtp": ("line", "triangle")}  # fmt: skip
+
+
+def holds_simplices(ext, kind):
+    """Whether a results file of extension ``ext`` holds simplices of ``kind`` (a value of
+    :data:`SIMPLEX_KINDS`).
+
+    Examples
+    --------
+    >>> holds_simplices(".stl", "triangle"), holds_simplices(".obj", "tetra"), holds_simplices(".vtu", "tetra")
+    (True, False, True)
+    """
+    return kind in _SIMPLICES_HELD.get(ext, (kind,))
+
+
+def check_simplices_format(path, ext, kind, curve="a curve"):
+    """Raise when the results file ``path`` (extension ``ext``) cannot hold simplices of
+    ``kind``; ``curve`` names segments in the message of STL.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the formats that hold them.
+    """
+    if holds_simplices(ext, kind):
+        return
+    if ext == ".stl":
+        what = curve if kind == "line" else "tetrahedra"
+        raise ValueError(f"{path}: STL holds triangles, not {what}; use .obj, .ply, .vtk, .vtp or .vtu")
+    raise ValueError(f"{path}: the {ext} format cannot hold tetrahedra; use .vtu or .vtk")
 
 
 def _import_meshio():

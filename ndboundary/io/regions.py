@@ -14,7 +14,7 @@ import re
 import numpy as np
 
 from .common import format_suffix, points_3d
-from .meshio_formats import SIMPLEX_KINDS, vtk_values, write_with_meshio
+from .meshio_formats import SIMPLEX_KINDS, check_simplices_format, vtk_values, write_with_meshio
 from .stl import write_ascii_stl_solids
 from .text_format import points_text, rows_text
 from .vtu import write_vtp
@@ -232,10 +232,7 @@ def write_interfaces(path, result):
     if kind is None:
         what = "points" if k == 1 else f"{k - 1}-simplices"
         raise ValueError(f"{path}: cannot write interfaces made of {what}")
-    if kind == "tetra" and ext in (".obj", ".ply", ".stl", ".vtp"):
-        raise ValueError(f"{path}: the {ext} format cannot hold tetrahedra; use .vtu or .vtk")
-    if kind == "line" and ext == ".stl":
-        raise ValueError(f"{path}: STL holds triangles, not curves; use .obj, .ply, .vtk, .vtp or .vtu")
+    check_simplices_format(path, ext, kind, curve="curves")
     names = region_names(result.classes)
     if ext == ".obj":
         _write_obj_groups(path, points, simplices, pairs, names)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .common import format_suffix, points_3d
 from .meshes import write_mesh
-from .meshio_formats import SIMPLEX_KINDS, vtk_values, write_with_meshio
+from .meshio_formats import SIMPLEX_KINDS, check_simplices_format, vtk_values, write_with_meshio
 from .obj import write_obj
 from .ply import write_ascii_ply
 from .regions import region_names
@@ -163,11 +163,7 @@ def write_level_set(path, level_set):
     kind = SIMPLEX_KINDS.get(k)
     if kind is None:
         raise ValueError(f"{path}: cannot write a level set made of {k - 1}-simplices")
-    if kind == "tetra" and ext in (".obj", ".ply", ".vtp"):
-        raise ValueError(f"{path}: the {ext} format cannot hold tetrahedra; use .vtu or .vtk")
-    if ext == ".stl" and kind != "triangle":
-        what = "a curve" if kind == "line" else "tetrahedra"
-        raise ValueError(f"{path}: STL holds triangles, not {what}; use .obj, .ply, .vtk, .vtp or .vtu")
+    check_simplices_format(path, ext, kind)
     if ext == ".obj":
         write_obj(path, level_set.points, [(kind, level_set.simplices)])
     elif ext == ".ply":

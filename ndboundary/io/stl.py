@@ -93,19 +93,21 @@ def write_ascii_stl_solids(path, points, triangles, groups, names):
     ...     [line.strip() for line in open(path) if "solid" in line]
     ['solid a|b', 'endsolid a|b', 'solid a|c', 'endsolid a|c']
     """
-    groups = np.asarray(groups)
-    order = np.unique(groups)
+    groups = np.asarray(groups).reshape(-1)
+    by_group = np.argsort(groups, kind="stable")  # each group's triangles in their order
+    order, starts = np.unique(groups[by_group], return_index=True)
+    bounds = np.append(starts, groups.size)
     for group in order:  # before the file is opened
         name = names[int(group)]
         if not name or any(c.isspace() for c in name):
             raise ValueError(f"{path}: the solid name {name!r} must be one word, without whitespace")
     corners, normals = _corners_and_normals(points, triangles)
-    rows = np.hstack([normals, corners.reshape(-1, 9)])
+    rows = np.hstack([normals, corners.reshape(-1, 9)])[by_group]
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         if not order.size:  # no triangles: one empty solid, which readers take
             fh.write("solid\nendsolid\n")
-        for group in order:
+        for group, start, stop in zip(order, bounds[:-1], bounds[1:], strict=True):
             name = names[int(group)]
             fh.write(f"solid {name}\n")
-            fh.write(points_text(rows[groups == group], _FACET))
+            fh.write(points_text(rows[start:stop], _FACET))
             fh.write(f"endsolid {name}\n")
