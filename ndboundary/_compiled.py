@@ -627,6 +627,53 @@ def ambient_values(c, g, ind, X, lo, hi, out):  # pragma: no cover - compiled
                 out[b, q, r] = min(max(c[u, r] + s, lo[u, r]), hi[u, r])
 
 
+@kernel("void(i8[:, ::1], f4[:, ::1], f8[:], f8[:, ::1], f8[:, :, ::1], f8[:, :], f8[:, ::1], f8[:, ::1], f8, i8, i8, f8[:, ::1])")
+@numba.njit(cache=True, nogil=True)
+def neighbour_means(ind, sq, scale, c, g, X, lo, hi, power, k, nxt, out):  # pragma: no cover - compiled
+    """``out[b]``: the weighted mean over the ``k`` nearest neighbours ``ind[b]`` of the
+    points ``X`` of their clipped first-order extensions (:func:`ambient_values`), from the
+    neighbours' squared distances ``sq`` as an HNSW search returns them, with ``nxt`` a
+    next neighbour to fade against. Weight ``q`` is ``taper_q (d_1 / d_q)^power``: with
+    ``e_q`` the distances and ``d_q`` those in units of each neighbour's ``scale``,
+    ``taper_q = 1 - (e_q / e_{k+1})^2`` clipped to ``[0, 1]`` (plus ``1e-12``, so that ``k``
+    neighbours all tied with the next weigh alike), 1 without a next one. The same sums
+    as ``NeighborExtension``'s arrays of every row's terms, with no array per block of
+    rows: a process that hands freed memory back to the system at once (a Dask worker's
+    ``MALLOC_TRIM_THRESHOLD_``) would fault such arrays in again on every block.
+    """
+    tiny = np.finfo(np.float64).tiny
+    n_functions, dim = c.shape[1], X.shape[1]
+    acc = np.empty(n_functions)
+    for b in range(ind.shape[0]):
+        far = max(np.sqrt(max(np.float64(sq[b, ind.shape[1] - 1]), 0.0)), tiny)
+        near = np.inf
+        widest = -np.inf
+        for q in range(k):
+            d = np.sqrt(max(np.float64(sq[b, q]), 0.0)) / max(scale[ind[b, q]], tiny)
+            near = min(near, d)
+            widest = max(widest, d)
+        guard = 1e-12 * max(widest, tiny)
+        near = max(near, guard)
+        acc[:] = 0.0
+        total = 0.0
+        for q in range(k):
+            u = ind[b, q]
+            e = np.sqrt(max(np.float64(sq[b, q]), 0.0))
+            taper = 1.0
+            if nxt:
+                t = e / far
+                taper = min(max(1.0 - t * t, 0.0), 1.0) + 1e-12
+            w = taper * np.exp(-power * np.log(max(e / max(scale[u], tiny), guard) / near))
+            total += w
+            for r in range(n_functions):
+                s = 0.0
+                for a in range(dim):
+                    s += g[u, r, a] * X[b, a]
+                acc[r] += w * min(max(c[u, r] + s, lo[u, r]), hi[u, r])
+        for r in range(n_functions):
+            out[b, r] = acc[r] / total
+
+
 @kernel("void(f8[:, :], f8[:, ::1], f8[:, :, :], i8[:, :], f8[:, :, ::1])")
 @numba.njit(cache=True, nogil=True)
 def tangent_coordinates(X, points, frames, ind, out):  # pragma: no cover - compiled

@@ -276,6 +276,27 @@ def test_the_extension_is_the_same_in_blocks_on_threads(monkeypatch, rng):
     assert abs(whole[:, 0] - t[:300, 0]).mean() < 0.05  # it follows the function
 
 
+@pytest.mark.parametrize("power", [0.0, 4.0])
+def test_the_extensions_compiled_pass_over_hnsw_searches_is_its_arrays_pass(monkeypatch, rng, power):
+    """Over an HNSW index, blocks of new points are searched into arrays each thread keeps
+    and summed by one compiled pass; the values are those of the pass over every row's
+    terms, on points inside the data, on training samples and far outside."""
+    pytest.importorskip("faiss")
+    from ndboundary.domains import pointcloud_extension
+    from ndboundary.domains.neighbors import NeighborIndex
+
+    X, t = _manifold(600, 5, rng)
+    cloud = PointCloud(X, n_neighbors=12, method="hnsw")
+    assert cloud.searches_into
+    Q = np.r_[X[:300] + 0.01 * rng.normal(size=(300, 5)), X[300:340], 5.0 * X[340:360]]
+    ext = cloud.extension(np.c_[t[:, 0]], power=power)
+    monkeypatch.setattr(pointcloud_extension, "_CHUNK", 16)  # blocks on threads, each thread's arrays reused
+    compiled = ext(Q)
+    monkeypatch.setattr(NeighborIndex, "searches_into", property(lambda self: False))
+    np.testing.assert_allclose(compiled, ext(Q), rtol=0.0, atol=1e-13)
+    assert np.abs(compiled[300:340, 0] - t[300:340, 0]).max() < (1e-12 if power else 0.05)
+
+
 @pytest.mark.background_run
 @pytest.mark.parametrize("method", ["exact", "hnsw", "nndescent"])
 def test_only_an_index_that_prepares_on_its_first_search_has_a_first_block_searched_alone(monkeypatch, rng, method):

@@ -227,6 +227,24 @@ class NeighborIndex:
 
             self._nn = faiss.deserialize_index(state["_nn"])
 
+    @property
+    def searches_into(self):
+        """Whether :meth:`search_into` is available (the HNSW index)."""
+        return self.method == "hnsw"
+
+    def search_into(self, X, sq, ind):
+        """The ``ind.shape[1]`` nearest indexed points of the float32 points ``X``, written
+        into ``ind`` (int64), nearest first, with their squared distances into ``sq``
+        (float32): the search of :meth:`query` without allocating its results, for
+        searches repeated over blocks of rows that reuse one pair of arrays. HNSW only
+        (:attr:`searches_into`).
+        """
+        if not self.searches_into:
+            raise ValueError(f"search_into needs the HNSW index, not {self.method!r}")
+        k = ind.shape[1]
+        self._nn.hnsw.efSearch = max(HNSW_EF_QUERY, k)
+        self._nn.search(X, k, D=sq, I=ind)
+
     def query(self, X, k):
         """The ``k`` nearest indexed points of new points ``X``: ``(indices, distances)``, nearest first."""
         if self.method == "exact":

@@ -302,6 +302,22 @@ class PointCloud(StencilDomain):
         return self._index.query(np.asarray(X, dtype=np.float64), k)
 
     @property
+    def searches_into(self):
+        """Whether :meth:`kneighbors_into` is available: the neighbour index can write a
+        search into given arrays (:meth:`~ndboundary.domains.neighbors.NeighborIndex.search_into`).
+        """
+        return self._index.searches_into
+
+    def kneighbors_into(self, X, sq, ind):
+        """:meth:`kneighbors` of the float32 points ``X`` written into ``ind`` (int64) and
+        ``sq`` (float32, squared distances): ``ind.shape[1]`` neighbours, at most
+        ``n_unique``. Only where :attr:`searches_into`.
+        """
+        if ind.shape[1] > self.n_unique:
+            raise ValueError(f"{ind.shape[1]} neighbours asked of {self.n_unique} distinct points")
+        self._index.search_into(X, sq, ind)
+
+    @property
     def query_prepares(self):
         """Whether the neighbour index prepares itself on its first search of new points
         (pynndescent compiles its search then): a first block of searches should run
