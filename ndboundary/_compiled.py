@@ -627,7 +627,10 @@ def ambient_values(c, g, ind, X, lo, hi, out):  # pragma: no cover - compiled
                 out[b, q, r] = min(max(c[u, r] + s, lo[u, r]), hi[u, r])
 
 
-@kernel("void(i8[:, ::1], f4[:, ::1], f8[:], f8[:, ::1], f8[:, :, ::1], f8[:, :], f8[:, ::1], f8[:, ::1], f8, i8, i8, f8[:, ::1])")
+@kernel(
+    "void(i8[:, ::1], f4[:, ::1], f8[:], f8[:, ::1], f8[:, :, ::1], f8[:, :],"
+    " f8[:, ::1], f8[:, ::1], f8, i8, i8, f8[:, ::1])"
+)
 @numba.njit(cache=True, nogil=True)
 def neighbour_means(ind, sq, scale, c, g, X, lo, hi, power, k, nxt, out):  # pragma: no cover - compiled
     """``out[b]``: the weighted mean over the ``k`` nearest neighbours ``ind[b]`` of the
