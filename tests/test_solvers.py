@@ -23,9 +23,7 @@ def _system(n, dim):
     # element labels: one constraint row (a single 1) per vertex touching both regions
     inc = sp.csr_matrix(dom.incidence)
     zeta = np.flatnonzero(((inc @ lab) > 0) & ((inc @ (1 - lab)) > 0))
-    S = sp.csr_matrix(
-        (np.ones(zeta.size), (np.arange(zeta.size), zeta)), shape=(zeta.size, dom.n_vertices)
-    )
+    S = sp.csr_matrix((np.ones(zeta.size), (np.arange(zeta.size), zeta)), shape=(zeta.size, dom.n_vertices))
     h = dom.mean_edge_length()
     K = (dom.K * h ** (2 - dim)).tocsr()
     mass = dom.mass / h**dim
@@ -172,10 +170,11 @@ def test_amg_hierarchy_is_csr_and_smoothing_follows_row_density(case, monkeypatc
         for name in ("A", "P", "R"):
             if getattr(level, name, None) is not None:
                 assert getattr(level, name).format == "csr"
-    # a symmetric positive definite operator, close enough to A^{-1} to precondition CG
+    # a symmetric positive definite operator (to the single precision of its cycle), close
+    # enough to A^{-1} to precondition CG
     rng = np.random.default_rng(1)
     u, v = rng.standard_normal((2, A.shape[0]))
-    assert np.isclose(u @ apply(v), v @ apply(u), rtol=1e-10)
+    assert np.isclose(u @ apply(v), v @ apply(u), rtol=1e-5)
     assert u @ apply(u) > 0
     b = A @ rng.standard_normal(A.shape[0])
     x = apply(b)
@@ -248,12 +247,12 @@ def test_compiled_v_cycle_is_spd_and_equals_pyamgs():
     apply = amg.amg_preconditioner(A)
     n = A.shape[0]
     M = np.column_stack([apply(e) for e in np.eye(n)])
-    assert np.abs(M - M.T).max() < 1e-12 * np.abs(M).max()
+    assert np.abs(M - M.T).max() < 1e-6 * np.abs(M).max()  # symmetric to the cycle's single precision
     # I - M A is the cycle's error propagation: A-symmetric, its spectrum in [0, 1)
     with common.one_blas_thread():
         L = np.linalg.cholesky(A.toarray())
         spectrum = np.linalg.eigvalsh(L.T @ M @ L)
-    assert spectrum.min() > 0.1 and spectrum.max() < 1 + 1e-10
+    assert spectrum.min() > 0.1 and spectrum.max() < 1 + 1e-5
     # the cycle over pyamg's own hierarchy, aggregated as pyamg's standard aggregation of
     # the strong couplings aggregates them
     from pyamg.aggregation.aggregate import standard_aggregation
@@ -518,7 +517,7 @@ def test_a_preconditioner_built_ahead_solves_as_the_one_built_in_the_solve():
     # one sweep each way keeps the V-cycle symmetric positive definite
     A = _mesh_operator(8, 3, "sparse")
     M = np.column_stack([amg.amg_preconditioner(A, sweeps=1)(e) for e in np.eye(A.shape[0])])
-    assert np.abs(M - M.T).max() < 1e-12 * np.abs(M).max() and np.linalg.eigvalsh(M).min() > 0
+    assert np.abs(M - M.T).max() < 1e-6 * np.abs(M).max() and np.linalg.eigvalsh(M).min() > 0
     with pytest.raises(ValueError, match="Preconditioner"):
         integration_preconditioner(K, mass, S, lam, preconditioner="jacobi")
     K2, mass2, S2 = _system(12, 2)
@@ -603,7 +602,7 @@ def test_light_vertices_get_a_jacobi_step_around_the_v_cycle(monkeypatch):
     # symmetric positive definite, and no residual left on a light vertex without light neighbours
     rng = np.random.default_rng(0)
     u, v = rng.standard_normal((2, K.shape[0]))
-    assert np.isclose(u @ wrapped(v), v @ wrapped(u), rtol=1e-10) and u @ wrapped(u) > 0
+    assert np.isclose(u @ wrapped(v), v @ wrapped(u), rtol=1e-5) and u @ wrapped(u) > 0
     ones = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
     degree = np.diff(A.indptr) - 1
     light = mass < solvers.LIGHT_VERTEX_SHARE * (ones @ mass - mass) / degree
@@ -667,9 +666,7 @@ def test_small_systems_do_not_warn_without_fast_packages(monkeypatch):
 
 def test_nonconvergence_warns_with_residual(system):
     K, mass, S, lam, mu, rhs, _exact = system
-    with pytest.warns(
-        RuntimeWarning, match=r"did not converge in 2 iterations \(relative residual"
-    ):
+    with pytest.warns(RuntimeWarning, match=r"did not converge in 2 iterations \(relative residual"):
         _phi, info = solvers.solve_integration(K, mass, S, lam, rhs, mu=mu, method="pcg", maxiter=2)
     assert info.iterations == 2 and info.residual > 1e-9
 

@@ -83,6 +83,11 @@ def amg_preconditioner(A, sweeps=2):
       The coarsest level is solved by a dense pseudo-inverse (pyamg's
       ``"pinv"``), which is why it is kept small: ``max_coarse = 5000`` made the solve
       an order of magnitude slower.
+    * The cycle runs in single precision, its coarsest solve in double: its sweeps and
+      products read memory faster than they compute, and float32 entries halve the
+      values they read. The conjugate gradients around it stay in double precision, and
+      reach the same residuals in the same iterations (21 on the band of a 192^3 voxel
+      ball, whose integration took a sixth less time).
 
     Parameters
     ----------
@@ -141,12 +146,19 @@ def amg_preconditioner(A, sweeps=2):
 
 def _v_cycle(levels, coarse, pre, post, gauss_seidel):
     """One V-cycle over ``levels`` (finest first, each with ``A`` and, but the coarsest,
-    ``P`` and ``R``, all CSR): Gauss-Seidel sweeps in the directions ``pre`` before the
+    ``P`` and ``R``, all CSR), in single precision (copies of their entries, the index
+    arrays shared) but for the coarsest solve, which alone is the exact inverse in
+    double: Gauss-Seidel sweeps in the directions ``pre`` before the
     coarse correction and ``post`` after it, the coarsest level solved by ``coarse(b)``.
     pyamg's preconditioner runs the same cycle but also computes the residual's norm
     before and after it, two more products with the finest operator each time.
     """
     last = len(levels) - 1
+    if last == 0:  # the coarse solve alone, exact
+        return lambda r: coarse(np.asarray(r, dtype=np.float64))
+    single = [
+        (_single(level.A), _single(getattr(level, "P", None)), _single(getattr(level, "R", None))) for level in levels
+    ]
 
     def sweep(A, x, b, directions):
         n = A.shape[0]
@@ -158,15 +170,24 @@ def _v_cycle(levels, coarse, pre, post, gauss_seidel):
 
     def cycle(lvl, b):
         if lvl == last:
-            return coarse(b)
-        A = levels[lvl].A
+            return np.asarray(coarse(b.astype(np.float64)), dtype=np.float32)
+        A, P, R = single[lvl]
         x = np.zeros_like(b)
         sweep(A, x, b, pre)
-        x += levels[lvl].P @ cycle(lvl + 1, levels[lvl].R @ (b - A @ x))
+        x += P @ cycle(lvl + 1, R @ (b - A @ x))
         sweep(A, x, b, post)
         return x
 
-    return lambda r: cycle(0, np.ascontiguousarray(r, dtype=np.float64))
+    return lambda r: cycle(0, np.asarray(r, dtype=np.float32)).astype(np.float64)
+
+
+def _single(M):
+    """The CSR matrix ``M`` with float32 entries, sharing its index arrays (None stays None)."""
+    if M is None:
+        return None
+    out = sp.csr_matrix((M.data.astype(np.float32), M.indices, M.indptr), shape=M.shape)
+    out.has_sorted_indices = M.has_sorted_indices
+    return out
 
 
 def light_vertex_jacobi(A, mass, apply):
