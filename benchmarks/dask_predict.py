@@ -31,6 +31,9 @@ shared machine hit both sides alike; their median is printed with their range. T
 classifier's own ``predict`` ships its lean copy to the workers on its first call and
 reuses it after (``ndboundary.learn.scaleout.shipped_to_workers``): that first call is
 timed on its own (``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
+``--faults`` first counts the minor page faults (and the seconds) of one call predicting
+``--chunk`` rows on one thread, in a fresh process with and without the
+``MALLOC_TRIM_THRESHOLD_`` Dask's nanny sets in its workers.
 ``--no-profiler`` and ``--no-malloc-trim`` start the workers without two of Dask's
 defaults: its statistical profiler, which samples every worker thread's stack 100 times a
 second, and ``MALLOC_TRIM_THRESHOLD_``, with which glibc hands freed memory back to the
@@ -46,8 +49,8 @@ Usage::
     python benchmarks/dask_predict.py [--fit-n 100000] [--max-samples 0.1] [--n 10000000]
                                       [--check-n 200000] [--chunk 100000] [--layouts 1x2,2x1]
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
-                                      [--quiet] [--idle] [--ways cluster,...] [--calls 1]
-                                      [--plain 2]
+                                      [--quiet] [--idle] [--faults] [--ways cluster,...]
+                                      [--calls 1] [--plain 2]
 """
 
 from __future__ import annotations
@@ -105,22 +108,60 @@ def _plain_rows(bounds):
 
 
 @contextmanager
+def environment(**values):
+    """This process's environment with ``values`` set, for the processes started within
+    (each reads it as it starts), then restored."""
+    before = {name: os.environ.get(name) for name in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                del os.environ[name]
+            else:
+                os.environ[name] = value
+
+
+@contextmanager
 def plain_processes(count, clf, X):
     """A pool of ``count`` plain processes, each started as Dask starts a worker process
     (``OMP_NUM_THREADS=1``) and holding the lean classifier and the samples ``X``: the
     same split of the work across processes, without Dask.
     """
-    before = os.environ.get("OMP_NUM_THREADS")
-    os.environ["OMP_NUM_THREADS"] = "1"  # read by each process as it starts
-    try:
+    with environment(OMP_NUM_THREADS="1"):
         pool = multiprocessing.get_context("spawn").Pool(count, _plain_init, (for_prediction(clf), X))
-    finally:
-        if before is None:
-            del os.environ["OMP_NUM_THREADS"]
-        else:
-            os.environ["OMP_NUM_THREADS"] = before
     with pool:
         yield pool
+
+
+def _faults_of_a_call(est, X):
+    import resource
+
+    est.predict(X[:1000])
+    est.predict(X)  # warm: what the process keeps between calls is made
+    r0, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
+    est.predict(X)
+    seconds, r1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_SELF)
+    return r1.ru_minflt - r0.ru_minflt, seconds
+
+
+def page_faults(clf, X, trim):
+    """``(minor page faults, seconds)`` of one call predicting ``X`` on one thread, after a
+    warm-up, in a fresh process started with ``OMP_NUM_THREADS=1`` and, with ``trim``, with
+    the ``MALLOC_TRIM_THRESHOLD_`` that Dask's nanny gives its workers: with it, glibc hands
+    freed memory back to the system at once, and every array above it that a call makes
+    and frees is faulted in again on the next.
+    """
+    values = {"OMP_NUM_THREADS": "1"}
+    if trim:
+        values["MALLOC_TRIM_THRESHOLD_"] = str(
+            dask.config.get("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"]
+        )
+    with environment(**values):
+        pool = multiprocessing.get_context("spawn").Pool(1)
+    with pool:
+        return pool.apply(_faults_of_a_call, (for_prediction(clf), X))
 
 
 def plain_round(pool, n, chunk, ref, count):
@@ -238,6 +279,11 @@ def main(argv=None):
     ap.add_argument("--no-malloc-trim", action="store_true", help="workers without Dask's MALLOC_TRIM_THRESHOLD_")
     ap.add_argument("--quiet", action="store_true", help="clusters with QUIET's settings")
     ap.add_argument("--idle", action="store_true", help="first measure an idle cluster's CPU share, each setting")
+    ap.add_argument(
+        "--faults",
+        action="store_true",
+        help="first count the page faults of predicting --chunk rows on one thread, with and without malloc trim",
+    )
     ap.add_argument("--ways", default=",".join(WAYS), help=f"comma-separated, from {', '.join(WAYS)}")
     ap.add_argument("--calls", type=int, default=1, help="calls per way and round, their median kept")
     ap.add_argument(
@@ -271,6 +317,10 @@ def main(argv=None):
     if args.idle:
         for name, conf in (("default", {}), ("quiet", QUIET)):
             out[f"idle_core_share_{name}@{layouts[0][0]}x{layouts[0][1]}"] = idle_share(*layouts[0], conf)
+    if args.faults:
+        for name, trim in (("trim", True), ("no_trim", False)):
+            faults, seconds = page_faults(clf, Xc[: args.chunk], trim)
+            out[f"page_faults_{name}"], out[f"one_thread_s_{name}"] = faults, seconds
     names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *args.ways)]
     if args.plain > 0:
         names.insert(0, f"plain@{args.plain}")
