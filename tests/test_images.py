@@ -518,6 +518,9 @@ def test_a_grid_bands_components_edges_and_operators_are_its_meshs(shape, inset)
             centres = np.zeros((pixels.size, 3))
             np.add.at(centres, rows, band.points[cols] / 8)
             np.testing.assert_allclose(centres, grid.element_centroids()[pixels], atol=1e-12)
+            some = rng.choice(pixels.size, size=9, replace=False)  # a few voxels' alone
+            np.testing.assert_array_equal(band.centroids_of(some), band.element_centroids()[some])
+            np.testing.assert_array_equal(grid.centroids_of(pixels[some]), grid.element_centroids()[pixels[some]])
     n, comp = band.vertex_components
     n_edges, comp_edges = Domain.vertex_components.func(band)
     assert n == n_edges > 3

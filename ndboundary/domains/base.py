@@ -189,6 +189,13 @@ class Domain(IncidenceQueries):
         """Element centroids, shape (n_elements, dim)."""
         raise NotImplementedError
 
+    def centroids_of(self, elements) -> np.ndarray:
+        """The centroids of the elements ``elements`` (indices), shape (len(elements), dim):
+        :meth:`element_centroids` at those rows, which a domain may compute without the
+        others' (a region's walk among a large band's elements reads a few of them).
+        """
+        return self.element_centroids()[np.asarray(elements)]
+
     # -- what the relaxation asks of a domain -----------------------------------
     def interface_facets(self, region1):
         """The facets between elements of different labels (the jagged boundary) as vertex

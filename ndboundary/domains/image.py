@@ -455,11 +455,11 @@ class _Voxels(PolyhedralMesh):
         """Vertex means of the voxels, shape (n_elements, 3): their corners summed in
         order, as the general mean sums them, without the (voxel, corner) table.
         """
-        corners, points = _corners_of(self), self.points
-        out = points[corners[:, 0]]
-        for c in range(1, 8):
-            out += points[corners[:, c]]
-        return out / 8.0
+        return _corner_means(self.points, _corners_of(self))
+
+    def centroids_of(self, elements):
+        """:meth:`element_centroids` of the voxels ``elements`` alone."""
+        return _corner_means(self.points, _corners_of(self)[np.asarray(elements)])
 
     def element_max(self, f):
         """Per voxel, the largest value of the vertex function ``f`` at its corners."""
@@ -468,6 +468,14 @@ class _Voxels(PolyhedralMesh):
         for c in range(1, 8):
             np.maximum(out, f[corners[:, c]], out=out)
         return out
+
+
+def _corner_means(points, corners):
+    """The means of ``points`` over each row of ``corners`` (8 a row), summed in order."""
+    out = points[corners[:, 0]]
+    for c in range(1, 8):
+        out += points[corners[:, c]]
+    return out / 8.0
 
 
 class VoxelGrid(ImageGrid, _Voxels):

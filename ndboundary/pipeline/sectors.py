@@ -78,7 +78,7 @@ def region_sectors(domain, codes, region):
     nodes = np.flatnonzero(nodes)
     local = np.full(codes.shape, -1, dtype=np.int64)
     local[nodes] = np.arange(nodes.size)
-    c = domain.element_centroids()[nodes]
+    c = domain.centroids_of(nodes)
     i, j = local[rows], local[cols]
     lengths = np.linalg.norm(c[i] - c[j], axis=1) + 1e-300  # an explicit zero would drop the edge
     graph = sp.csr_matrix((lengths, (i, j)), shape=(nodes.size, nodes.size))
