@@ -100,7 +100,7 @@ def amg_preconditioner(A, sweeps=2):
     -------
     apply : callable
         ``apply(r)`` returns the V-cycle applied to ``r``: a symmetric positive definite
-        operator (the smoothers are symmetric).
+        operator (the smoothers are symmetric), to the single precision of its cycle.
 
     Examples
     --------
