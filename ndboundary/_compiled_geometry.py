@@ -14,6 +14,7 @@ import numpy as np
 from ._kernels import kernel
 
 __all__ = [
+    "crossing_orientations",
     "full_simplex_volumes",
     "longest_edges",
     "small_simplex_geometry_compiled",
@@ -305,3 +306,63 @@ def stiffness_terms_compiled(grads, vol):
     diag = np.empty((n, k1))
     _stiffness_terms(np.ascontiguousarray(grads), np.ascontiguousarray(vol, dtype=np.float64), off, diag)
     return off, diag
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _det3(M):  # pragma: no cover - compiled
+    """The determinant of the 3 x 3 ``M``, written out as ``ndboundary.levelset._det`` is."""
+    out = M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1])
+    out -= M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
+    out += M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0])
+    return out
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _det_small(M, n):  # pragma: no cover - compiled
+    """The determinant of the leading ``n`` x ``n`` block of ``M``, ``n`` at most 3."""
+    if n == 1:
+        return M[0, 0]
+    if n == 2:
+        return M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+    return _det3(M)
+
+
+@kernel("void(f8[:, ::1], f8[::1], i8[:, ::1], i8[::1], i1[:, :, ::1], f8[:, ::1], f8[::1], b1, f8[::1])")
+@numba.njit(cache=True, nogil=True)
+def crossing_orientations(points, values, S, owner, local, t, own, full, out):  # pragma: no cover - compiled
+    """For each output simplex of a level set whose owners have at most 3 dimensions, the
+    sign of its orientation against the function's gradient in the reference coordinates
+    of its owner ``S[owner]``, times the owner's own orientation: the sign of its volume
+    (from ``points``) where ``full``, ``own[owner]`` otherwise. The determinants of its
+    edges and the gradient, one simplex at a time, with the same operations as
+    ``ndboundary.levelset._orientation``'s arrays and written-out determinants, without
+    those arrays.
+
+    ``local[s, j]`` holds the owner's local vertices ``(a, b)`` of the edge that output
+    vertex ``j`` lies on, at ``t[s, j]`` from ``a`` to ``b``.
+    """
+    m, k = t.shape
+    n = S.shape[1] - 1  # == k: the reference coordinates' dimension
+    xi = np.zeros((k, n))
+    M = np.zeros((n, n))
+    E = np.zeros((n, n))
+    for s in range(m):
+        o = owner[s]
+        for j in range(k):
+            a, b, tj = local[s, j, 0], local[s, j, 1], t[s, j]
+            for c in range(1, n + 1):
+                xi[j, c - 1] = ((1.0 - tj) if a == c else 0.0) + (tj if b == c else 0.0)
+        for j in range(1, k):
+            for c in range(n):
+                M[j - 1, c] = xi[j, c] - xi[0, c]
+        f0 = values[S[o, 0]]
+        for c in range(n):
+            M[k - 1, c] = values[S[o, c + 1]] - f0
+        sign = own[o] if not full else 0.0
+        if full:
+            p0 = S[o, 0]
+            for r in range(n):
+                for c in range(n):
+                    E[r, c] = points[S[o, r + 1], c] - points[p0, c]
+            sign = np.sign(_det_small(E, n))
+        out[s] = np.sign(_det_small(M, n)) * sign

@@ -22,6 +22,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ._compiled_geometry import crossing_orientations
+
 __all__ = ["LevelSet", "marching_simplices"]
 
 
@@ -320,6 +322,11 @@ def _merge_vertex_crossings(pts, tris, ue, at_vertex):
     return pts[keep], tris.reshape(-1, k), ue[keep]
 
 
+#: Owners of up to this many dimensions (tetrahedra) orient their output simplices by one
+#: compiled pass (:func:`~ndboundary._compiled_geometry.crossing_orientations`), larger ones
+#: by blocks of arrays (:data:`ORIENTATION_BLOCK`).
+COMPILED_ORIENTATION_DIM = 3
+
 #: Output simplices whose orientation is found at once: the temporaries of a block stay
 #: small (a few megabytes), where a level set of millions of triangles took gigabytes.
 ORIENTATION_BLOCK = 1 << 17
@@ -330,11 +337,22 @@ def _orientation(points, values, S, parity, owner, local, t):
 
     Computed in the reference (barycentric) coordinates of the owning simplex, where no
     element is thin, then carried to space by the owner's orientation: the sign of its
-    volume for full-dimensional simplices, its winding as given otherwise. Blocks of
-    :data:`ORIENTATION_BLOCK` simplices are done one after another.
+    volume for full-dimensional simplices, its winding as given otherwise. Owners of up
+    to :data:`COMPILED_ORIENTATION_DIM` dimensions in one compiled pass; larger ones in
+    blocks of :data:`ORIENTATION_BLOCK` simplices, one after another.
     """
     m, k1 = t.shape[0], S.shape[1]
-    if k1 - 1 == points.shape[1]:
+    full = k1 - 1 == points.shape[1]
+    if k1 - 1 <= COMPILED_ORIENTATION_DIM and t.shape[1] == k1 - 1:  # one pass, no arrays per simplex
+        out = np.empty(m)
+        crossing_orientations(
+            np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(values, dtype=np.float64),
+            np.ascontiguousarray(S, dtype=np.int64), np.ascontiguousarray(owner, dtype=np.int64),
+            np.ascontiguousarray(local, dtype=np.int8), np.ascontiguousarray(t, dtype=np.float64),
+            np.zeros(0) if full else np.ascontiguousarray(parity, dtype=np.float64), full, out,
+        )  # fmt: skip
+        return out
+    if full:
         own = np.empty(S.shape[0])
         for lo in range(0, S.shape[0], ORIENTATION_BLOCK):
             X = points[S[lo : lo + ORIENTATION_BLOCK]]

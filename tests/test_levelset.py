@@ -41,6 +41,24 @@ def test_sphere_level_set_is_closed_and_oriented(dim, n, chi):
         assert vol == pytest.approx(4 / 3 * np.pi * 0.6**3, rel=0.15)
 
 
+@pytest.mark.parametrize("case", ["triangles", "tetrahedra", "surface"])
+def test_the_compiled_orientations_are_those_of_the_blocks_of_arrays(monkeypatch, case):
+    """Owners up to tetrahedra orient their output simplices in one compiled pass; the
+    triangles, segments and their windings are those of the arrays' pass, on a jittered
+    grid whose values are rough (every crossing pattern) and on a curve on a surface."""
+    from ndboundary import levelset
+
+    rng = np.random.default_rng(0)
+    dom = icosphere(3) if case == "surface" else kuhn_grid(7, 2 if case == "triangles" else 3, jitter=0.3)
+    values = dom.points[:, 2] if case == "surface" else rng.uniform(size=dom.n_vertices)
+    compiled = marching_simplices(dom.points, dom.simplices, values, 0.5)
+    monkeypatch.setattr(levelset, "COMPILED_ORIENTATION_DIM", 0)
+    arrays = marching_simplices(dom.points, dom.simplices, values, 0.5)
+    assert compiled.n_simplices > 20
+    np.testing.assert_array_equal(compiled.simplices, arrays.simplices)
+    np.testing.assert_array_equal(compiled.points, arrays.points)
+
+
 def test_four_dimensional_level_set_is_a_closed_tetrahedral_complex():
     dom = kuhn_grid(4, 4, jitter=0.1, random_state=0)
     ls = marching_simplices(dom.points, dom.simplices, np.linalg.norm(dom.points, axis=1), 0.7)
