@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ._compiled import unique_pairs
 from ._compiled_geometry import crossing_orientations
 
 __all__ = ["LevelSet", "marching_simplices"]
@@ -288,9 +289,13 @@ def marching_simplices(points, simplices, values, value=0.5):
     local = np.concatenate(out_local)
     m, k = E.shape[:2]
     flat = E.reshape(-1, 2)
-    keys = flat[:, 0] * V + flat[:, 1]
-    ukeys, inv = np.unique(keys, return_inverse=True)
-    ue = np.stack([ukeys // V, ukeys % V], axis=1)
+    if V < np.iinfo(np.int32).max:  # the distinct edges by a counting sort, sorted as (below, above)
+        ue, inv = unique_pairs(flat[:, 0].astype(np.int32), flat[:, 1].astype(np.int32), V)
+        ue = ue.astype(np.int64)
+    else:
+        keys = flat[:, 0] * V + flat[:, 1]
+        ukeys, inv = np.unique(keys, return_inverse=True)
+        ue = np.stack([ukeys // V, ukeys % V], axis=1)
     f0, f1 = values[ue[:, 0]], values[ue[:, 1]]
     t = (value - f0) / (f1 - f0)  # f1 >= value > f0, so the denominator is positive
     pts = points[ue[:, 0]] + t[:, None] * (points[ue[:, 1]] - points[ue[:, 0]])

@@ -34,6 +34,9 @@ def test_sphere_level_set_is_closed_and_oriented(dim, n, chi):
     assert ls.euler_characteristic() == chi
     # vertices are shared: every level-set point lies on one distinct domain edge
     assert np.unique(ls.edges, axis=0).shape[0] == ls.n_points
+    np.testing.assert_array_equal(ls.edges, np.unique(ls.edges, axis=0))  # in the order of their ends
+    radius = np.linalg.norm(dom.points, axis=1)  # each edge from below the level to above it
+    assert radius[ls.edges[:, 0]].max() < 0.6 <= radius[ls.edges[:, 1]].min()
     if dim == 3:
         # outward orientation: the signed volume enclosed is positive
         P = ls.points[ls.simplices]
