@@ -647,26 +647,28 @@ def neighbour_means(ind, sq, scale, c, g, X, lo, hi, power, k, nxt, out):  # pra
     tiny = np.finfo(np.float64).tiny
     n_functions, dim = c.shape[1], X.shape[1]
     acc = np.empty(n_functions)
+    e = np.empty(k)  # a row's distances, and in units of each neighbour's scale
+    d = np.empty(k)
     for b in range(ind.shape[0]):
         far = max(np.sqrt(max(np.float64(sq[b, ind.shape[1] - 1]), 0.0)), tiny)
         near = np.inf
         widest = -np.inf
         for q in range(k):
-            d = np.sqrt(max(np.float64(sq[b, q]), 0.0)) / max(scale[ind[b, q]], tiny)
-            near = min(near, d)
-            widest = max(widest, d)
+            e[q] = np.sqrt(max(np.float64(sq[b, q]), 0.0))
+            d[q] = e[q] / max(scale[ind[b, q]], tiny)
+            near = min(near, d[q])
+            widest = max(widest, d[q])
         guard = 1e-12 * max(widest, tiny)
         near = max(near, guard)
         acc[:] = 0.0
         total = 0.0
         for q in range(k):
             u = ind[b, q]
-            e = np.sqrt(max(np.float64(sq[b, q]), 0.0))
             taper = 1.0
             if nxt:
-                t = e / far
+                t = e[q] / far
                 taper = min(max(1.0 - t * t, 0.0), 1.0) + 1e-12
-            w = taper * np.exp(-power * np.log(max(e / max(scale[u], tiny), guard) / near))
+            w = taper * np.exp(-power * np.log(max(d[q], guard) / near))
             total += w
             for r in range(n_functions):
                 s = 0.0

@@ -358,11 +358,12 @@ def crossing_orientations(points, values, S, owner, local, t, own, full, out):  
         f0 = values[S[o, 0]]
         for c in range(n):
             M[k - 1, c] = values[S[o, c + 1]] - f0
-        sign = own[o] if not full else 0.0
         if full:
             p0 = S[o, 0]
             for r in range(n):
                 for c in range(n):
                     E[r, c] = points[S[o, r + 1], c] - points[p0, c]
             sign = np.sign(_det_small(E, n))
+        else:
+            sign = own[o]
         out[s] = np.sign(_det_small(M, n)) * sign

@@ -348,7 +348,7 @@ def _orientation(points, values, S, parity, owner, local, t):
     """
     m, k1 = t.shape[0], S.shape[1]
     full = k1 - 1 == points.shape[1]
-    if k1 - 1 <= COMPILED_ORIENTATION_DIM and t.shape[1] == k1 - 1:  # one pass, no arrays per simplex
+    if k1 - 1 <= COMPILED_ORIENTATION_DIM:  # one pass, no arrays per simplex
         out = np.empty(m)
         crossing_orientations(
             np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(values, dtype=np.float64),

@@ -189,11 +189,12 @@ class NeighborExtension:
         n, width = X.shape[0], k + nxt
         held = getattr(scratch, "arrays", None)
         if held is None or held[0].shape[0] < n:
+            rows = max(n, _CHUNK)
             held = scratch.arrays = (
-                np.empty((max(n, _CHUNK), X.shape[1]), dtype=np.float32),
-                np.empty((max(n, _CHUNK), width), dtype=np.float32),
-                np.empty((max(n, _CHUNK), width), dtype=np.int64),
-                np.empty((max(n, _CHUNK), self._phi_u.shape[1])),
+                np.empty((rows, X.shape[1]), dtype=np.float32),
+                np.empty((rows, width), dtype=np.float32),
+                np.empty((rows, width), dtype=np.int64),
+                np.empty((rows, self._phi_u.shape[1])),
             )
         x32, sq, ind, means = (a[:n] for a in held)
         x32[...] = X
