@@ -449,7 +449,8 @@ class ThreadedMatvec:
 
 @kernel("void(i4[::1], i4[::1], i8[::1])", "void(i8[::1], i8[::1], i8[::1])")
 @numba.njit(cache=True, nogil=True)
-def _diagonal_slots(indptr, indices, out):  # pragma: no cover - compiled
+def diagonal_slots(indptr, indices, out):  # pragma: no cover - compiled
+    """``out[i]``: the position of row ``i``'s diagonal entry in the CSR arrays, -1 if none."""
     for i in range(out.size):
         out[i] = -1
         for p in range(indptr[i], indptr[i + 1]):
@@ -477,7 +478,7 @@ def plus_diagonal(K, d):
     n = K.shape[0]
     slots = np.empty(n, dtype=np.int64)
     if K.shape[1] == n and K.indptr.dtype == K.indices.dtype and K.indices.dtype in (np.int32, np.int64):
-        _diagonal_slots(K.indptr, K.indices, slots)
+        diagonal_slots(K.indptr, K.indices, slots)
     else:
         slots[:] = -1
     if (slots < 0).any():

@@ -34,6 +34,7 @@ KERNEL_MODULES = (
     "ndboundary._compiled_partition",
     "ndboundary._compiled_walk",
     "ndboundary.solvers.amg_hierarchy",
+    "ndboundary.solvers.amg_sweeps",
     "ndboundary.io.text_format",
     "ndboundary.io.text_scan",
     "ndboundary.io.weld",

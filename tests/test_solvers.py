@@ -268,12 +268,54 @@ def test_compiled_v_cycle_is_spd_and_equals_pyamgs():
         level.P, level.R = level.P.tocsr(), level.R.tocsr()
     for level in ml.levels:
         level.A = level.A.tocsr()
-    ref = amg._v_cycle(
-        ml.levels, lambda b: ml.coarse_solver(ml.levels[-1].A, b), ("forward",) * 2, ("backward",) * 2,
-        pyamg.amg_core.gauss_seidel,
-    )  # fmt: skip
+    ref = amg._v_cycle(ml.levels, lambda b: ml.coarse_solver(ml.levels[-1].A, b), 2, pyamg.amg_core.gauss_seidel)
     v = np.random.default_rng(0).standard_normal(n)
     assert _rel(apply(v), ref(v)) < 1e-12
+
+
+@pytest.mark.parametrize("sweeps", [1, 2, 3])
+def test_the_sweeps_that_return_their_residual_are_pyamgs_sweeps_and_a_product(sweeps, monkeypatch):
+    """The forward sweeps of the V-cycle's pre-smoothing, which scatter each row's change
+    to the residual instead of forming it by a product afterwards, leave pyamg's iterate
+    and the true residual in single precision, and the V-cycle built on them is the one
+    that sweeps by pyamg and forms its residuals."""
+    _skip_unless_available("amg")
+    import pyamg
+
+    from ndboundary.solvers.amg_sweeps import ForwardSweeps
+
+    A = _mesh_operator(10, 3, "sparse").astype(np.float32)
+    b = np.random.default_rng(1).standard_normal(A.shape[0]).astype(np.float32)
+    fused = ForwardSweeps(A)
+    x, r = fused.from_zero(b)
+    for _ in range(sweeps - 1):
+        r = fused.sweep(b, x)
+    ref = np.zeros_like(b)
+    for _ in range(sweeps):
+        pyamg.amg_core.gauss_seidel(A.indptr, A.indices, A.data, ref, b, 0, A.shape[0], 1)
+    assert _rel(x, ref) < 1e-5
+    assert _rel(r, b - A @ x) < 1e-4 and np.linalg.norm(r) < 0.5 * np.linalg.norm(b)
+
+    A64 = A.astype(np.float64)
+    v = b.astype(np.float64)
+    apply = amg.amg_preconditioner(A64, sweeps=sweeps)
+    monkeypatch.setattr(amg, "_forward_sweeps", lambda A: None)
+    assert _rel(apply(v), amg.amg_preconditioner(A64, sweeps=sweeps)(v)) < 1e-5
+
+
+def test_the_fused_sweeps_refuse_what_they_cannot_sweep():
+    from ndboundary.solvers.amg_sweeps import ForwardSweeps
+
+    A = _mesh_operator(4, 2, "sparse").astype(np.float32)
+    with pytest.raises(TypeError, match="float32"):
+        ForwardSweeps(A.astype(np.float64))
+    unsorted = A.copy()
+    unsorted.indices[:2] = unsorted.indices[1::-1]
+    unsorted.has_sorted_indices = False
+    with pytest.raises(ValueError, match="sorted"):
+        ForwardSweeps(unsorted)
+    with pytest.raises(ValueError, match="positive diagonal"):
+        ForwardSweeps(sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 0.0]], dtype=np.float32)))
 
 
 def _relax_system(n, r):

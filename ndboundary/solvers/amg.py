@@ -12,6 +12,7 @@ import scipy.sparse as sp
 
 from .._compiled import pattern_sums
 from .amg_hierarchy import energy_hierarchy
+from .amg_sweeps import ForwardSweeps
 from .common import load_optional, one_blas_thread
 
 __all__ = ["AMG_DENSE_ROWS", "AMG_STRENGTH", "LIGHT_VERTEX_SHARE", "amg_preconditioner", "light_vertex_jacobi"]
@@ -141,17 +142,24 @@ def amg_preconditioner(A, sweeps=2):
 
     # forward sweeps before the coarse correction and backward ones after keep the cycle
     # symmetric at half the fine-level work of symmetric sweeps
-    return _v_cycle(levels, coarse, ("forward",) * sweeps, ("backward",) * sweeps, pyamg.amg_core.gauss_seidel)
+    return _v_cycle(levels, coarse, sweeps, pyamg.amg_core.gauss_seidel)
 
 
-def _v_cycle(levels, coarse, pre, post, gauss_seidel):
+def _v_cycle(levels, coarse, sweeps, gauss_seidel):
     """One V-cycle over ``levels`` (finest first, each with ``A`` and, but the coarsest,
     ``P`` and ``R``, all CSR), in single precision (copies of their entries, the index
     arrays shared) but for the coarsest solve, which alone is the exact inverse in
-    double: Gauss-Seidel sweeps in the directions ``pre`` before the
-    coarse correction and ``post`` after it, the coarsest level solved by ``coarse(b)``.
-    pyamg's preconditioner runs the same cycle but also computes the residual's norm
-    before and after it, two more products with the finest operator each time.
+    double: ``sweeps`` forward Gauss-Seidel sweeps before the coarse correction and as many
+    backward ones after it (their adjoints: the cycle is symmetric), the coarsest level
+    solved by ``coarse(b)``.
+
+    The forward sweeps return the residual they leave (:mod:`.amg_sweeps`), the first
+    reading only the lower triangle from ``x = 0``: the pre-smoothing and its residual
+    read a level's matrix ``sweeps - 1/2`` times instead of ``sweeps + 1``. A level whose
+    diagonal is not positive or whose indices are 64-bit sweeps by pyamg's
+    ``gauss_seidel`` and forms its residual by a product. pyamg's preconditioner runs the
+    same cycle but also computes the residual's norm before and after it, two more
+    products with the finest operator each time.
     """
     last = len(levels) - 1
     if last == 0:  # the coarse solve alone, exact
@@ -159,34 +167,51 @@ def _v_cycle(levels, coarse, pre, post, gauss_seidel):
     single = [
         (_single(level.A), _single(getattr(level, "P", None)), _single(getattr(level, "R", None))) for level in levels
     ]
+    fused = [_forward_sweeps(A) for A, _, _ in single]
 
-    def sweep(A, x, b, directions):
-        n = A.shape[0]
-        for direction in directions:
-            if direction == "forward":
-                gauss_seidel(A.indptr, A.indices, A.data, x, b, 0, n, 1)
-            else:
-                gauss_seidel(A.indptr, A.indices, A.data, x, b, n - 1, -1, -1)
+    def pre_smooth(lvl, b):
+        if fused[lvl] is not None:
+            x, r = fused[lvl].from_zero(b)
+            for _ in range(sweeps - 1):
+                r = fused[lvl].sweep(b, x)
+            return x, r
+        A = single[lvl][0]
+        x = np.zeros_like(b)
+        for _ in range(sweeps):
+            gauss_seidel(A.indptr, A.indices, A.data, x, b, 0, A.shape[0], 1)
+        return x, b - A @ x
 
     def cycle(lvl, b):
         if lvl == last:
             return np.asarray(coarse(b.astype(np.float64)), dtype=np.float32)
         A, P, R = single[lvl]
-        x = np.zeros_like(b)
-        sweep(A, x, b, pre)
-        x += P @ cycle(lvl + 1, R @ (b - A @ x))
-        sweep(A, x, b, post)
+        x, r = pre_smooth(lvl, b)
+        x += P @ cycle(lvl + 1, R @ r)
+        for _ in range(sweeps):
+            gauss_seidel(A.indptr, A.indices, A.data, x, b, A.shape[0] - 1, -1, -1)
         return x
 
     return lambda r: cycle(0, np.ascontiguousarray(r, dtype=np.float32)).astype(np.float64)
 
 
+def _forward_sweeps(A):
+    """The :class:`~.amg_sweeps.ForwardSweeps` of ``A``, None where they do not apply."""
+    try:
+        return ForwardSweeps(A)
+    except (TypeError, ValueError):
+        return None
+
+
 def _single(M):
-    """The CSR matrix ``M`` with float32 entries, sharing its index arrays (None stays None)."""
+    """The CSR matrix ``M`` with float32 entries and sorted indices, sharing its index
+    arrays when they are sorted already (None stays None).
+    """
     if M is None:
         return None
+    if not M.has_sorted_indices:
+        M = M.sorted_indices()
     out = sp.csr_matrix((M.data.astype(np.float32), M.indices, M.indptr), shape=M.shape)
-    out.has_sorted_indices = M.has_sorted_indices
+    out.has_sorted_indices = True
     return out
 
 
