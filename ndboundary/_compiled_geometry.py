@@ -15,6 +15,7 @@ from ._kernels import kernel
 
 __all__ = [
     "crossing_orientations",
+    "crossing_pattern",
     "full_simplex_volumes",
     "longest_edges",
     "small_simplex_geometry_compiled",
@@ -367,3 +368,100 @@ def crossing_orientations(points, values, S, owner, local, t, own, full, out):  
         else:
             sign = own[o]
         out[s] = np.sign(_det_small(M, n)) * sign
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sorted_row(simplices, s, row):  # pragma: no cover - compiled
+    """Simplex ``s``'s vertices sorted into ``row`` (insertion): the parity of the
+    permutation, +1 even, -1 odd.
+    """
+    k1 = row.size
+    parity = 1
+    for i in range(k1):
+        v = simplices[s, i]
+        j = i
+        while j > 0 and row[j - 1] > v:
+            row[j] = row[j - 1]
+            j -= 1
+            parity = -parity
+        row[j] = v
+    return parity
+
+
+_CROSSING_PATTERN = (
+    "Tuple((i8[:, ::1], i8[::1], i8[:, :, ::1], i8[::1], i1[:, :, ::1]))(i8[:, ::1], b1[::1], i1[:, :, :, ::1], i8[::1])"
+)
+
+
+@kernel(_CROSSING_PATTERN)
+@numba.njit(cache=True, nogil=True)
+def crossing_pattern(simplices, above, table, n_paths):  # pragma: no cover - compiled
+    """The simplices that a level set crosses and the output simplices each one holds.
+
+    A simplex is crossed when some but not all of its vertices are ``above``. Its vertices
+    sorted, ``code`` sets bit ``i`` when sorted vertex ``i`` is above; ``table[code, p]``
+    (the first ``n_paths[code]`` of them) lists output simplex ``p``'s vertices as pairs
+    of local positions (below, above), the edges they lie on.
+
+    Returns ``(S, parity, E, owner, local)``: the crossed simplices with sorted vertices,
+    in their order, and the parity of each sort (+1 even, -1 odd); for each output
+    simplex its directed edges (global vertices, below then above), its owner (a row of
+    ``S``) and the edges' local positions. Output simplices come grouped by code
+    (increasing), then by path, then in their owners' order, as ``marching_simplices``
+    lays them out.
+    """
+    n, k1 = simplices.shape
+    n_codes = table.shape[0]
+    k = table.shape[2]
+    codes = np.empty(n, dtype=np.int16)
+    counts = np.zeros(n_codes, dtype=np.int64)
+    row = np.empty(k1, dtype=np.int64)
+    for s in range(n):
+        count = 0
+        for i in range(k1):
+            if above[simplices[s, i]]:
+                count += 1
+        if count == 0 or count == k1:
+            codes[s] = -1
+            continue
+        _sorted_row(simplices, s, row)
+        code = 0
+        for i in range(k1):
+            if above[row[i]]:
+                code |= 1 << i
+        codes[s] = code
+        counts[code] += 1
+    starts = np.zeros(n_codes, dtype=np.int64)  # the first output simplex of each code
+    m = 0
+    n_cut = 0
+    for c in range(n_codes):
+        starts[c] = m
+        m += counts[c] * n_paths[c]
+        n_cut += counts[c]
+    S = np.empty((n_cut, k1), dtype=np.int64)
+    parity = np.empty(n_cut, dtype=np.int64)
+    E = np.empty((m, k, 2), dtype=np.int64)
+    owner = np.empty(m, dtype=np.int64)
+    local = np.empty((m, k, 2), dtype=np.int8)
+    seen = np.zeros(n_codes, dtype=np.int64)  # owners of each code placed so far
+    o = 0
+    for s in range(n):
+        code = codes[s]
+        if code < 0:
+            continue
+        parity[o] = _sorted_row(simplices, s, row)
+        for i in range(k1):
+            S[o, i] = row[i]
+        for p in range(n_paths[code]):
+            out = starts[code] + p * counts[code] + seen[code]
+            owner[out] = o
+            for j in range(k):
+                a = table[code, p, j, 0]
+                b = table[code, p, j, 1]
+                local[out, j, 0] = a
+                local[out, j, 1] = b
+                E[out, j, 0] = row[a]
+                E[out, j, 1] = row[b]
+        seen[code] += 1
+        o += 1
+    return S, parity, E, owner, local

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ._compiled import unique_pairs
-from ._compiled_geometry import crossing_orientations
+from ._compiled_geometry import crossing_orientations, crossing_pattern
 
 __all__ = ["LevelSet", "marching_simplices"]
 
@@ -259,34 +259,21 @@ def marching_simplices(points, simplices, values, value=0.5):
     if not np.all(np.isfinite(values)):
         raise ValueError("values contain NaN or infinite entries")
     V, D = points.shape
+    if simplices.ndim != 2 or values.shape != (V,):
+        raise ValueError(
+            f"simplices must be 2-D and values one per point ({V}), got shapes {simplices.shape} and {values.shape}"
+        )
+    if simplices.size and (simplices.min() < 0 or simplices.max() >= V):
+        raise ValueError(f"simplices index vertices outside 0..{V - 1}")
     k1 = simplices.shape[1]
-    above = values >= value
-    nab = above[simplices].sum(axis=1)
-    cut = (nab > 0) & (nab < k1)
-    S = simplices[cut]
+    table, n_paths = _crossing_table(k1)
+    S, parity, E, owner, local = crossing_pattern(
+        np.ascontiguousarray(simplices), np.ascontiguousarray(values >= value), table, n_paths
+    )  # the simplices crossed, their vertices sorted (the staircase uses that order)
     if S.shape[0] == 0:
         return LevelSet(
             np.zeros((0, D)), np.zeros((0, k1 - 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64), value
         )
-    # sort every simplex's vertices by global index; the staircase uses that order
-    parity = sorting_parity(S)
-    S = np.sort(S, axis=1)
-    ab = above[S]
-    # pattern code: bit i set when sorted vertex i is above
-    code = (ab * (1 << np.arange(k1))).sum(axis=1)
-    out_edges, out_owner, out_local = [], [], []
-    for c in np.unique(code):
-        sel = np.flatnonzero(code == c)
-        bits = np.array([(c >> i) & 1 for i in range(k1)], dtype=bool)
-        lo, hi = np.flatnonzero(~bits), np.flatnonzero(bits)
-        for path in staircase_paths(lo.size, hi.size):  # path: (k, 2) positions in lo / hi
-            loc = np.stack([lo[path[:, 0]], hi[path[:, 1]]], axis=-1)  # (k, 2) local positions
-            out_edges.append(S[sel][:, loc])  # (n, k, 2) directed below -> above
-            out_owner.append(sel)
-            out_local.append(np.broadcast_to(loc.astype(np.int8), (sel.size,) + loc.shape))
-    E = np.concatenate(out_edges)  # (m, k, 2)
-    owner = np.concatenate(out_owner)
-    local = np.concatenate(out_local)
     m, k = E.shape[:2]
     flat = E.reshape(-1, 2)
     if V < np.iinfo(np.int32).max:  # the distinct edges by a counting sort, sorted as (below, above)
@@ -307,6 +294,29 @@ def marching_simplices(points, simplices, values, value=0.5):
     if at_vertex.any():
         pts, tris, ue = _merge_vertex_crossings(pts, tris, ue, at_vertex)
     return LevelSet(pts, tris, ue, value)
+
+
+@cache
+def _crossing_table(k1):
+    """For simplices of ``k1`` vertices, the output simplices of each pattern of vertices
+    above the level (bit ``i`` of the code: sorted vertex ``i``): ``table[code, p, j]``
+    the local positions (below, above) of the edge that vertex ``j`` of output simplex
+    ``p`` lies on, along the :func:`staircase_paths` of the pattern, and ``n_paths[code]``
+    how many there are (none for the codes with every vertex on one side).
+    """
+    patterns = {}
+    for code in range(1, (1 << k1) - 1):
+        bits = np.array([(code >> i) & 1 for i in range(k1)], dtype=bool)
+        lo, hi = np.flatnonzero(~bits), np.flatnonzero(bits)
+        paths = staircase_paths(lo.size, hi.size)  # (n_paths, k, 2) positions in lo / hi
+        patterns[code] = np.stack([lo[paths[..., 0]], hi[paths[..., 1]]], axis=-1)
+    most = max((loc.shape[0] for loc in patterns.values()), default=1)
+    table = np.zeros((1 << k1, most, max(k1 - 1, 1), 2), dtype=np.int8)
+    n_paths = np.zeros(1 << k1, dtype=np.int64)
+    for code, loc in patterns.items():
+        table[code, : loc.shape[0]] = loc
+        n_paths[code] = loc.shape[0]
+    return table, n_paths
 
 
 def _merge_vertex_crossings(pts, tris, ue, at_vertex):

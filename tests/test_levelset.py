@@ -62,6 +62,53 @@ def test_the_compiled_orientations_are_those_of_the_blocks_of_arrays(monkeypatch
     np.testing.assert_array_equal(compiled.points, arrays.points)
 
 
+@pytest.mark.parametrize("dim", [1, 2, 3, 4])
+def test_the_compiled_crossing_pass_lays_out_the_staircase_of_each_simplex(dim):
+    """One compiled pass finds the crossed simplices and their output simplices: each
+    crossed simplex sorted, with its sort's parity, and the staircase paths of its pattern,
+    grouped by pattern, then path, then owner, as a loop over the simplices lays them out."""
+    from itertools import permutations
+
+    from ndboundary._compiled_geometry import crossing_pattern
+    from ndboundary.levelset import _crossing_table, staircase_paths
+
+    dom = kuhn_grid({1: 12, 4: 2}.get(dim, 4), dim)
+    rng = np.random.default_rng(dim)
+    simplices = np.array([rng.permutation(s) for s in dom.simplices])
+    above = rng.uniform(size=dom.n_vertices) < 0.5
+    S, parity, E, owner, local = crossing_pattern(simplices, above, *_crossing_table(dim + 1))
+    rows, signs, by_code = [], [], {}
+    for s in simplices:
+        ab = above[s]
+        if ab.all() or not ab.any():
+            continue
+        order = sorted(range(dim + 1), key=lambda i: s[i])
+        inversions = sum(order[i] > order[j] for i, j in permutations(range(dim + 1), 2) if i < j)
+        row = s[order]
+        code = int(sum(1 << i for i in range(dim + 1) if above[row[i]]))
+        lo, hi = np.flatnonzero(~above[row]), np.flatnonzero(above[row])
+        for p, path in enumerate(staircase_paths(lo.size, hi.size)):
+            loc = np.stack([lo[path[:, 0]], hi[path[:, 1]]], axis=-1)
+            by_code.setdefault((code, p), []).append((len(rows), row[loc], loc))
+        rows.append(row)
+        signs.append(-1 if inversions % 2 else 1)
+    assert len(rows) > 3
+    np.testing.assert_array_equal(S, rows)
+    np.testing.assert_array_equal(parity, signs)
+    expected = [entry for key in sorted(by_code) for entry in by_code[key]]
+    np.testing.assert_array_equal(owner, [o for o, _, _ in expected])
+    np.testing.assert_array_equal(E, [e for _, e, _ in expected])
+    np.testing.assert_array_equal(local, [loc for _, _, loc in expected])
+
+
+def test_simplices_that_index_no_point_are_refused():
+    tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    with pytest.raises(ValueError, match="outside 0..2"):
+        marching_simplices(tri, [[0, 1, 3]], np.array([0.0, 1.0, 1.0]))
+    with pytest.raises(ValueError, match="one per point"):
+        marching_simplices(tri, [[0, 1, 2]], np.array([0.0, 1.0]))
+
+
 def test_four_dimensional_level_set_is_a_closed_tetrahedral_complex():
     dom = kuhn_grid(4, 4, jitter=0.1, random_state=0)
     ls = marching_simplices(dom.points, dom.simplices, np.linalg.norm(dom.points, axis=1), 0.7)

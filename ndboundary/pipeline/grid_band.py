@@ -143,9 +143,37 @@ def image_band(codes, spacing, h, width):
     >>> pixels.tolist(), distance.reshape(2, -1)[0].tolist()  # pixels touching corners 4 to 6
     ([3, 4, 5, 6], [inf, 1.0, 0.0, 1.0, inf])
     """
-    distances = corner_distances(zeta_corners(codes), [s / h for s in spacing], width)
-    near = pixels_at(distances <= width)
-    return np.flatnonzero(near), distances[corners_of(near)]
+    hot = zeta_corners(codes)
+    steps = [s / h for s in spacing]
+    box = _reach_box(hot, steps, width)
+    distances = corner_distances(hot[box], steps, width)
+    local = pixels_at(distances <= width)
+    return _image_pixels(local, box, codes.shape), distances[corners_of(local)]
+
+
+def _reach_box(corners, steps, width):
+    """The corners within graph distance ``width`` of any of ``corners`` lie in this box
+    (a tuple of slices over the corners, one more each side, clipped to the grid): an L1
+    path stays within the box of its ends. The band's search reads only the box, so that
+    its cost follows zeta, not the image. The whole grid when no corner is set.
+    """
+    box = []
+    for a, step in enumerate(steps):
+        along = np.flatnonzero(corners.any(axis=tuple(b for b in range(corners.ndim) if b != a)))
+        if along.size == 0:
+            return (slice(None),) * corners.ndim
+        reach = int(np.floor(width / step)) + 1
+        box.append(slice(max(int(along[0]) - reach, 0), min(int(along[-1]) + reach + 1, corners.shape[a])))
+    return tuple(box)
+
+
+def _image_pixels(local, box, shape):
+    """The pixels ``local`` (a boolean array over the pixels of the corners' ``box``) as
+    increasing indices into the image of ``shape`` (C order: a box's pixels keep their
+    order in the image).
+    """
+    starts = [b.start or 0 for b in box]
+    return np.ravel_multi_index(tuple(i + s for i, s in zip(np.nonzero(local), starts, strict=True)), shape)
 
 
 def pixels_at(corners):
@@ -235,8 +263,4 @@ def region_band(codes, region, box, spacing, h, width):
     distances = corner_distances(zeta_corners(mine), [s / h for s in spacing], width)
     near = distances <= width
     local = pixels_at(near)
-    starts = [b.start for b in box]
-    pixels = np.ravel_multi_index(
-        tuple(i + s for i, s in zip(np.nonzero(local), starts, strict=True)), codes.shape
-    )  # C order: a box's pixels keep their order in the image
-    return pixels, distances[corners_of(local)], mine[local], sub[local]
+    return _image_pixels(local, box, codes.shape), distances[corners_of(local)], mine[local], sub[local]
