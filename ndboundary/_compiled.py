@@ -788,3 +788,142 @@ def widest_paths(indptr, indices, phi, sources, out):  # pragma: no cover - comp
                 size = _heap_push(keys, nodes, size, best[w], w)
     for v in range(n):
         out[v] = best[v] if done[v] else phi[v]
+
+
+@kernel("void(i4[::1], i4[::1], i8[::1], b1[::1])", "void(i8[::1], i8[::1], i8[::1], b1[::1])")
+@numba.njit(cache=True, nogil=True)
+def _mark_neighbours(indptr, indices, rows, mark):  # pragma: no cover - compiled
+    for i in rows:
+        for p in range(indptr[i], indptr[i + 1]):
+            mark[indices[p]] = True
+
+
+_WALK_GRAPH = "Tuple((i8[::1], i8[::1], f8[::1]))({i}[::1], {i}[::1], i8[::1], i8[::1], b1[::1], f8[:, ::1])"
+
+
+@kernel(_WALK_GRAPH.format(i="i4"), _WALK_GRAPH.format(i="i8"))
+@numba.njit(cache=True, nogil=True)
+def _walk_graph(indptr, indices, nodes, local, inside, centroids):  # pragma: no cover - compiled
+    m, dim = centroids.shape
+    out_ptr = np.zeros(m + 1, dtype=np.int64)
+    for a in range(m):
+        i = nodes[a]
+        count = 0
+        if inside[i]:
+            for p in range(indptr[i], indptr[i + 1]):
+                if indices[p] != i:
+                    count += 1
+        out_ptr[a + 1] = out_ptr[a] + count
+    cols = np.empty(out_ptr[m], dtype=np.int64)
+    lengths = np.empty(out_ptr[m])
+    for a in range(m):
+        i = nodes[a]
+        q = out_ptr[a]
+        if not inside[i]:
+            continue
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            if j != i:
+                cols[q] = local[j]
+                q += 1
+        sort_short(cols, out_ptr[a], q)
+        for q in range(out_ptr[a], out_ptr[a + 1]):
+            b = cols[q]
+            s = 0.0
+            for c in range(dim):
+                d = centroids[a, c] - centroids[b, c]
+                s += d * d
+            lengths[q] = np.sqrt(s) + 1e-300  # an explicit zero would drop the edge
+    return out_ptr, cols, lengths
+
+
+def region_walk_graph(domain, inside):
+    """The graph a region's shortest paths from outside walk on: the region's elements and
+    the ring of elements outside next to them, joined along the element adjacency from
+    each element inside, weighted by the distance between centroids.
+
+    Parameters
+    ----------
+    domain : Domain
+    inside : ndarray of bool of shape (n_elements,)
+
+    Returns
+    -------
+    nodes : ndarray of int64
+        The graph's elements, increasing.
+    graph : scipy.sparse.csr_matrix of shape (n_nodes, n_nodes)
+        Row ``a`` holds the edges from ``nodes[a]`` when it is inside (none from the ring),
+        columns sorted, each length positive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.datasets import kuhn_grid
+    >>> from ndboundary._compiled import region_walk_graph
+    >>> grid = kuhn_grid(4, 2)
+    >>> inside = grid.element_centroids()[:, 0] < -0.5
+    >>> nodes, graph = region_walk_graph(grid, inside)
+    >>> bool(inside[nodes].sum() == inside.sum()), graph[~inside[nodes]].nnz, bool((graph.data > 0).all())
+    (True, 0, True)
+    """
+    A = domain.adjacency
+    indptr, indices = A.indptr, A.indices
+    if indptr.dtype != indices.dtype or indices.dtype not in (np.int32, np.int64):
+        indptr, indices = indptr.astype(np.int64), indices.astype(np.int64)
+    inside = np.ascontiguousarray(inside, dtype=bool)
+    mark = inside.copy()
+    _mark_neighbours(indptr, indices, np.flatnonzero(inside), mark)
+    nodes = np.flatnonzero(mark)
+    local = np.full(inside.size, -1, dtype=np.int64)
+    local[nodes] = np.arange(nodes.size)
+    centroids = np.ascontiguousarray(domain.centroids_of(nodes), dtype=np.float64)
+    graph = sp.csr_matrix(_walk_graph(indptr, indices, nodes, local, inside, centroids)[::-1], shape=(nodes.size,) * 2)
+    graph.has_sorted_indices = True
+    return nodes, graph
+
+
+_WITHIN_GROUPS = "Tuple(({i}[::1], {i}[::1], f8[::1]))({i}[::1], {i}[::1], f8[::1], i8[::1])"
+
+
+@kernel(_WITHIN_GROUPS.format(i="i4"), _WITHIN_GROUPS.format(i="i8"))
+@numba.njit(cache=True, nogil=True)
+def _within_groups(indptr, indices, data, groups):  # pragma: no cover - compiled
+    n = indptr.size - 1
+    out_ptr = np.zeros(n + 1, dtype=indptr.dtype)
+    out_idx = np.empty(indices.size, dtype=indices.dtype)
+    out_dat = np.empty(indices.size)
+    q = 0
+    for i in range(n):
+        a = groups[i]
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            b = groups[j]
+            if a == b or a < 0 or b < 0:
+                out_idx[q] = j
+                out_dat[q] = data[p]
+                q += 1
+        out_ptr[i + 1] = q
+    return out_ptr, out_idx[:q].copy(), out_dat[:q].copy()
+
+
+def within_groups(W, groups):
+    """The entries ``(i, j)`` of the CSR matrix ``W`` whose rows are in one group
+    (``groups[i] == groups[j]``), or where either is in none (a negative group); the
+    others dropped, not zeroed.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> from ndboundary._compiled import within_groups
+    >>> W = sp.csr_matrix(np.ones((3, 3)))
+    >>> within_groups(W, np.array([0, 1, -1])).toarray().tolist()
+    [[1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [1.0, 1.0, 1.0]]
+    """
+    indptr, indices = W.indptr, W.indices
+    if indptr.dtype != indices.dtype or indices.dtype not in (np.int32, np.int64):
+        indptr, indices = indptr.astype(np.int64), indices.astype(np.int64)
+    data = np.ascontiguousarray(W.data, dtype=np.float64)
+    kept = _within_groups(indptr, indices, data, np.ascontiguousarray(groups, dtype=np.int64))
+    out = sp.csr_matrix(kept[::-1], shape=W.shape)
+    out.has_sorted_indices = W.has_sorted_indices
+    return out

@@ -253,3 +253,34 @@ def test_only_the_elements_where_the_largest_function_changes_are_cut(kind):
     assert len(res.interfaces().junctions()) == len(full.interfaces().junctions())
     for r in range(3):
         assert res.region_boundary(r).measure() == pytest.approx(full.region_boundary(r).measure(), rel=1e-9)
+
+
+@pytest.mark.parametrize("index", [np.int32, np.int64])
+def test_the_compiled_walk_graph_and_group_filter_are_their_array_definitions(index):
+    """A region's walk graph (its elements and the ring outside, joined from inside,
+    weighted by centroid distances) and the smoothing's adjacency within groups, each
+    built in one compiled pass, equal the matrices the array expressions define."""
+    import scipy.sparse as sp
+
+    from ndboundary._compiled import region_walk_graph, within_groups
+
+    grid = kuhn_grid(12, 2, jitter=0.3, random_state=0)
+    A = grid.adjacency
+    grid.__dict__["adjacency"] = sp.csr_matrix((A.data, A.indices.astype(index), A.indptr.astype(index)), A.shape)
+    c = grid.element_centroids()
+    inside = np.linalg.norm(c - 0.2, axis=1) < 0.4
+    nodes, graph = region_walk_graph(grid, inside)
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    edges = inside[rows] & (rows != A.indices)
+    assert np.array_equal(nodes, np.union1d(np.flatnonzero(inside), A.indices[edges]))
+    local = np.searchsorted(nodes, np.stack([rows[edges], A.indices[edges]]))
+    lengths = np.linalg.norm(c[rows[edges]] - c[A.indices[edges]], axis=1)
+    expected = sp.csr_matrix((lengths, tuple(local)), shape=graph.shape)
+    assert abs(graph - expected).max() < 1e-15 and graph.nnz == expected.nnz
+
+    groups = np.random.default_rng(0).integers(-1, 3, A.shape[0])
+    a, b = groups[rows], groups[A.indices]
+    same = (a == b) | (a < 0) | (b < 0)
+    kept = within_groups(grid.adjacency, groups)
+    assert kept.nnz == same.sum()
+    assert (kept != sp.csr_matrix((A.data[same], (rows[same], A.indices[same])), shape=A.shape)).nnz == 0

@@ -48,6 +48,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .._compiled import within_groups
 from ..fields import smooth_rows
 from .queries import IncidenceQueries
 from .simplex_geometry import kuhn_grid_stiffness
@@ -306,15 +307,8 @@ class Domain(IncidenceQueries):
         degree = np.diff(adjacency.indptr)
         cap = np.minimum(1.0, self.usual_degree / np.maximum(degree, 1))
         if groups is not None:
-            groups = np.asarray(groups)
-            rows = np.repeat(np.arange(degree.size), degree)
-            a, b = groups[rows], groups[adjacency.indices]
-            same = (a == b) | (a < 0) | (b < 0)
             # the neighbours across groups dropped, not weighted 0: the weights stay ones
-            indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[same], minlength=degree.size))])
-            adjacency = sp.csr_matrix(
-                (adjacency.data[same], adjacency.indices[same], indptr.astype(adjacency.indptr.dtype)), adjacency.shape
-            )
+            adjacency = within_groups(adjacency, groups)
         if (cap < 1.0).any():
             adjacency = (adjacency @ sp.diags(cap)).tocsr()
         return smooth_rows(adjacency, X, passes, plus_identity=True)

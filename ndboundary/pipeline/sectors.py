@@ -18,8 +18,9 @@ the junctions of straight interfaces nearer still, but moved those of curved one
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
+
+from .._compiled import region_walk_graph
 
 __all__ = ["SECTOR_SMOOTHING", "region_sectors"]
 
@@ -68,20 +69,7 @@ def region_sectors(domain, codes, region):
         return sectors
     # a shortest path from outside enters the region from the ring of outside elements
     # next to it and then stays inside: the walk needs the region and that ring alone
-    ids = np.flatnonzero(inside)
-    A = domain.adjacency[ids]  # the rows of the region's elements alone
-    rows = np.repeat(ids, np.diff(A.indptr))
-    keep = rows != A.indices
-    rows, cols = rows[keep], A.indices[keep]
-    nodes = inside.copy()
-    nodes[cols] = True
-    nodes = np.flatnonzero(nodes)
-    local = np.full(codes.shape, -1, dtype=np.int64)
-    local[nodes] = np.arange(nodes.size)
-    c = domain.centroids_of(nodes)
-    i, j = local[rows], local[cols]
-    lengths = np.linalg.norm(c[i] - c[j], axis=1) + 1e-300  # an explicit zero would drop the edge
-    graph = sp.csr_matrix((lengths, (i, j)), shape=(nodes.size, nodes.size))
+    nodes, graph = region_walk_graph(domain, inside)
     ring = np.flatnonzero(~inside[nodes])
     _, _, source = dijkstra(graph, directed=False, indices=ring, min_only=True, return_predecessors=True)
     reached = np.flatnonzero(inside[nodes] & (source >= 0))
