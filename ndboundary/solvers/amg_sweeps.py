@@ -25,33 +25,21 @@ from .._kernels import kernel
 __all__ = ["ForwardSweeps"]
 
 
-@kernel("void(u4[::1], u4[::1], u4[::1], f4[::1], f4[::1], f4[::1], f4[::1])")
+@kernel("void(u4[::1], u4[::1], u4[::1], f4[::1], f4[::1], f4[::1], f4[::1], b1)")
 @numba.njit(cache=True, nogil=True)
-def _from_zero(indptr, indices, slots, data, b, x, r):  # pragma: no cover - compiled
+def _forward(indptr, indices, slots, data, b, x, r, from_zero):  # pragma: no cover - compiled
+    """One forward sweep from ``x`` (zero for ``from_zero``: the upper triangle is not
+    read), in place, and its residual into ``r``.
+    """
     for i in range(b.size):
         start = indptr[i]
         diagonal = slots[i]
         s = b[i]
         for p in range(start, diagonal):
             s -= data[p] * x[indices[p]]
-        value = s / data[diagonal]
-        x[i] = value
-        r[i] = 0.0
-        for p in range(start, diagonal):
-            r[indices[p]] -= data[p] * value
-
-
-@kernel("void(u4[::1], u4[::1], u4[::1], f4[::1], f4[::1], f4[::1], f4[::1])")
-@numba.njit(cache=True, nogil=True)
-def _sweep(indptr, indices, slots, data, b, x, r):  # pragma: no cover - compiled
-    for i in range(b.size):
-        start = indptr[i]
-        diagonal = slots[i]
-        s = b[i]
-        for p in range(start, diagonal):
-            s -= data[p] * x[indices[p]]
-        for p in range(diagonal + 1, indptr[i + 1]):
-            s -= data[p] * x[indices[p]]
+        if not from_zero:
+            for p in range(diagonal + 1, indptr[i + 1]):
+                s -= data[p] * x[indices[p]]
         value = s / data[diagonal]
         change = value - x[i]
         x[i] = value
@@ -104,13 +92,13 @@ class ForwardSweeps:
 
     def from_zero(self, b):
         """One sweep from ``x = 0``: ``(x, r)``, ``r = b - A x``, both float32."""
-        x = np.empty_like(b)
+        x = np.zeros_like(b)
         r = np.empty_like(b)
-        _from_zero(*self._arrays, b, x, r)
+        _forward(*self._arrays, b, x, r, True)
         return x, r
 
     def sweep(self, b, x):
         """One sweep from ``x``, in place: the residual ``b - A x`` it leaves."""
         r = np.empty_like(b)
-        _sweep(*self._arrays, b, x, r)
+        _forward(*self._arrays, b, x, r, False)
         return r
