@@ -837,6 +837,15 @@ def _walk_graph(indptr, indices, nodes, local, inside, centroids):  # pragma: no
     return out_ptr, cols, lengths
 
 
+def _index_arrays(A):
+    """The CSR matrix ``A``'s index arrays as the kernels' signatures take them: both
+    32-bit or both 64-bit.
+    """
+    if A.indptr.dtype != A.indices.dtype or A.indices.dtype not in (np.int32, np.int64):
+        return A.indptr.astype(np.int64), A.indices.astype(np.int64)
+    return A.indptr, A.indices
+
+
 def region_walk_graph(domain, inside):
     """The graph a region's shortest paths from outside walk on: the region's elements and
     the ring of elements outside next to them, joined along the element adjacency from
@@ -866,10 +875,7 @@ def region_walk_graph(domain, inside):
     >>> bool(inside[nodes].sum() == inside.sum()), graph[~inside[nodes]].nnz, bool((graph.data > 0).all())
     (True, 0, True)
     """
-    A = domain.adjacency
-    indptr, indices = A.indptr, A.indices
-    if indptr.dtype != indices.dtype or indices.dtype not in (np.int32, np.int64):
-        indptr, indices = indptr.astype(np.int64), indices.astype(np.int64)
+    indptr, indices = _index_arrays(domain.adjacency)
     inside = np.ascontiguousarray(inside, dtype=bool)
     mark = inside.copy()
     _mark_neighbours(indptr, indices, np.flatnonzero(inside), mark)
@@ -907,8 +913,8 @@ def _within_groups(indptr, indices, data, groups):  # pragma: no cover - compile
 
 
 def within_groups(W, groups):
-    """The entries ``(i, j)`` of the CSR matrix ``W`` whose rows are in one group
-    (``groups[i] == groups[j]``), or where either is in none (a negative group); the
+    """The entries ``(i, j)`` of the CSR matrix ``W`` whose row and column are in one
+    group (``groups[i] == groups[j]``), or where either is in none (a negative group); the
     others dropped, not zeroed.
 
     Examples
@@ -919,9 +925,7 @@ def within_groups(W, groups):
     >>> within_groups(W, np.array([0, 1, -1])).toarray().tolist()
     [[1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [1.0, 1.0, 1.0]]
     """
-    indptr, indices = W.indptr, W.indices
-    if indptr.dtype != indices.dtype or indices.dtype not in (np.int32, np.int64):
-        indptr, indices = indptr.astype(np.int64), indices.astype(np.int64)
+    indptr, indices = _index_arrays(W)
     data = np.ascontiguousarray(W.data, dtype=np.float64)
     kept = _within_groups(indptr, indices, data, np.ascontiguousarray(groups, dtype=np.int64))
     out = sp.csr_matrix(kept[::-1], shape=W.shape)
