@@ -788,3 +788,70 @@ def assemble_box_stencil(corners, block, offsets, n_vertices):
     cols, out = np.empty(int(rows[-1]), dtype=np.int32), np.empty(int(rows[-1]))
     _threaded(_box_stencil_blocks, bounds, *args, rows, cols, out, False)
     return sp.csr_matrix((out, cols, rows.astype(np.int32)), shape=(V, V))
+
+
+@kernel("void(f8[:, ::1], i8[:, ::1], i8[::1], f8[:, ::1])")
+@numba.njit(cache=True, nogil=True)
+def _corner_means(points, corners, rows, out):  # pragma: no cover - compiled
+    k = corners.shape[1]
+    for a in range(rows.size):
+        e = rows[a]
+        for d in range(points.shape[1]):
+            s = points[corners[e, 0], d]
+            for c in range(1, k):
+                s += points[corners[e, c], d]
+            out[a, d] = s / k
+
+
+def corner_means(points, corners, rows=None):
+    """The means of ``points`` over the rows ``rows`` (all by default) of ``corners``, each
+    summed in its order: a cell's centroid, without the (cell, corner, axis) table of
+    gathered points.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import corner_means
+    >>> points = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    >>> corner_means(points, np.array([[0, 1, 2, 3], [0, 1, 1, 0]]), np.array([1])).tolist()
+    [[1.0, 0.0]]
+    """
+    corners = np.ascontiguousarray(corners, dtype=np.int64)
+    rows = np.arange(corners.shape[0]) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+    out = np.empty((rows.size, points.shape[1]))
+    _corner_means(np.ascontiguousarray(points, dtype=np.float64), corners, rows, out)
+    return out
+
+
+@kernel("void(f8[::1], i8[:, ::1], f8[::1])", "void(i8[::1], i8[:, ::1], i8[::1])")
+@numba.njit(cache=True, nogil=True)
+def _corner_max(f, corners, out):  # pragma: no cover - compiled
+    for e in range(corners.shape[0]):
+        m = f[corners[e, 0]]
+        for c in range(1, corners.shape[1]):
+            v = f[corners[e, c]]
+            if v > m or v != v:  # a NaN wins, as in np.maximum
+                m = v
+        out[e] = m
+
+
+def corner_max(f, corners):
+    """Per row of ``corners``, the largest of the values ``f`` at its vertices (NaN if any
+    is NaN, as ``np.maximum`` gives it), of ``f``'s type: integers (labels) are compared
+    as 64-bit integers, other numbers as doubles.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary._compiled_mesh import corner_max
+    >>> corner_max(np.array([0.0, 3.0, 1.0, np.nan]), np.array([[0, 1, 2], [2, 3, 0]])).tolist()
+    [3.0, nan]
+    >>> corner_max(np.array([4, 1, 2], dtype=np.int32), np.array([[1, 2], [0, 2]]))
+    array([2, 4], dtype=int32)
+    """
+    f = np.asarray(f)
+    wide = np.int64 if f.dtype.kind in "biu" else np.float64
+    corners = np.ascontiguousarray(corners, dtype=np.int64)
+    out = np.empty(corners.shape[0], dtype=wide)
+    _corner_max(np.ascontiguousarray(f, dtype=wide), corners, out)
+    return out.astype(f.dtype, copy=False)

@@ -640,3 +640,25 @@ def test_a_voxel_grids_gradient_and_divergence_need_no_matrix(band):
     slope = np.array([1.0, -2.0, 0.5])
     np.testing.assert_allclose(grid.gradient(grid.points @ slope), np.tile(slope, (grid.n_elements, 1)), atol=1e-12)
     assert f @ grid.div(X) == pytest.approx(np.sum(grid.A * np.einsum("ij,ij->i", grid.gradient(f), X)), rel=1e-12)
+
+
+def test_voxel_centroids_and_corner_maxima_are_the_means_and_maxima_of_their_corners():
+    """The compiled passes over the voxels' corners give each voxel's centroid, for all of
+    them or a few, and the largest corner value (NaN where a corner is NaN), as the mean
+    and the maximum of its corners' rows."""
+    from ndboundary.domains.image import GridBand
+
+    rng = np.random.default_rng(0)
+    band = GridBand((12, 9, 7), np.sort(rng.choice(756, 300, replace=False)), spacing=(0.6, 1.1, 3.0), origin=(1, 2, 3))
+    corners = band.cell_vertices[1].reshape(band.n_elements, 8)
+    np.testing.assert_allclose(band.element_centroids(), band.points[corners].mean(axis=1), rtol=0, atol=1e-12)
+    some = rng.choice(band.n_elements, 20)
+    np.testing.assert_array_equal(band.centroids_of(some), band.element_centroids()[some])
+    f = rng.standard_normal(band.n_vertices)
+    f[corners[5, 3]] = np.nan
+    expected = f[corners].max(axis=1)
+    np.testing.assert_array_equal(band.element_max(f), expected)
+    assert np.isnan(band.element_max(f)[5])
+    codes = rng.integers(0, 5, band.n_vertices).astype(np.int32)  # labels keep their type
+    assert band.element_max(codes).dtype == np.int32
+    np.testing.assert_array_equal(band.element_max(codes), codes[corners].max(axis=1))

@@ -23,6 +23,7 @@ import numpy as np
 from scipy import ndimage
 
 from .._arrays import ragged_next, unique_values, used_vertices
+from .._compiled_mesh import corner_max, corner_means
 from .polygon import PolygonMesh
 from .queries import as_mask
 from .polyhedral import PolyhedralMesh
@@ -455,27 +456,15 @@ class _Voxels(PolyhedralMesh):
         """Vertex means of the voxels, shape (n_elements, 3): their corners summed in
         order, as the general mean sums them, without the (voxel, corner) table.
         """
-        return _corner_means(self.points, _corners_of(self))
+        return corner_means(self.points, _corners_of(self))
 
     def centroids_of(self, elements):
         """:meth:`element_centroids` of the voxels ``elements`` alone."""
-        return _corner_means(self.points, _corners_of(self)[np.asarray(elements)])
+        return corner_means(self.points, _corners_of(self), np.asarray(elements))
 
     def element_max(self, f):
         """Per voxel, the largest value of the vertex function ``f`` at its corners."""
-        f, corners = np.asarray(f), _corners_of(self)
-        out = f[corners[:, 0]]
-        for c in range(1, 8):
-            np.maximum(out, f[corners[:, c]], out=out)
-        return out
-
-
-def _corner_means(points, corners):
-    """The means of ``points`` over each row of ``corners`` (8 a row), summed in order."""
-    out = points[corners[:, 0]]
-    for c in range(1, 8):
-        out += points[corners[:, c]]
-    return out / 8.0
+        return corner_max(f, _corners_of(self))
 
 
 class VoxelGrid(ImageGrid, _Voxels):
