@@ -298,7 +298,10 @@ def test_the_sweeps_that_return_their_residual_are_pyamgs_sweeps_and_a_product(s
 
     A64 = A.astype(np.float64)
     v = b.astype(np.float64)
+    made, real = [], amg._forward_sweeps
+    monkeypatch.setattr(amg, "_forward_sweeps", lambda A: made.append(real(A)) or made[-1])
     apply = amg.amg_preconditioner(A64, sweeps=sweeps)
+    assert len(made) >= 2 and all(m is not None for m in made)  # every level's pre-smoothing fused
     monkeypatch.setattr(amg, "_forward_sweeps", lambda A: None)
     assert _rel(apply(v), amg.amg_preconditioner(A64, sweeps=sweeps)(v)) < 1e-5
 
