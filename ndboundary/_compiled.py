@@ -846,15 +846,19 @@ def _index_arrays(A):
     return A.indptr, A.indices
 
 
-def region_walk_graph(domain, inside):
+def region_walk_graph(adjacency, inside, centroids_of):
     """The graph a region's shortest paths from outside walk on: the region's elements and
     the ring of elements outside next to them, joined along the element adjacency from
     each element inside, weighted by the distance between centroids.
 
     Parameters
     ----------
-    domain : Domain
+    adjacency : scipy.sparse.csr_matrix of shape (n_elements, n_elements)
+        The elements' adjacency (a domain's :attr:`~ndboundary.Domain.adjacency`).
     inside : ndarray of bool of shape (n_elements,)
+    centroids_of : callable
+        ``centroids_of(elements)``: the centroids of those elements, shape
+        (len(elements), dim) (:meth:`~ndboundary.Domain.centroids_of`).
 
     Returns
     -------
@@ -871,18 +875,18 @@ def region_walk_graph(domain, inside):
     >>> from ndboundary._compiled import region_walk_graph
     >>> grid = kuhn_grid(4, 2)
     >>> inside = grid.element_centroids()[:, 0] < -0.5
-    >>> nodes, graph = region_walk_graph(grid, inside)
+    >>> nodes, graph = region_walk_graph(grid.adjacency, inside, grid.centroids_of)
     >>> bool(inside[nodes].sum() == inside.sum()), graph[~inside[nodes]].nnz, bool((graph.data > 0).all())
     (True, 0, True)
     """
-    indptr, indices = _index_arrays(domain.adjacency)
+    indptr, indices = _index_arrays(adjacency)
     inside = np.ascontiguousarray(inside, dtype=bool)
     mark = inside.copy()
     _mark_neighbours(indptr, indices, np.flatnonzero(inside), mark)
     nodes = np.flatnonzero(mark)
     local = np.full(inside.size, -1, dtype=np.int64)
     local[nodes] = np.arange(nodes.size)
-    centroids = np.ascontiguousarray(domain.centroids_of(nodes), dtype=np.float64)
+    centroids = np.ascontiguousarray(centroids_of(nodes), dtype=np.float64)
     graph = sp.csr_matrix(_walk_graph(indptr, indices, nodes, local, inside, centroids)[::-1], shape=(nodes.size,) * 2)
     graph.has_sorted_indices = True
     return nodes, graph

@@ -311,7 +311,7 @@ def _crossing_table(k1):
         paths = staircase_paths(lo.size, hi.size)  # (n_paths, k, 2) positions in lo / hi
         patterns[code] = np.stack([lo[paths[..., 0]], hi[paths[..., 1]]], axis=-1)
     most = max((loc.shape[0] for loc in patterns.values()), default=1)
-    table = np.zeros((1 << k1, most, max(k1 - 1, 1), 2), dtype=np.int8)
+    table = np.zeros((1 << k1, most, k1 - 1, 2), dtype=np.int8)
     n_paths = np.zeros(1 << k1, dtype=np.int64)
     for code, loc in patterns.items():
         table[code, : loc.shape[0]] = loc

@@ -269,7 +269,7 @@ def test_the_compiled_walk_graph_and_group_filter_are_their_array_definitions(in
     grid.__dict__["adjacency"] = sp.csr_matrix((A.data, A.indices.astype(index), A.indptr.astype(index)), A.shape)
     c = grid.element_centroids()
     inside = np.linalg.norm(c - 0.2, axis=1) < 0.4
-    nodes, graph = region_walk_graph(grid, inside)
+    nodes, graph = region_walk_graph(grid.adjacency, inside, grid.centroids_of)
     rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
     edges = inside[rows] & (rows != A.indices)
     assert np.array_equal(nodes, np.union1d(np.flatnonzero(inside), A.indices[edges]))

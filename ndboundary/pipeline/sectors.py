@@ -69,7 +69,7 @@ def region_sectors(domain, codes, region):
         return sectors
     # a shortest path from outside enters the region from the ring of outside elements
     # next to it and then stays inside: the walk needs the region and that ring alone
-    nodes, graph = region_walk_graph(domain, inside)
+    nodes, graph = region_walk_graph(domain.adjacency, inside, domain.centroids_of)
     ring = np.flatnonzero(~inside[nodes])
     _, _, source = dijkstra(graph, directed=False, indices=ring, min_only=True, return_predecessors=True)
     reached = np.flatnonzero(inside[nodes] & (source >= 0))

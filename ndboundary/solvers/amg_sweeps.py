@@ -87,7 +87,6 @@ class ForwardSweeps:
         diagonal_slots(A.indptr, A.indices, slots)
         if (slots < 0).any() or not (A.data[np.maximum(slots, 0)] > 0).all():
             raise ValueError("the sweeps need a positive diagonal entry on every row of A")
-        self.A = A
         self._arrays = (A.indptr.view(np.uint32), A.indices.view(np.uint32), slots.astype(np.uint32), A.data)
 
     def from_zero(self, b):
