@@ -31,6 +31,13 @@ shared machine hit both sides alike; their median is printed with their range. T
 classifier's own ``predict`` ships its lean copy to the workers on its first call and
 reuses it after (``ndboundary.learn.scaleout.shipped_to_workers``): that first call is
 timed on its own (``cluster_first``). ``ParallelPostFit`` ships the estimator with each call.
+``--pairs N`` measures instead in pairs adjacent in time, against the drifts of a shared
+machine that a round's minute spans: for each layout one cluster is started and warmed,
+then ``N`` times in memory, on the cluster, on the cluster, in memory (ABBA, so that a
+steady drift cancels), each in-memory call with the cluster's processes suspended
+(``SIGSTOP``) so that they take nothing from it. Each call is paired with its neighbour;
+the median of the ``2N`` ratios is printed with a 95 % bootstrap interval and the share
+of pairs at or above 1.
 ``--faults`` first counts the minor page faults (and the seconds) of one call predicting
 ``--chunk`` rows on one thread, in a fresh process with and without the
 ``MALLOC_TRIM_THRESHOLD_`` Dask's nanny sets in its workers.
@@ -50,7 +57,7 @@ Usage::
                                       [--check-n 200000] [--chunk 100000] [--layouts 1x2,2x1]
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
-                                      [--calls 1] [--plain 2]
+                                      [--calls 1] [--plain 2] [--pairs 0]
 """
 
 from __future__ import annotations
@@ -250,6 +257,57 @@ def cluster_round(client, clf, Xc, ref, args):
     return times
 
 
+@contextmanager
+def suspended(client):
+    """The worker processes of the local cluster of ``client`` (and their nannies)
+    stopped with ``SIGSTOP`` for the duration, then resumed: a cluster that takes no
+    CPU time at all beside an in-memory call."""
+    import psutil
+
+    me = psutil.Process()
+    procs = me.children(recursive=True)
+    for proc in procs:
+        proc.suspend()
+    try:
+        yield
+    finally:
+        for proc in procs:
+            proc.resume()
+
+
+def median_interval(ratios, draws=10_000, seed=0):
+    """The median of ``ratios`` and a 95 % percentile-bootstrap interval of it."""
+    r = np.asarray(ratios)
+    rng = np.random.default_rng(seed)
+    medians = np.median(r[rng.integers(0, r.size, size=(draws, r.size))], axis=1)
+    return float(np.median(r)), [round(float(q), 3) for q in np.quantile(medians, [0.025, 0.975])]
+
+
+def paired(client, clf, Xc, ref, args):
+    """The ratios of in-memory to cluster seconds in ``args.pairs`` ABBA quads of calls on
+    the warmed cluster of ``client`` (see ``--pairs``): one ratio per adjacent pair."""
+    shipped = client.scatter(clf, broadcast=True)
+    client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()  # warm every worker
+    del shipped
+    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
+    check(clf.predict(Xd).compute(), ref, "cluster_first")  # ships the lean copy
+
+    def memory():
+        with suspended(client):
+            return calls(lambda: clf.predict(Xc), ref, "memory", 1)
+
+    def on_cluster():
+        return calls(lambda: clf.predict(Xd).compute(), ref, "cluster", 1)
+
+    ratios, seconds = [], {"memory": [], "cluster": []}
+    for _ in range(args.pairs):
+        m1, c1, c2, m2 = memory(), on_cluster(), on_cluster(), memory()
+        ratios += [m1 / c1, m2 / c2]
+        seconds["memory"] += [m1, m2]
+        seconds["cluster"] += [c1, c2]
+    return ratios, seconds
+
+
 def calls(way, ref, name, count):
     """The median seconds of ``count`` calls of ``way``, each checked against ``ref``."""
     seconds = []
@@ -258,6 +316,49 @@ def calls(way, ref, name, count):
         check(labels, ref, name)
         seconds.append(t)
     return float(np.median(seconds))
+
+
+def rounds(clf, Xc, ref, layouts, settings, args):
+    """Seconds and ratios to in memory of ``args.repeats`` rounds (see above)."""
+    names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *args.ways)]
+    if args.plain > 0:
+        names.insert(0, f"plain@{args.plain}")
+    times = {name: [] for name in ("memory", *names)}
+    for _ in range(args.repeats):
+        times["memory"].append(calls(lambda: clf.predict(Xc), ref, "memory", args.calls))  # no cluster running
+        if args.plain > 0:
+            with plain_processes(args.plain, clf, Xc) as pool:
+                times[f"plain@{args.plain}"].append(plain_round(pool, args.check_n, args.chunk, ref, args.calls))
+        for w, th in layouts:
+            with cluster(w, th, settings) as client:
+                for name, t in cluster_round(client, clf, Xc, ref, args).items():
+                    times[f"{name}@{w}x{th}"].append(t)
+    mem = np.asarray(times["memory"])
+    out = {"memory_s": float(np.median(mem)), "memory_rows_per_s": args.check_n / float(np.median(mem))}
+    for name in names:
+        t = np.asarray(times[name])
+        out[f"{name}_s"] = float(np.median(t))
+        out[f"{name}_vs_memory"] = float(np.median(mem / t))  # ratios within each round
+        out[f"{name}_vs_memory_range"] = [round(float(r), 3) for r in (np.min(mem / t), np.max(mem / t))]
+    for w, th in layouts:
+        out[f"cluster_rows_per_s@{w}x{th}"] = args.check_n / out[f"cluster@{w}x{th}_s"]
+    return out
+
+
+def paired_layouts(clf, Xc, ref, layouts, settings, args):
+    """The paired measurement of ``--pairs`` on a fresh cluster of each layout."""
+    out = {}
+    for w, th in layouts:
+        with cluster(w, th, settings) as client:
+            ratios, seconds = paired(client, clf, Xc, ref, args)
+        key = f"paired@{w}x{th}"
+        out[f"{key}_vs_memory"], out[f"{key}_vs_memory_ci95"] = median_interval(ratios)
+        out[f"{key}_share_at_least_1"] = float(np.mean(np.asarray(ratios) >= 1.0))
+        out[f"{key}_ratios"] = [round(r, 3) for r in ratios]
+        for name, t in seconds.items():
+            out[f"{key}_{name}_s"] = float(np.median(t))
+            out[f"{key}_{name}_rows_per_s"] = args.check_n / float(np.median(t))
+    return out
 
 
 def main(argv=None):
@@ -292,6 +393,13 @@ def main(argv=None):
         default=cores,
         help="plain processes of one thread each round, without Dask (0: none)",
     )
+    ap.add_argument(
+        "--pairs",
+        type=int,
+        default=0,
+        help="measure in ABBA quads of in-memory and cluster calls on one cluster per layout (see above) "
+        "instead of rounds",
+    )
     args = ap.parse_args(argv)
     args.ways = [way for way in args.ways.split(",") if way]
     if unknown := sorted(set(args.ways) - set(WAYS)):
@@ -321,30 +429,12 @@ def main(argv=None):
         for name, trim in (("trim", True), ("no_trim", False)):
             faults, seconds = page_faults(clf, Xc[: args.chunk], trim)
             out[f"page_faults_{name}"], out[f"one_thread_s_{name}"] = faults, seconds
-    names = [f"{name}@{w}x{t}" for w, t in layouts for name in ("cluster_first", *args.ways)]
-    if args.plain > 0:
-        names.insert(0, f"plain@{args.plain}")
-    times = {name: [] for name in ("memory", *names)}
-    for _ in range(args.repeats):
-        times["memory"].append(calls(lambda: clf.predict(Xc), ref, "memory", args.calls))  # no cluster running
-        if args.plain > 0:
-            with plain_processes(args.plain, clf, Xc) as pool:
-                times[f"plain@{args.plain}"].append(plain_round(pool, args.check_n, args.chunk, ref, args.calls))
-        for w, th in layouts:
-            with cluster(w, th, settings) as client:
-                for name, t in cluster_round(client, clf, Xc, ref, args).items():
-                    times[f"{name}@{w}x{th}"].append(t)
-    mem = np.asarray(times["memory"])
-    out.update(memory_s=float(np.median(mem)), memory_rows_per_s=args.check_n / float(np.median(mem)))
-    for name in names:
-        t = np.asarray(times[name])
-        out[f"{name}_s"] = float(np.median(t))
-        out[f"{name}_vs_memory"] = float(np.median(mem / t))  # ratios within each round
-        out[f"{name}_vs_memory_range"] = [round(float(r), 3) for r in (np.min(mem / t), np.max(mem / t))]
-    for w, th in layouts:
-        out[f"cluster_rows_per_s@{w}x{th}"] = args.check_n / out[f"cluster@{w}x{th}_s"]
+    if args.pairs > 0:
+        out.update(paired_layouts(clf, Xc, ref, layouts, settings, args))
+    else:
+        out.update(rounds(clf, Xc, ref, layouts, settings, args))
     if args.n > 0:
-        with cluster(*layouts[0], settings) as client:
+        with cluster(*layouts[0], settings):
             big, n_blocks = generated(args.n, args.chunk, args.features)
             t0 = time.perf_counter()
             big.sum(axis=1).compute()

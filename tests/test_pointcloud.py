@@ -375,6 +375,27 @@ def test_the_query_order_follows_the_data_and_is_a_permutation(rng):
     assert one.tolist() == [0]
 
 
+def test_the_query_order_sorts_by_the_interleaved_bits_of_each_rows_cell(rng):
+    """The order is a stable sort of each row's Morton key: the bits of its cell on each
+    axis, interleaved most significant first, the cells of one width on every axis."""
+    from ndboundary.domains.neighbors import leading_axes, locality_order
+
+    X = rng.normal(size=(400, 6)) * [3.0, 2.0, 1.0, 0.5, 0.1, 0.01]
+    center, axes = leading_axes(X, 3)
+    bits = 4
+    P = np.array([axes @ (x - center) for x in X])
+    width = (P.max(axis=0) - P.min(axis=0)).max() / 2**bits
+    keys = []
+    for p in P:
+        cell = [min(int((c - lo) / width), 2**bits - 1) for c, lo in zip(p, P.min(axis=0), strict=True)]
+        keys.append(int("".join(str(c >> b & 1) for b in range(bits - 1, -1, -1) for c in cell), 2))
+    expected = np.argsort(keys, kind="stable")
+    order = locality_order(X, center, axes, bits=bits)
+    # a row exactly on a cell's edge may round either way in the two computations
+    assert (order == expected).mean() > 0.99
+    assert np.array_equal(np.sort(order), np.arange(400))
+
+
 @pytest.mark.parametrize("n_features", [3, 8])
 def test_exact_neighbours_by_tree_and_by_brute_force(rng, n_features):
     """Few features search a k-d tree, more compare every pair: both are the exact graph."""

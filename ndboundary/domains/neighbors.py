@@ -305,18 +305,27 @@ def locality_order(X, center, axes, bits=ORDER_BITS):
     >>> sorted(order.tolist()) == list(range(1000)), bool(step < 0.1)  # random order: about 0.52
     (True, True)
     """
-    P = (X - center) @ axes.T
+    # in place, without arrays the size of X or of a column per step: a Dask worker's
+    # allocator hands each freed array back to the system and faults the next one in
+    P = X @ axes.T
+    P -= center @ axes.T
     lo = P.min(axis=0)
     # cells of one width on every axis, the widest axis cut in 2**bits: an axis along which
     # the points barely spread takes few cells, and does not scatter the order
     cells = 1 << bits
     width = float((P.max(axis=0) - lo).max()) / cells
-    q = ((P - lo) / max(width, np.finfo(np.float64).tiny)).astype(np.int64)
+    P -= lo
+    P /= max(width, np.finfo(np.float64).tiny)
+    q = np.ascontiguousarray(P.T).astype(np.int64)  # one row per axis
     np.clip(q, 0, cells - 1, out=q)
     key = np.zeros(X.shape[0], dtype=np.int64)
+    bit = np.empty_like(key)
     for b in range(bits - 1, -1, -1):  # interleave the axes' bits, most significant first
-        for j in range(q.shape[1]):
-            key = (key << 1) | ((q[:, j] >> b) & 1)
+        for axis in q:
+            np.left_shift(key, 1, out=key)
+            np.right_shift(axis, b, out=bit)
+            np.bitwise_and(bit, 1, out=bit)
+            np.bitwise_or(key, bit, out=key)
     return np.argsort(key, kind="stable")
 
 
