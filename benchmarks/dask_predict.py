@@ -258,8 +258,8 @@ def cluster_round(client, clf, Xc, ref, args):
 
 
 @contextmanager
-def suspended(client):
-    """The worker processes of the local cluster of ``client`` (and their nannies)
+def suspended():
+    """This process's child processes (a local cluster's workers and their nannies)
     stopped with ``SIGSTOP`` for the duration, then resumed: a cluster that takes no
     CPU time at all beside an in-memory call."""
     import psutil
@@ -293,7 +293,7 @@ def paired(client, clf, Xc, ref, args):
     check(clf.predict(Xd).compute(), ref, "cluster_first")  # ships the lean copy
 
     def memory():
-        with suspended(client):
+        with suspended():
             return calls(lambda: clf.predict(Xc), ref, "memory", 1)
 
     def on_cluster():
