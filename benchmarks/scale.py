@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/scale.py [--n 100000] [--features 50] [--skip-peer]
+                               [--peers labelspreading,svc,knn15,hgb]
                                [--bands none,10,20,30] [--repeat 3]
                                [--data manifold|plane] [--label-noise 0.0]
                                [--max-samples 0.1]
@@ -13,8 +14,10 @@ Usage::
 
 Times fit (kNN graph included) and prediction on as many new samples, reports peak
 memory (ru_maxrss) and the band the classifier relaxed over (``band_``), and times
-LabelSpreading(kernel="knn") on the same data for the ratio. Prints a table and one
-JSON line.
+the ``--peers`` on the same data in the same process: ``LabelSpreading(kernel="knn")``
+by default (``fit_ratio`` is ours to its), and any of ``SVC()``,
+``KNeighborsClassifier(15)`` and ``HistGradientBoostingClassifier()``
+(``svc``, ``knn15``, ``hgb``). ``--skip-peer`` times none. Prints a table and one JSON line.
 
 ``--max-samples`` fits once more on that share (or count) of landmarks
 (``LevelSetClassifier(max_samples=...)``) and reports its fit and predict times, its
@@ -134,17 +137,49 @@ def measure_bands(clf, Xtr, ytr, Xte, yte, widths, repeat):
     return out
 
 
+def _label_spreading():
+    from sklearn.semi_supervised import LabelSpreading
+
+    return LabelSpreading(kernel="knn")
+
+
+def _svc():
+    from sklearn.svm import SVC
+
+    return SVC()
+
+
+def _knn15():
+    from sklearn.neighbors import KNeighborsClassifier
+
+    return KNeighborsClassifier(15)
+
+
+def _hgb():
+    from sklearn.ensemble import HistGradientBoostingClassifier
+
+    return HistGradientBoostingClassifier()
+
+
+#: the peers ``--peers`` can time beside ours, each made fresh
+PEERS = {"labelspreading": _label_spreading, "svc": _svc, "knn15": _knn15, "hgb": _hgb}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100_000)
     ap.add_argument("--features", type=int, default=50)
     ap.add_argument("--skip-peer", action="store_true")
+    ap.add_argument("--peers", default="labelspreading", help=f"comma-separated, from {', '.join(PEERS)}")
     ap.add_argument("--bands", type=band_widths, default=None, help="band widths in h, e.g. none,10,20,30")
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per band width (median)")
     ap.add_argument("--data", choices=("manifold", "plane"), default="manifold")
     ap.add_argument("--label-noise", type=float, default=0.0, help="share of flipped labels (--data plane)")
     ap.add_argument("--max-samples", type=float, default=None, help="also fit on landmarks: a share, or a count")
     args = ap.parse_args(argv)
+    peers = [] if args.skip_peer else [p for p in args.peers.split(",") if p]
+    if unknown := sorted(set(peers) - set(PEERS)):
+        ap.error(f"unknown peers {unknown}; choose from {', '.join(PEERS)}")
     if args.data == "plane":
         X, y = make_plane(2 * args.n, args.label_noise)
     else:
@@ -161,16 +196,15 @@ def main(argv=None):
     out["accuracy"] = acc
     out["band"] = clf.band_
     out["peak_gb"] = peak_gb()
-    if not args.skip_peer:
-        from sklearn.semi_supervised import LabelSpreading
-
-        ls = LabelSpreading(kernel="knn")
+    for name in peers:
+        peer = PEERS[name]()
         t0 = time.perf_counter()
-        ls.fit(Xtr, ytr)
-        out["labelspreading_fit_s"] = time.perf_counter() - t0
+        peer.fit(Xtr, ytr)
+        out[f"{name}_fit_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        out["labelspreading_accuracy"] = float((ls.predict(Xte) == yte).mean())
-        out["labelspreading_predict_s"] = time.perf_counter() - t0
+        out[f"{name}_accuracy"] = float((peer.predict(Xte) == yte).mean())
+        out[f"{name}_predict_s"] = time.perf_counter() - t0
+    if "labelspreading" in peers:
         out["fit_ratio"] = out["fit_s"] / out["labelspreading_fit_s"]
     if args.max_samples is not None:
         m = args.max_samples
