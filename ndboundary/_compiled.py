@@ -459,6 +459,15 @@ def diagonal_slots(indptr, indices, out):  # pragma: no cover - compiled
                 break
 
 
+def _index_arrays(A):
+    """The CSR matrix ``A``'s index arrays as the kernels' signatures take them: both
+    32-bit or both 64-bit.
+    """
+    if A.indptr.dtype != A.indices.dtype or A.indices.dtype not in (np.int32, np.int64):
+        return A.indptr.astype(np.int64), A.indices.astype(np.int64)
+    return A.indptr, A.indices
+
+
 def plus_diagonal(K, d):
     """``K + diag(d)`` for a square CSR matrix that stores its whole diagonal, sharing
     ``K``'s index arrays (``K`` + ``diags(d)`` otherwise): on a large system the sum's own
@@ -476,11 +485,9 @@ def plus_diagonal(K, d):
     """
     K = sp.csr_matrix(K)
     n = K.shape[0]
-    slots = np.empty(n, dtype=np.int64)
-    if K.shape[1] == n and K.indptr.dtype == K.indices.dtype and K.indices.dtype in (np.int32, np.int64):
-        diagonal_slots(K.indptr, K.indices, slots)
-    else:
-        slots[:] = -1
+    slots = np.full(n, -1, dtype=np.int64)
+    if K.shape[1] == n:
+        diagonal_slots(*_index_arrays(K), slots)
     if (slots < 0).any():
         return (K + sp.diags(d)).tocsr()
     data = K.data.astype(np.float64, copy=True)
@@ -513,10 +520,8 @@ def pattern_sums(A, x):
     A = sp.csr_matrix(A)
     x = np.ascontiguousarray(x, dtype=np.float64)
     out = np.empty(A.shape[0])
-    if A.indptr.dtype == A.indices.dtype and A.indices.dtype in (np.int32, np.int64):
-        _pattern_sums(A.indptr, A.indices, x, out)
-        return out
-    return sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape) @ x
+    _pattern_sums(*_index_arrays(A), x, out)
+    return out
 
 
 _SQUARED_UPPER = (
@@ -835,15 +840,6 @@ def _walk_graph(indptr, indices, nodes, local, inside, centroids):  # pragma: no
                 s += d * d
             lengths[q] = np.sqrt(s) + 1e-300  # an explicit zero would drop the edge
     return out_ptr, cols, lengths
-
-
-def _index_arrays(A):
-    """The CSR matrix ``A``'s index arrays as the kernels' signatures take them: both
-    32-bit or both 64-bit.
-    """
-    if A.indptr.dtype != A.indices.dtype or A.indices.dtype not in (np.int32, np.int64):
-        return A.indptr.astype(np.int64), A.indices.astype(np.int64)
-    return A.indptr, A.indices
 
 
 def region_walk_graph(adjacency, inside, centroids_of):
