@@ -37,7 +37,12 @@ then ``N`` times in memory, on the cluster, on the cluster, in memory (ABBA, so 
 steady drift cancels), each in-memory call with the cluster's processes suspended
 (``SIGSTOP``) so that they take nothing from it. Each call is paired with its neighbour;
 the median of the ``2N`` ratios is printed with a 95 % bootstrap interval and the share
-of pairs at or above 1.
+of pairs at or above 1. With ``--first``, each quad runs on a fresh cluster instead, so
+that its first cluster call is a user's first call, which ships the lean copy: in
+memory, that first call, a second call, in memory; the first calls' ratios (the first
+call against the in-memory call before it) and the second calls' are summarised apart.
+In every mode the samples are persisted on the workers, and the workers warmed, before
+any call is timed.
 ``--faults`` first counts the minor page faults (and the seconds) of one call predicting
 ``--chunk`` rows on one thread, in a fresh process with and without the
 ``MALLOC_TRIM_THRESHOLD_`` Dask's nanny sets in its workers.
@@ -57,7 +62,7 @@ Usage::
                                       [--check-n 200000] [--chunk 100000] [--layouts 1x2,2x1]
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
-                                      [--calls 1] [--plain 2] [--pairs 0]
+                                      [--calls 1] [--plain 2] [--pairs 0] [--first]
 """
 
 from __future__ import annotations
@@ -73,7 +78,7 @@ import dask
 import dask.array as da
 import numpy as np
 from dask_ml.wrappers import ParallelPostFit
-from distributed import Client, LocalCluster
+from distributed import Client, LocalCluster, wait
 from scale import make_data
 
 from ndboundary import LevelSetClassifier
@@ -239,10 +244,7 @@ def cluster_round(client, clf, Xc, ref, args):
     median of ``args.calls`` calls), after warming every worker; ``cluster_first`` is the
     classifier's own first call, which ships its lean copy to the workers.
     """
-    shipped = client.scatter(clf, broadcast=True)
-    client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()  # warm every worker
-    del shipped
-    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
+    Xd = prepared(client, clf, Xc, args)
     wrapped, lean = ParallelPostFit(clf), ParallelPostFit(for_prediction(clf))
     ways = {
         "cluster": lambda: clf.predict(Xd).compute(),
@@ -286,26 +288,63 @@ def median_interval(ratios, draws=10_000, seed=0):
 def paired(client, clf, Xc, ref, args):
     """The ratios of in-memory to cluster seconds in ``args.pairs`` ABBA quads of calls on
     the warmed cluster of ``client`` (see ``--pairs``): one ratio per adjacent pair."""
-    shipped = client.scatter(clf, broadcast=True)
-    client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()  # warm every worker
-    del shipped
-    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
+    Xd = prepared(client, clf, Xc, args)
     check(clf.predict(Xd).compute(), ref, "cluster_first")  # ships the lean copy
-
-    def memory():
-        with suspended():
-            return calls(lambda: clf.predict(Xc), ref, "memory", 1)
-
-    def on_cluster():
-        return calls(lambda: clf.predict(Xd).compute(), ref, "cluster", 1)
-
     ratios, seconds = [], {"memory": [], "cluster": []}
     for _ in range(args.pairs):
-        m1, c1, c2, m2 = memory(), on_cluster(), on_cluster(), memory()
+        m1, c1, c2, m2 = _in_memory(clf, Xc, ref), _on(clf, Xd, ref), _on(clf, Xd, ref), _in_memory(clf, Xc, ref)
         ratios += [m1 / c1, m2 / c2]
         seconds["memory"] += [m1, m2]
         seconds["cluster"] += [c1, c2]
     return ratios, seconds
+
+
+def first_pairs(clf, Xc, ref, workers, threads, settings, args):
+    """The ratios of in-memory to cluster seconds of ``args.pairs`` quads, each on a fresh
+    cluster of ``workers`` processes of ``threads`` threads (see ``--first``): in memory, the
+    user's first call (which ships the lean copy), a second call, in memory. Returns the
+    first calls' ratios, the second calls' ratios and the seconds of each kind of call.
+    """
+    first, second, seconds = [], [], {"memory": [], "cluster_first": [], "cluster": []}
+    for _ in range(args.pairs):
+        with cluster(workers, threads, settings) as client:
+            Xd = prepared(client, clf, Xc, args)
+            m1, c1, c2, m2 = _in_memory(clf, Xc, ref), _on(clf, Xd, ref), _on(clf, Xd, ref), _in_memory(clf, Xc, ref)
+        first.append(m1 / c1)
+        second.append(m2 / c2)
+        seconds["memory"] += [m1, m2]
+        seconds["cluster_first"].append(c1)
+        seconds["cluster"].append(c2)
+    return first, second, seconds
+
+
+def _in_memory(clf, Xc, ref):
+    """Seconds of one in-memory call, the cluster's processes suspended."""
+    with suspended():
+        return calls(lambda: clf.predict(Xc), ref, "memory", 1)
+
+
+def _on(clf, Xd, ref):
+    """Seconds of one call of the classifier's own ``predict`` on the cluster's array ``Xd``."""
+    return calls(lambda: clf.predict(Xd).compute(), ref, "cluster", 1)
+
+
+def prepared(client, clf, Xc, args):
+    """The samples ``Xc`` persisted on the cluster of ``client`` in blocks of ``args.chunk``
+    rows, and every worker warmed, before any call is timed.
+
+    Each worker imports ndboundary and compiles the neighbour index's query by predicting a
+    few rows with a copy of ``clf`` that is then dropped (the in-memory process did the
+    same before its calls), and the samples are on the workers when this returns: a
+    persist runs in the background, and a call timed before it lands would count the
+    transfer of every sample to the cluster as prediction time.
+    """
+    shipped = client.scatter(clf, broadcast=True)
+    client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()
+    del shipped
+    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
+    wait(Xd)
+    return Xd
 
 
 def calls(way, ref, name, count):
@@ -349,12 +388,18 @@ def paired_layouts(clf, Xc, ref, layouts, settings, args):
     """The paired measurement of ``--pairs`` on a fresh cluster of each layout."""
     out = {}
     for w, th in layouts:
-        with cluster(w, th, settings) as client:
-            ratios, seconds = paired(client, clf, Xc, ref, args)
-        key = f"paired@{w}x{th}"
-        out[f"{key}_vs_memory"], out[f"{key}_vs_memory_ci95"] = median_interval(ratios)
-        out[f"{key}_share_at_least_1"] = float(np.mean(np.asarray(ratios) >= 1.0))
-        out[f"{key}_ratios"] = [round(r, 3) for r in ratios]
+        if args.first:
+            first, second, seconds = first_pairs(clf, Xc, ref, w, th, settings, args)
+            groups = {f"first_pairs@{w}x{th}": first, f"first_pairs_second_call@{w}x{th}": second}
+        else:
+            with cluster(w, th, settings) as client:
+                ratios, seconds = paired(client, clf, Xc, ref, args)
+            groups = {f"paired@{w}x{th}": ratios}
+        for key, ratios in groups.items():
+            out[f"{key}_vs_memory"], out[f"{key}_vs_memory_ci95"] = median_interval(ratios)
+            out[f"{key}_share_at_least_1"] = float(np.mean(np.asarray(ratios) >= 1.0))
+            out[f"{key}_ratios"] = [round(r, 3) for r in ratios]
+        key = next(iter(groups))
         for name, t in seconds.items():
             out[f"{key}_{name}_s"] = float(np.median(t))
             out[f"{key}_{name}_rows_per_s"] = args.check_n / float(np.median(t))
@@ -399,6 +444,11 @@ def main(argv=None):
         default=0,
         help="measure in ABBA quads of in-memory and cluster calls on one cluster per layout (see above) "
         "instead of rounds",
+    )
+    ap.add_argument(
+        "--first",
+        action="store_true",
+        help="with --pairs, start a fresh cluster for each quad, whose first cluster call is the user's first",
     )
     args = ap.parse_args(argv)
     args.ways = [way for way in args.ways.split(",") if way]
