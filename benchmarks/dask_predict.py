@@ -75,6 +75,7 @@ import multiprocessing
 import os
 import time
 from contextlib import contextmanager
+from functools import partial
 
 import dask
 import dask.array as da
@@ -303,21 +304,32 @@ def paired(client, clf, Xc, ref, args):
 
 def first_pairs(clf, Xc, ref, workers, threads, settings, args):
     """The ratios of in-memory to cluster seconds of ``args.pairs`` quads, each on a fresh
-    cluster of ``workers`` processes of ``threads`` threads (see ``--first``): in memory, the
-    user's first call (which ships the lean copy), a second call, in memory. Returns the
-    first calls' ratios, the second calls' ratios and the seconds of each kind of call.
+    cluster of ``workers`` processes of ``threads`` threads (see ``--first``).
+
+    Even quads run in memory, the user's first call (which ships the lean copy), a second
+    call, in memory; odd quads the first call, in memory twice, the second call. Each
+    cluster call is paired with the in-memory call beside it. In the odd quads the first
+    call comes before the cluster has been suspended at all, which tells a first call's
+    own cost from that of resuming the cluster's processes. Returns the first calls'
+    ratios, the second calls' ratios, whether each quad was odd, and the seconds of each
+    kind of call.
     """
-    first, second, seconds = [], [], {"memory": [], "cluster_first": [], "cluster": []}
-    for _ in range(args.pairs):
+    first, second, odd, seconds = [], [], [], {"memory": [], "cluster_first": [], "cluster": []}
+    for quad in range(args.pairs):
         with cluster(workers, threads, settings) as client:
             Xd = prepared(client, clf, Xc, args)
-            m1, c1, c2, m2 = _in_memory(clf, Xc, ref), _on(clf, Xd, ref), _on(clf, Xd, ref), _in_memory(clf, Xc, ref)
+            memory, on_cluster = partial(_in_memory, clf, Xc, ref), partial(_on, clf, Xd, ref)
+            if quad % 2 == 0:
+                m1, c1, c2, m2 = memory(), on_cluster(), on_cluster(), memory()
+            else:
+                c1, m1, m2, c2 = on_cluster(), memory(), memory(), on_cluster()
         first.append(m1 / c1)
         second.append(m2 / c2)
+        odd.append(quad % 2 == 1)
         seconds["memory"] += [m1, m2]
         seconds["cluster_first"].append(c1)
         seconds["cluster"].append(c2)
-    return first, second, seconds
+    return first, second, odd, seconds
 
 
 def _in_memory(clf, Xc, ref):
@@ -391,8 +403,10 @@ def paired_layouts(clf, Xc, ref, layouts, settings, args):
     out = {}
     for w, th in layouts:
         if args.first:
-            first, second, seconds = first_pairs(clf, Xc, ref, w, th, settings, args)
+            first, second, odd, seconds = first_pairs(clf, Xc, ref, w, th, settings, args)
             groups = {f"first_pairs@{w}x{th}": first, f"first_pairs_second_call@{w}x{th}": second}
+            if any(odd):
+                groups[f"first_pairs_before_any_suspension@{w}x{th}"] = [r for r, o in zip(first, odd) if o]
         else:
             with cluster(w, th, settings) as client:
                 ratios, seconds = paired(client, clf, Xc, ref, args)
@@ -455,7 +469,8 @@ def main(argv=None):
     ap.add_argument(
         "--first",
         action="store_true",
-        help="with --pairs, start a fresh cluster for each quad, whose first cluster call is the user's first",
+        help="with --pairs, start a fresh cluster for each quad, whose first cluster call is the user's first "
+        "(the odd quads in the order BAAB)",
     )
     args = ap.parse_args(argv)
     args.ways = [way for way in args.ways.split(",") if way]
