@@ -38,11 +38,13 @@ steady drift cancels), each in-memory call with the cluster's processes suspende
 (``SIGSTOP``) so that they take nothing from it. Each call is paired with its neighbour;
 the median of the ``2N`` ratios is printed with a 95 % bootstrap interval and the share
 of pairs at or above 1. With ``--first``, each quad runs on a fresh cluster instead, so
-that its first cluster call is a user's first call, which ships the lean copy: in
-memory, that first call, a second call, in memory; the first calls' ratios (the first
-call against the in-memory call before it) and the second calls' are summarised apart,
-with the ratios of each second call's seconds to its first's (below 1: the first call is
-the slower, by shipping the copy).
+that its first cluster call is a user's first call, which ships the lean copy: the even
+quads call in memory, the first call, a second call, in memory; the odd ones the first
+call, in memory twice, the second call, so that their first call comes before any
+suspension. The first calls' ratios (each against the in-memory call beside it), the
+second calls', and those of the odd quads' first calls are summarised apart, with the
+ratios of each second call's seconds to its first's (below 1: the first call is the
+slower).
 In every mode the samples are persisted on the workers, and the workers warmed, before
 any call is timed.
 ``--faults`` first counts the minor page faults (and the seconds) of one call predicting
@@ -293,9 +295,10 @@ def paired(client, clf, Xc, ref, args):
     the warmed cluster of ``client`` (see ``--pairs``): one ratio per adjacent pair."""
     Xd = prepared(client, clf, Xc, args)
     check(clf.predict(Xd).compute(), ref, "cluster_first")  # ships the lean copy
+    memory, on_cluster = partial(_in_memory, clf, Xc, ref), partial(_on, clf, Xd, ref)
     ratios, seconds = [], {"memory": [], "cluster": []}
     for _ in range(args.pairs):
-        m1, c1, c2, m2 = _in_memory(clf, Xc, ref), _on(clf, Xd, ref), _on(clf, Xd, ref), _in_memory(clf, Xc, ref)
+        m1, c1, c2, m2 = memory(), on_cluster(), on_cluster(), memory()
         ratios += [m1 / c1, m2 / c2]
         seconds["memory"] += [m1, m2]
         seconds["cluster"] += [c1, c2]
@@ -476,6 +479,8 @@ def main(argv=None):
     args.ways = [way for way in args.ways.split(",") if way]
     if unknown := sorted(set(args.ways) - set(WAYS)):
         ap.error(f"unknown ways {unknown}; choose from {', '.join(WAYS)}")
+    if args.first and args.pairs <= 0:
+        ap.error("--first needs --pairs N with N of at least 1")
     X, y = make_data(args.fit_n, args.features)
     m = args.max_samples
     clf = LevelSetClassifier(max_samples=None if m <= 0 else (int(m) if m > 1 else m), random_state=0)
