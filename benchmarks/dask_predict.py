@@ -314,10 +314,9 @@ def first_pairs(clf, Xc, ref, workers, threads, settings, args):
     cluster call is paired with the in-memory call beside it. In the odd quads the first
     call comes before the cluster has been suspended at all, which tells a first call's
     own cost from that of resuming the cluster's processes. Returns the first calls'
-    ratios, the second calls' ratios, whether each quad was odd, and the seconds of each
-    kind of call.
+    ratios, the second calls' ratios and the seconds of each kind of call.
     """
-    first, second, odd, seconds = [], [], [], {"memory": [], "cluster_first": [], "cluster": []}
+    first, second, seconds = [], [], {"memory": [], "cluster_first": [], "cluster": []}
     for quad in range(args.pairs):
         with cluster(workers, threads, settings) as client:
             Xd = prepared(client, clf, Xc, args)
@@ -328,11 +327,10 @@ def first_pairs(clf, Xc, ref, workers, threads, settings, args):
                 c1, m1, m2, c2 = on_cluster(), memory(), memory(), on_cluster()
         first.append(m1 / c1)
         second.append(m2 / c2)
-        odd.append(quad % 2 == 1)
         seconds["memory"] += [m1, m2]
         seconds["cluster_first"].append(c1)
         seconds["cluster"].append(c2)
-    return first, second, odd, seconds
+    return first, second, seconds
 
 
 def _in_memory(clf, Xc, ref):
@@ -406,10 +404,14 @@ def paired_layouts(clf, Xc, ref, layouts, settings, args):
     out = {}
     for w, th in layouts:
         if args.first:
-            first, second, odd, seconds = first_pairs(clf, Xc, ref, w, th, settings, args)
+            first, second, seconds = first_pairs(clf, Xc, ref, w, th, settings, args)
             groups = {f"first_pairs@{w}x{th}": first, f"first_pairs_second_call@{w}x{th}": second}
-            if any(odd):
-                groups[f"first_pairs_before_any_suspension@{w}x{th}"] = [r for r, o in zip(first, odd) if o]
+            if args.pairs > 1:  # the odd quads'
+                groups[f"first_pairs_before_any_suspension@{w}x{th}"] = first[1::2]
+            # each second call's seconds over its first's: below 1, the first call is the slower
+            slower = np.asarray(seconds["cluster"]) / np.asarray(seconds["cluster_first"])
+            key = f"first_pairs_second_over_first@{w}x{th}"
+            out[key], out[f"{key}_ci95"] = median_interval(slower)
         else:
             with cluster(w, th, settings) as client:
                 ratios, seconds = paired(client, clf, Xc, ref, args)
@@ -418,11 +420,6 @@ def paired_layouts(clf, Xc, ref, layouts, settings, args):
             out[f"{key}_vs_memory"], out[f"{key}_vs_memory_ci95"] = median_interval(ratios)
             out[f"{key}_share_at_least_1"] = float(np.mean(np.asarray(ratios) >= 1.0))
             out[f"{key}_ratios"] = [round(r, 3) for r in ratios]
-        if args.first:
-            # each second call's seconds over its first's: below 1, the first call is the slower
-            slower = np.asarray(seconds["cluster"]) / np.asarray(seconds["cluster_first"])
-            key = f"first_pairs_second_over_first@{w}x{th}"
-            out[key], out[f"{key}_ci95"] = median_interval(slower)
         key = next(iter(groups))
         for name, t in seconds.items():
             out[f"{key}_{name}_s"] = float(np.median(t))

@@ -43,6 +43,10 @@ import resource
 import time
 
 import numpy as np
+from sklearn.ensemble import HistGradientBoostingClassifier
+from sklearn.neighbors import KNeighborsClassifier
+from sklearn.semi_supervised import LabelSpreading
+from sklearn.svm import SVC
 
 from ndboundary import LevelSetClassifier, relax
 from ndboundary.learn.extrema import impose_extrema
@@ -137,32 +141,13 @@ def measure_bands(clf, Xtr, ytr, Xte, yte, widths, repeat):
     return out
 
 
-def _label_spreading():
-    from sklearn.semi_supervised import LabelSpreading
-
-    return LabelSpreading(kernel="knn")
-
-
-def _svc():
-    from sklearn.svm import SVC
-
-    return SVC()
-
-
-def _knn15():
-    from sklearn.neighbors import KNeighborsClassifier
-
-    return KNeighborsClassifier(15)
-
-
-def _hgb():
-    from sklearn.ensemble import HistGradientBoostingClassifier
-
-    return HistGradientBoostingClassifier()
-
-
 #: the peers ``--peers`` can time beside ours, each made fresh
-PEERS = {"labelspreading": _label_spreading, "svc": _svc, "knn15": _knn15, "hgb": _hgb}
+PEERS = {
+    "labelspreading": lambda: LabelSpreading(kernel="knn"),
+    "svc": SVC,
+    "knn15": lambda: KNeighborsClassifier(15),
+    "hgb": HistGradientBoostingClassifier,
+}
 
 
 def main(argv=None):
