@@ -59,6 +59,9 @@ run every second or two instead of every 20 and 500 ms. Idle, a ``2x1`` cluster'
 processes then take 3 % of a core instead of 16 % (``--idle`` measures it for each
 setting first), which on a machine whose cores the cluster shares with nothing else
 is work taken from the predictions. Prints a table and one JSON line.
+``--pool FILE ...`` measures nothing: it reads the output of earlier runs (the JSON line
+each ends with) and prints, for each kind of ratio, the median, 95 % bootstrap interval
+and share at or above 1 over the ratios of every run, pooled.
 
 Usage::
 
@@ -67,6 +70,7 @@ Usage::
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
                                       [--calls 1] [--plain 2] [--pairs 0] [--first]
+    python benchmarks/dask_predict.py --pool run1.txt run2.txt ...
 """
 
 from __future__ import annotations
@@ -78,6 +82,7 @@ import os
 import time
 from contextlib import contextmanager
 from functools import partial
+from pathlib import Path
 
 import dask
 import dask.array as da
@@ -427,8 +432,35 @@ def paired_layouts(clf, Xc, ref, layouts, settings, args):
     return out
 
 
+def pooled(paths):
+    """The ratios of several runs' JSON lines (the last line of each file in ``paths``,
+    as this script prints it) pooled key by key: each key's median, its 95 % bootstrap
+    interval and share at or above 1 over the ratios of every run that has the key."""
+    runs = []
+    for path in paths:
+        lines = [line for line in Path(path).read_text().splitlines() if line.startswith("{")]
+        if not lines:
+            raise SystemExit(f"{path}: no JSON line of this script's output")
+        runs.append(json.loads(lines[-1]))
+    out = {}
+    for key in dict.fromkeys(k for run in runs for k in run if k.endswith("_ratios")):
+        ratios = [r for run in runs for r in run.get(key, [])]
+        name = key.removesuffix("_ratios")
+        out[f"{name}_runs"] = sum(key in run for run in runs)
+        out[f"{name}_vs_memory"], out[f"{name}_vs_memory_ci95"] = median_interval(ratios)
+        out[f"{name}_share_at_least_1"] = float(np.mean(np.asarray(ratios) >= 1.0))
+        out[f"{name}_n"] = len(ratios)
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--pool",
+        nargs="+",
+        metavar="FILE",
+        help="measure nothing: pool the ratios of earlier runs' printed output, key by key",
+    )
     ap.add_argument("--fit-n", type=int, default=100_000)
     ap.add_argument("--max-samples", type=float, default=0.1)
     ap.add_argument("--features", type=int, default=50)
@@ -473,6 +505,10 @@ def main(argv=None):
         "(the odd quads in the order BAAB)",
     )
     args = ap.parse_args(argv)
+    if args.pool:
+        for k, v in pooled(args.pool).items():
+            print(f"{k:<46s} {v:.4g}" if isinstance(v, float) else f"{k:<46s} {v}")
+        return
     args.ways = [way for way in args.ways.split(",") if way]
     if unknown := sorted(set(args.ways) - set(WAYS)):
         ap.error(f"unknown ways {unknown}; choose from {', '.join(WAYS)}")
