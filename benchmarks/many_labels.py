@@ -5,7 +5,7 @@ The volume is the Voronoi partition of ``--sites`` random sites (by voxel centre
 tree) on 275 x 347 x 245 voxels, a brain atlas's size, times ``--scale`` along each axis.
 One fresh run (an atlas takes half an hour on two cores): the relaxation; the region
 values the partition reads; the refinement of the voxels that interfaces cross; every
-region's boundary (``region_boundary``, region by region beyond
+region's boundary (``region_boundaries``, region by region on every core beyond
 ``PARTITION_BY_REGION_SIMPLICES``); the region measures and how closely they sum to the
 image's volume. A thread polls ``/proc/self/statm`` every 50 ms: ``rss`` is the memory
 after each phase, ``peak`` the most within it. The run stops itself beyond ``--limit``
@@ -78,7 +78,7 @@ def main():
     complex_, _ = result._mixed()
     tick = phase(f"refinement of the mixed voxels ({0 if complex_ is None else complex_[1].shape[0]} simplices)", tick)
     by_region = result._by_region() is not None
-    area = sum(result.region_boundary(r).measure() for r in range(args.sites))
+    area = sum(boundary.measure() for boundary in result.region_boundaries())
     tick = phase(f"every region's boundary ({'region by region' if by_region else 'all at once'}), area {area:.6g}",
                  tick)  # fmt: skip
     measures = result.region_measures()

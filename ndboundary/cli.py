@@ -190,7 +190,7 @@ def cmd_relax(args):
     two = res.classes.size == 2
     ls = res.level_set() if two else None
     regional = not two or args.partition or args.region_surfaces  # the partition is made: report its regions
-    boundaries = [res.region_boundary(r) for r in range(res.classes.size)] if regional else []
+    boundaries = res.region_boundaries() if regional else []
     with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
         io.write_phi(temporary[0], res, labels=data if on == "elements" else None)
         rest = iter(temporary[1:])

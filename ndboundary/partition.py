@@ -15,8 +15,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._arrays import used_vertices
-from .levelset import LevelSet
-from .partition_clip import interface_facets, simplex_measures, sweep, sweep_sparse
+from .levelset import LevelSet, simplex_measures
+from .partition_clip import interface_facets, sweep, sweep_sparse
 
 __all__ = ["Cells", "Interfaces", "Junctions", "Partition", "partition"]
 

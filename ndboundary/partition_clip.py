@@ -18,13 +18,11 @@ the same point and the complex stays conforming.
 from __future__ import annotations
 
 from functools import cache
-from math import factorial
 
 import numpy as np
 
-from ._compiled_geometry import full_simplex_volumes
 from ._compiled_partition import oriented_region_facets, sweep_sparse_compiled
-from .levelset import staircase_paths, sorting_parity
+from .levelset import sorting_parity, staircase_paths
 
 
 @cache
@@ -174,30 +172,6 @@ def sweep(points, simplices, values):
     for r in range(1, values.shape[1]):
         c.add(r)
     return c.X, c.S, c.region, c.F, c.parents
-
-
-def simplex_measures(points, simplices):
-    """Unsigned length / area / volume of each simplex (any k <= dim).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ndboundary.partition_clip import simplex_measures
-    >>> simplex_measures(np.array([[0.0, 0, 0], [1, 0, 0], [0, 2, 0]]), np.array([[0, 1, 2], [1, 0, 2]])).tolist()
-    [1.0, 1.0]
-    """
-    k = simplices.shape[1] - 1
-    if k == points.shape[1] <= 3:
-        return full_simplex_volumes(points, simplices)
-    out = np.empty(simplices.shape[0])
-    for lo in range(0, simplices.shape[0], 1 << 18):
-        X = points[simplices[lo : lo + (1 << 18)]]
-        E = X[:, 1:, :] - X[:, :1, :]
-        if k == points.shape[1]:
-            out[lo : lo + E.shape[0]] = np.abs(np.linalg.det(E))
-        else:
-            out[lo : lo + E.shape[0]] = np.sqrt(np.clip(np.linalg.det(E @ E.transpose(0, 2, 1)), 0, None))
-    return out / factorial(k)
 
 
 def interface_facets(points, simplices, regions):

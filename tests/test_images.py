@@ -621,6 +621,34 @@ def test_many_regions_cut_region_by_region_as_all_at_once(monkeypatch):
     assert by_region.interfaces().measure() == pytest.approx(whole.interfaces().measure(), rel=1e-12)
 
 
+def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):
+    """``region_boundaries`` cuts the regions on two threads at once beyond
+    PARTITION_BY_REGION_SIMPLICES, in the order asked: the same surfaces, simplex for
+    simplex, as ``region_boundary`` one region after another, and the same measures."""
+    from ndboundary.pipeline import result as result_module
+
+    labels = np.pad(_voronoi((16, 18, 20), 6, (1.0, 1.0, 1.0), seed=2), 1, constant_values=9)
+    monkeypatch.setattr(result_module, "PARTITION_BY_REGION_SIMPLICES", 0)
+    monkeypatch.setattr(result_module, "available_threads", lambda: 2)
+    one_by_one = relax_image(labels, band=4.0)
+    at_once = relax_image(labels, band=4.0)
+    assert at_once._by_region() is not None
+    n = at_once.classes.size
+    order = [5, 0, 3, 3, 6, 1]
+    for r, surface in zip(order, at_once.region_boundaries(order), strict=True):
+        alone = one_by_one.region_boundary(r)
+        np.testing.assert_array_equal(surface.points, alone.points)
+        np.testing.assert_array_equal(surface.simplices, alone.simplices)
+    assert len(at_once.region_boundaries()) == n
+    np.testing.assert_array_equal(at_once.region_measures(), one_by_one.region_measures())
+    with pytest.raises(ValueError, match="out of range"):
+        at_once.region_boundaries([0, n])
+    with pytest.raises(TypeError, match="integer index"):
+        at_once.region_boundary(1.5)
+    with pytest.raises(ValueError, match="out of range"):
+        at_once.region_boundary(-1)
+
+
 @pytest.mark.parametrize("band", [False, True])
 def test_a_voxel_grids_gradient_and_divergence_need_no_matrix(band):
     """The gradient and weak divergence of voxels, computed from the box every voxel shares,

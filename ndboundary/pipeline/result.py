@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import numbers
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
 from .._arrays import expand_ranges, unique_values
+from .._threads import available_threads
 from .._compiled_partition import point_simplices
 from ..domains.image import GridBand
-from ..levelset import LevelSet, marching_simplices
+from ..levelset import LevelSet, marching_simplices, simplex_measures
 from ..partition import Cells, Partition, partition
-from ..partition_clip import simplex_measures, sweep_sparse
+from ..partition_clip import sweep_sparse
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
@@ -191,10 +195,41 @@ class _RegionMethods:
         (:class:`_RegionCuts`), which gives the same surface, simplex for simplex, in
         memory that follows the region.
         """
+        r = self._region_index(r)
         cuts = self._by_region()
         if cuts is None:
             return self._cut()[0].region_boundary(r)
         return cuts.boundary(r)
+
+    def region_boundaries(self, regions=None):
+        """The boundaries of ``regions`` (indices into ``classes``; every region by
+        default), in their order: :meth:`region_boundary` of each.
+
+        Where each region is cut on its own (:data:`PARTITION_BY_REGION_SIMPLICES`), the
+        regions are cut on several threads at once (:func:`~ndboundary._threads.available_threads`),
+        since the cuts' compiled passes hold no GIL; the surfaces are the same, simplex for
+        simplex. Writing every region's surface (``ndboundary relax --region-surfaces``)
+        goes through here.
+
+        Raises
+        ------
+        TypeError, ValueError
+            If a region is not an integer index into ``classes``.
+        """
+        regions = [self._region_index(r) for r in (range(self.classes.size) if regions is None else regions)]
+        cuts = self._by_region()
+        if cuts is None:
+            return [self.region_boundary(r) for r in regions]
+        return _on_threads(cuts.boundary, regions)
+
+    def _region_index(self, r):
+        """``r`` checked as an index into ``classes``."""
+        n = self.classes.size
+        if isinstance(r, bool) or not isinstance(r, numbers.Integral):
+            raise TypeError(f"a region is an integer index into classes (0 to {n - 1}), got {r!r}")
+        if not 0 <= r < n:
+            raise ValueError(f"region {r} is out of range: there are {n} regions (0 to {n - 1})")
+        return int(r)
 
     def region_measures(self):
         """Area / volume of every relaxed region, shape (n_regions,): they sum to the domain's
@@ -206,10 +241,22 @@ class _RegionMethods:
         if cuts is None:
             measures = self._cut()[0].region_measures() + whole
         else:
-            measures = np.array([cuts.measure(r) for r in range(whole.size)]) + whole
+            measures = np.array(_on_threads(cuts.measure, range(whole.size))) + whole
         if isinstance(self.domain, GridBand):
             measures = measures + self.domain.measures_outside(self.classes)
         return measures
+
+
+def _on_threads(fn, items):
+    """``[fn(item) for item in items]``, computed on :func:`~ndboundary._threads.available_threads`
+    threads at once: for the regions' own cuts, whose compiled passes hold no GIL.
+    """
+    items = list(items)
+    threads = min(available_threads(), len(items))
+    if threads < 2:
+        return [fn(item) for item in items]
+    with ThreadPoolExecutor(threads, thread_name_prefix="ndboundary-regions") as pool:
+        return list(pool.map(fn, items))
 
 
 #: Beyond this many simplices in the refinement of the elements that interfaces cross,
@@ -242,7 +289,7 @@ class _RegionCuts:
         self.values.data = self.values.data - self.values.data.min() + 1.0
         self.columns = self.values.tocsc()
         self._at_point = point_simplices(simplices, points.shape[0])
-        self._slot = np.empty(points.shape[0], dtype=np.int64)
+        self._scratch = threading.local()  # a table of the points per thread
         self._measures = {}
 
     def _partition(self, r):
@@ -260,13 +307,16 @@ class _RegionCuts:
         at = ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])]
         simplices = self.simplices[unique_values(at)]
         used = unique_values(simplices)
-        self._slot[used] = np.arange(used.size)  # a scratch table of the points, read at these only
+        slot = getattr(self._scratch, "slot", None)
+        if slot is None:
+            slot = self._scratch.slot = np.empty(self.points.shape[0], dtype=np.int64)
+        slot[used] = np.arange(used.size)  # a scratch table of the points, read at these only
         values = self.values[used]
         present = unique_values(values.indices)
         values = sp.csr_matrix(
             (values.data, np.searchsorted(present, values.indices), values.indptr), shape=(used.size, present.size)
         )
-        points, simplices = self.points[used], self._slot[simplices]
+        points, simplices = self.points[used], slot[simplices]
         X, S, regions, parents = sweep_sparse(points, simplices, values)
         j = int(np.searchsorted(present, r))
         mine = regions == j
