@@ -135,7 +135,7 @@ def cmd_relax_image(args):
             labels, spacing=image.spacing, origin=origin, direction=image.direction, background=background,
             band=args.band, verbose=show, **kwargs,
         )  # fmt: skip
-    boundaries = dict(zip(surfaces, res.region_boundaries(surfaces))) if args.region_surfaces else {}
+    boundaries = dict(zip(surfaces, res.region_boundaries(surfaces), strict=True)) if args.region_surfaces else {}
     with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
         rest = iter(temporary)
         if args.output:

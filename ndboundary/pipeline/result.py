@@ -11,8 +11,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._arrays import expand_ranges, unique_values
-from .._threads import available_threads
 from .._compiled_partition import point_simplices
+from .._threads import available_threads
 from ..domains.image import GridBand
 from ..levelset import LevelSet, marching_simplices, simplex_measures
 from ..partition import Cells, Partition, partition
