@@ -219,7 +219,8 @@ class _RegionMethods:
         regions = [self._region_index(r) for r in (range(self.classes.size) if regions is None else regions)]
         cuts = self._by_region()
         if cuts is None:
-            return [self.region_boundary(r) for r in regions]
+            whole = self._cut()[0]
+            return [whole.region_boundary(r) for r in regions]
         return _on_threads(cuts.boundary, regions)
 
     def _region_index(self, r):
