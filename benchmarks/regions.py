@@ -54,7 +54,10 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
 
 ``--independent`` relaxes every region against the rest on its own, its field smoothed
 as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline that
-smoothing within sectors is measured against.
+smoothing within sectors is measured against. ``--no-junction-fit`` keeps the point
+junctions (in the plane, on the sphere) where the relaxed functions put them
+(``ndboundary.pipeline.junctions.JUNCTION_FIT = False``): the baseline that fitting them
+to the labels is measured against.
 
 Columns: ``mean/h``, ``max/h`` over the interface points; ``away``, ``away max`` over
 those farther than 2 h from every true junction and from the border (where the largest
@@ -398,6 +401,11 @@ def main():
         action="store_true",
         help="smooth every region's field as one (the independent one-vs-rest relaxations), not within sectors",
     )
+    parser.add_argument(
+        "--no-junction-fit",
+        action="store_true",
+        help="keep the point junctions where the relaxed functions put them (not fitted to the labels)",
+    )
     args = parser.parse_args()
     if args.speed_one:
         speed_one(args.seed, args.speed_one)
@@ -406,6 +414,10 @@ def main():
         from ndboundary.pipeline import sectors
 
         sectors.SECTOR_SMOOTHING = False
+    if args.no_junction_fit:
+        from ndboundary.pipeline import junctions
+
+        junctions.JUNCTION_FIT = False
     table = cases(args)
     names = args.cases.split(",") if args.cases else [n for n in table if n != "speed"]
     if args.speed and "speed" not in names:

@@ -29,6 +29,7 @@ from .._arrays import (
     kept_then,
     used_vertices,
 )
+from .._compiled_mesh import corner_means
 from .._validation import check_cells, check_points, refuse_degenerate
 from .base import Domain
 from .simplex_geometry import (
@@ -200,6 +201,10 @@ class SimplicialComplex(SimplicialTopology, Domain):
             out += points[column]
         out /= simplices.shape[1]
         return out
+
+    def centroids_of(self, elements) -> np.ndarray:
+        """:meth:`element_centroids` of the simplices ``elements`` alone (the same sums)."""
+        return corner_means(self.points, self.simplices, np.asarray(elements))
 
     # -- operators ------------------------------------------------------------------
     def build_gradient(self):

@@ -127,7 +127,7 @@ def relax_classes(domain, votes, n_classes, **params):
     columns = {}
     if n_classes > 2 and np.unique(votes).size > 2:
         res = relax(domain, votes, **params)
-        columns = dict(zip(res.classes.tolist(), res.phi.T, strict=True))
+        columns = {c: region.phi for c, region in zip(res.classes.tolist(), res.regions, strict=True)}
     phis = []
     graph = None  # the vertex graph of the extrema, built once for every class
     for c, target in enumerate(targets):

@@ -357,7 +357,8 @@ class Relaxer:
             self._distances = previous._distances
         timings = summed_timings(results)
         timings["total"] = time.perf_counter() - t0
-        return RegionsResult(classes, self.domain, results, timings, {**params, "pad": bool(pad), "h": h})
+        params.update(pad=bool(pad), h=h)
+        return RegionsResult(classes, self.domain, results, timings, params, codes=codes)
 
     def _relax_band(self, key, region1, classes, h, p, pad, verbose, start, clock):
         """Relax on the elements near zeta and extend phi outside them; zeta alone (a

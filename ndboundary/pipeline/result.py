@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numbers
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -13,10 +14,12 @@ import scipy.sparse as sp
 from .._arrays import expand_ranges, unique_values
 from .._compiled_partition import point_simplices
 from .._threads import available_threads
-from ..domains.image import GridBand
+from ..domains.image import GridBand, ImageGrid
+from ..domains.pointcloud_operators import StencilDomain
 from ..levelset import LevelSet, marching_simplices, simplex_measures
 from ..partition import Cells, Partition, partition
 from ..partition_clip import sweep_sparse
+from . import junctions
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
@@ -136,21 +139,8 @@ class _RegionMethods:
         makes the cost follow the interfaces, not the domain.
         """
         cached = self.__dict__.get("_mixed_cache")
-        if cached is not None:
-            return cached
-        values = self.region_values()
-        domain = self.domain
-        mixed, lowest = domain.mixed_elements(_argmax_rows(values))
-        if not can_cut(domain) or mixed.all() or not mixed.any():
-            cached = (None, np.zeros(values.shape[1]))
-        else:
-            sub, vertices = domain.subdomain(mixed)
-            local = values[vertices]
-            if sp.issparse(local):
-                local = _within_reach(sub, local)
-            whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
-            cached = (_complex(sub, local), whole)
-        self.__dict__["_mixed_cache"] = cached
+        if cached is None:
+            cached = self.__dict__["_mixed_cache"] = _mixed_of(self.domain, self.region_values())
         return cached
 
     def _cut(self):
@@ -447,12 +437,18 @@ class RegionsResult(_RegionMethods):
     1
     """
 
-    def __init__(self, classes, domain, regions, timings=None, params=None):
+    def __init__(self, classes, domain, regions, timings=None, params=None, codes=None):
         self.classes = classes
         self.domain = domain
         self._regions = regions
         self.timings = {} if timings is None else timings
         self.params = {} if params is None else params
+        # the labels' region per element (or vertex), kept where point junctions are fitted:
+        # on meshes in the plane and on surfaces, not on a pixel grid's lattice nor a graph
+        fitted = getattr(domain, "element_dim", None) == 2 and can_cut(domain)
+        fitted = fitted and not isinstance(domain, (ImageGrid, GridBand, StencilDomain))
+        self._codes = codes if fitted else None
+        self._junction_values = []  # (vertices, regions, values) near each fitted junction
 
     def __repr__(self):
         return f"RegionsResult(n_regions={self.classes.size}, n_vertices={self.domain.n_vertices})"
@@ -474,10 +470,16 @@ class RegionsResult(_RegionMethods):
 
     @property
     def phi(self):
-        """The region functions, shape (n_vertices, n_regions) (built once)."""
+        """The region functions, shape (n_vertices, n_regions) (built once): each region's
+        relaxation, and near each point junction fitted to the labels the fitted values
+        (:meth:`region_values`).
+        """
         cached = self.__dict__.get("_phi")
         if cached is None:
-            cached = self.__dict__["_phi"] = np.stack([res.phi for res in self.regions], axis=1)
+            self.region_values()  # the junctions fitted
+            cached = _written(np.stack([res.phi for res in self.regions], axis=1), self._junction_values)
+            self.__dict__["_phi"] = cached
+            self.__dict__.pop("_values", None)
         return cached
 
     def region_values(self):
@@ -486,11 +488,26 @@ class RegionsResult(_RegionMethods):
         n_regions) that stores each region on its band and beyond it on its own side
         (:meth:`DeferredFill.stored`), which the partition reads as the same largest
         function with work and memory that follow the bands, not ``L`` times the domain.
+
+        In the plane and on surfaces, the values near each point junction are those of
+        the junction fitted to the labels (:mod:`~ndboundary.pipeline.junctions`), so
+        that the partition's junctions are the fitted ones; ``regions`` keeps every
+        region's own relaxation.
         """
         if "_phi" in self.__dict__:
             return self.__dict__["_phi"]
+        cached = self.__dict__.get("_values")
+        if cached is None:
+            cached = self._relaxed_values()
+            if self._fit_junctions(cached):
+                cached = _written(cached, self._junction_values)
+            self.__dict__["_values"] = cached
+        return cached
+
+    def _relaxed_values(self):
+        """:meth:`region_values` of the regions' own relaxations (no junction fitted)."""
         if not any(isinstance(r.phi, DeferredFill) for r in self._regions):
-            return self.phi
+            return np.stack([res.phi for res in self._regions], axis=1)
         # column by column (each region's vertices are distinct): no triplets, whose
         # row and column arrays would cost more than the matrix at hundreds of regions
         V, L = self.domain.n_vertices, len(self._regions)
@@ -506,7 +523,73 @@ class RegionsResult(_RegionMethods):
         indptr = np.concatenate([[0], np.cumsum([r.size for r in rows])])
         columns = sp.csc_matrix((np.concatenate(data), np.concatenate(rows), indptr), shape=(V, L))
         del rows, data
-        return columns.tocsr()
+        out = columns.tocsr()
+        out.sort_indices()
+        return out
+
+    def _fit_junctions(self, values):
+        """Fit the point junctions of the partition of the relaxed functions ``values`` to
+        the labels (:mod:`~ndboundary.pipeline.junctions`), once; whether any was fitted.
+
+        When none is, the relaxed functions' cut is kept as the partition's; else it is
+        dropped, and the partition is cut again from the fitted values.
+        """
+        self._junction_values = []
+        if self._codes is None or not junctions.JUNCTION_FIT or self.classes.size < 3:
+            return False
+        tick = time.perf_counter()
+        mixed = _mixed_of(self.domain, values)
+        if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
+            return False  # the whole cut would not fit in memory: see _RegionCuts
+        cut = partition(*(_complex(self.domain, values) if mixed[0] is None else mixed[0]))
+        h = self.params.get("h") or self.domain.mean_edge_length()
+        on = self.params.get("on", "elements")
+        faces = cut.interfaces()
+        self._junction_values = junctions.junction_corrections(self.domain, self._codes, on, values, faces, h)
+        self.params["fitted_junctions"] = len(self._junction_values)
+        self.timings["junctions"] = time.perf_counter() - tick
+        if not self._junction_values:
+            if mixed[0] is None:
+                self.__dict__["_partition"] = cut
+            self.__dict__["_mixed_cache"] = mixed
+            self.__dict__["_cut_cache"] = (cut, mixed[1])
+            return False
+        return True
+
+
+def _written(values, fitted):
+    """The region functions ``values`` (an array, or a CSR matrix with sorted indices)
+    with each fitted ``(vertices, regions, new)`` written over them, on a copy; a sparse
+    ``values`` stores every fitted entry.
+    """
+    if not fitted:
+        return values
+    out = values.copy()
+    if not sp.issparse(out):
+        for vertices, regions, new in fitted:
+            out[np.ix_(vertices, regions)] = new
+        return out
+    keys = _entry_keys(out)[1]
+    L = out.shape[1]
+    for vertices, regions, new in fitted:
+        at, found = _lookup(keys, (vertices[:, None] * L + regions[None, :]).ravel())
+        if not found.all():
+            raise RuntimeError("a fitted junction's value is not stored")  # checked when fitted
+        out.data[at] = new.ravel()
+    return out
+
+
+def _mixed_of(domain, values):
+    """:meth:`_RegionMethods._mixed` of the region functions ``values`` on ``domain``."""
+    mixed, lowest = domain.mixed_elements(_argmax_rows(values))
+    if not can_cut(domain) or mixed.all() or not mixed.any():
+        return None, np.zeros(values.shape[1])
+    sub, vertices = domain.subdomain(mixed)
+    local = values[vertices]
+    if sp.issparse(local):
+        local = _within_reach(sub, local)
+    whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
+    return _complex(sub, local), whole
 
 
 def _argmax_rows(values):

@@ -1,0 +1,379 @@
+"""Point junctions fitted to the labels: where three regions meet in the plane or on a surface.
+
+The relaxation puts each interface ten times nearer to the truth than the jagged labels
+do, by averaging the staircase along it, but a point where three regions meet has no
+such stretch to average over: the largest of the region functions puts it within an
+element of the vertex where the labels' three regions meet, whose error it keeps (about
+half an element). Near a junction, though, the three interfaces are nearly straight, and
+the labelled sites of a disk around it (element centroids, or vertices for vertex
+labels) pin down where three straight rays from one point may run between them far more
+tightly than the nearest vertex does.
+
+So each point junction of the relaxed partition (three regions, no other junction within
+:data:`MIN_SPACING` h) is fitted: a centre and three ray angles, the sites within
+:data:`SITE_RADIUS` site spacings of it (the spacing is the square root of the domain's
+measure per site) each on its own region's side of both rays bounding that region's
+sector, by the largest margin (the smooth loss :func:`fit_y` minimises). The fit is then
+imposed on the region functions: within :data:`CORE` h of the fitted centre the three
+regions' functions become their common largest value plus a linear function each, whose
+pairwise ties are the fitted rays (:func:`y_gradients`); being linear on every simplex
+of the refinement, their partition meets exactly at the fitted centre. Between
+:data:`CORE` and :data:`BLEND` h they are blended back into the relaxed functions. A
+junction is left as relaxed when its fit moves it more than :data:`MAX_MOVE` site
+spacings, or when a sector is not convex (three linear functions cannot part the plane
+that way).
+
+Only irregular sites are fitted this way, meshes of triangles, quads and polygons: on a
+pixel grid the sites lie on a lattice, whose rows let the rays slide between them, and
+the fit placed the junctions of random Y's no nearer than the relaxation does (0.27
+against 0.24 pixel on average), so :func:`~ndboundary.relax_image` keeps the relaxed
+ones. Junction curves in volumes are not fitted either: there the interfaces' own
+averaging already places them (``benchmarks/regions.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+__all__ = ["JUNCTION_FIT", "fit_y", "fit_ys", "junction_corrections", "y_gradients"]
+
+#: Whether a relaxation of three or more regions in the plane or on a surface fits its
+#: point junctions to the labels (read when the partition is first built; False keeps the
+#: junctions where the relaxed functions put them, which ``benchmarks/regions.py
+#: --no-junction-fit`` measures against).
+JUNCTION_FIT = True
+
+#: Radius of the disk of labelled sites a junction is fitted to, in units of the sites'
+#: spacing (the square root of the domain's measure per site): about 300 sites.
+SITE_RADIUS = 10.0
+
+#: Margin scale of the fit's loss, in units of the sites' spacing: a site nearer than this
+#: to a ray that bounds its region's sector weighs about as much as one on the wrong side.
+MARGIN = 0.1
+
+#: A fit that moves the junction farther than this (units of the sites' spacing) is not kept.
+MAX_MOVE = 2.5
+
+#: Within this distance (units of h) of a fitted junction the region functions are the
+#: fitted ones; blended back into the relaxed ones by :data:`BLEND`.
+CORE = 2.0
+BLEND = 4.0
+
+#: Junctions nearer than this (units of h) to another are left as relaxed: a single Y
+#: does not model two of them (four regions meeting near a point).
+MIN_SPACING = 3.0
+
+
+def fit_y(sites, sector, angles, margin=MARGIN):
+    """The Y of three rays that best separates labelled sites, fitted from a first guess.
+
+    Sector ``q`` lies counter-clockwise from ray ``q`` to ray ``q + 1`` (modulo 3). Each
+    site of sector ``q`` should lie left of ray ``q`` and right of ray ``q + 1``; the loss
+    ``sum(exp(-s0 / margin) + exp(-s1 / margin))`` over the sites' signed distances
+    ``s0``, ``s1`` to the two lines is a smooth stand-in for the smallest margin, and is
+    minimised from the centre at the origin and ``angles``.
+
+    Parameters
+    ----------
+    sites : ndarray of shape (n, 2)
+        Site coordinates, relative to the first guess of the centre, in units of h.
+    sector : ndarray of int of shape (n,)
+        Each site's sector, 0, 1 or 2.
+    angles : ndarray of shape (3,)
+        First guess of the rays' angles, counter-clockwise in that order.
+    margin : float, default=MARGIN
+
+    Returns
+    -------
+    (centre, angles) or None
+        ``centre`` of shape (2,) in the sites' coordinates and the fitted angles; None
+        when the fitted sectors are not all convex and in the same order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sites = np.random.default_rng(0).uniform(-5, 5, (300, 2))  # a site per h^2 or so
+    >>> a = np.arctan2(sites[:, 1] - 0.3, sites[:, 0] + 0.2) % (2 * np.pi)  # a Y centred at (-0.2, 0.3)
+    >>> sector = np.searchsorted(np.radians([0.0, 120.0, 240.0]), a, side="right") - 1
+    >>> centre, angles = fit_y(sites, sector, np.radians([10.0, 110.0, 250.0]))
+    >>> bool(np.linalg.norm(centre - [-0.2, 0.3]) < 0.2), np.degrees(angles).round(-1).tolist()
+    (True, [-0.0, 120.0, 240.0])
+    """
+    return fit_ys([(sites, sector, angles)], margin)[0]
+
+
+def fit_ys(problems, margin=MARGIN, iterations=100):
+    """:func:`fit_y` of several junctions ``(sites, sector, angles)`` at once.
+
+    Their losses are independent: each step takes a damped Gauss-Newton step
+    (Levenberg-Marquardt) of every junction's five parameters from one pass over all the
+    sites, and keeps it for the junctions whose loss it lowers (raising their damping for
+    the others), so that a few array passes serve every junction.
+    """
+    n = len(problems)
+    sites = np.concatenate([np.asarray(p[0], dtype=np.float64) for p in problems])
+    owner = np.repeat(np.arange(n), [len(p[0]) for p in problems])
+    sector = np.concatenate([np.asarray(p[1], dtype=np.intp) for p in problems])
+    following = (sector + 1) % 3
+    rows = np.arange(sites.shape[0])
+    summed = sp.csr_matrix((np.ones(rows.size), (owner, rows)), shape=(n, rows.size))  # sites -> junctions
+
+    def terms(x):
+        """Each junction's loss, gradient and Gauss-Newton matrix at parameters ``x``."""
+        centre, angle = x[:, :2], x[:, 2:]
+        rel = sites - centre[owner]
+        a0, a1 = angle[owner, sector], angle[owner, following]
+        left = np.stack([-np.sin(a0), np.cos(a0)], axis=1)  # left normal of each site's first ray
+        right = np.stack([np.sin(a1), -np.cos(a1)], axis=1)  # right normal of its second
+        loss, grad, hess = np.zeros(n), np.zeros((n, 5)), np.zeros((n, 5, 5))
+        for normal, ray in ((left, 2 + sector), (right, 2 + following)):
+            dist = np.einsum("ij,ij->i", rel, normal)
+            e = np.exp(np.minimum(-dist / margin, 50.0))
+            d = np.zeros((sites.shape[0], 5))  # the distance's derivatives
+            d[:, :2] = -normal
+            d[rows, ray] = rel[:, 1] * normal[:, 0] - rel[:, 0] * normal[:, 1]  # turning the normal
+            loss += summed @ e
+            grad += summed @ ((-e / margin)[:, None] * d)
+            hess += (summed @ ((e / margin**2)[:, None] * (d[:, :, None] * d[:, None, :]).reshape(-1, 25))).reshape(
+                n, 5, 5
+            )
+        return loss, grad, hess
+
+    x = np.column_stack([np.zeros((n, 2)), np.array([np.asarray(p[2], dtype=np.float64) for p in problems])])
+    loss, grad, hess = terms(x)
+    damping = np.full(n, 1e-3)
+    for _ in range(iterations):
+        scaled = hess + damping[:, None, None] * (np.eye(5) * (np.einsum("jii->ji", hess)[:, :, None] + 1e-12))
+        step = -np.linalg.solve(scaled, grad[:, :, None])[:, :, 0]
+        trial = terms(x + step)
+        better = trial[0] < loss
+        x[better] += step[better]
+        loss[better], grad[better], hess[better] = trial[0][better], trial[1][better], trial[2][better]
+        damping = np.where(better, damping / 3.0, damping * 4.0)
+        if np.abs(step).max() < 1e-7 or damping.min() > 1e12:
+            break
+    out = []
+    for centre, fitted in zip(x[:, :2], x[:, 2:], strict=True):
+        spans = np.diff(np.concatenate([fitted, fitted[:1] + 2 * np.pi]))
+        ok = np.isfinite(centre).all() and np.isfinite(fitted).all() and np.all((spans > 0) & (spans < np.pi))
+        out.append((centre, fitted) if ok else None)
+    return out
+
+
+def y_gradients(angles):
+    """Gradients of three linear functions, one per sector, whose pairwise ties are the
+    rays at ``angles`` (counter-clockwise; sector ``q`` from ray ``q`` to ray ``q + 1``),
+    each largest in its sector; None when a sector is not convex.
+
+    Across ray ``q`` the function of sector ``q`` rises over that of sector ``q - 1`` at
+    rate ``alpha_q`` along the ray's left normal ``n_q``. The three rises close up around
+    the centre when ``sum(alpha_q n_q) = 0``, which positive rates satisfy exactly when
+    no sector reaches half a turn. The rates are scaled to a mean of 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> g = y_gradients(np.radians([90.0, 210.0, 330.0]))
+    >>> x = np.array([[0.0, 1.0], [0.1, -1.0]])  # on ray 0, and inside sector 1
+    >>> f = x @ g.T
+    >>> bool(np.isclose(f[0, 0], f[0, 2])), int(np.argmax(f[1]))
+    (True, 1)
+    """
+    c, s = np.cos(angles), np.sin(angles)
+    normals = np.stack([-s, c], axis=1)
+    alpha = np.linalg.svd(normals.T)[2][-1]  # the null vector of the 2 x 3 normals
+    alpha = alpha if alpha.sum() > 0 else -alpha
+    if not np.all(alpha > 1e-9 * np.abs(alpha).max()):
+        return None
+    alpha = alpha * (3.0 / alpha.sum())
+    grads = np.zeros((3, 2))
+    grads[1] = alpha[1] * normals[1]
+    grads[2] = grads[1] + alpha[2] * normals[2]
+    return grads
+
+
+def _frame(points):
+    """An orthonormal basis (2, dim) of the best plane through ``points``."""
+    if points.shape[1] == 2:
+        return np.eye(2)
+    return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][:2]
+
+
+def junction_corrections(domain, codes, on, values, faces, h):
+    """New values of the region functions near every point junction that fits.
+
+    Parameters
+    ----------
+    domain : Domain
+        Of elements of dimension 2 (in the plane or on a surface).
+    codes : ndarray of int
+        The labels' region of each element (``on="elements"``) or vertex.
+    on : {"elements", "vertices"}
+    values : ndarray or sparse matrix of shape (n_vertices, n_regions)
+        The region functions (:meth:`RegionsResult.region_values`).
+    faces : Interfaces
+        The partition's interfaces, with their junctions.
+    h : float
+
+    Returns
+    -------
+    list of (vertices, regions, new)
+        For each fitted junction: the vertices near it, its three regions, and their new
+        values, shape (n_vertices_near, 3).
+    """
+    junctions = faces.junctions()
+    if len(junctions) == 0 or junctions.simplices.shape[1] != 1 or junctions.regions.shape[1] < 3:
+        return []
+    centres = junctions.points[junctions.simplices[:, 0]]
+    regions = junctions.regions
+    triple = regions[:, 2] >= 0
+    if regions.shape[1] > 3:
+        triple &= regions[:, 3] < 0
+    if len(centres) > 1:
+        spacing = cKDTree(centres).query(centres, k=2)[0][:, 1]
+    else:
+        spacing = np.full(1, np.inf)
+    chosen = np.flatnonzero(triple & (spacing >= MIN_SPACING * h))
+    if chosen.size == 0:
+        return []
+    n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
+    unit = float(np.sqrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
+    near = _within(domain.points, centres[chosen], SITE_RADIUS * unit)
+    if on == "vertices":
+        sites, site_codes = domain.points, codes
+        site_near = near
+    else:
+        mask = np.zeros(domain.n_vertices, dtype=bool)
+        for vertices in near:
+            mask[vertices] = True
+        elements = np.flatnonzero(domain.elements_at(mask))
+        sites, site_codes = domain.centroids_of(elements), codes[elements]
+        site_near = _within(sites, centres[chosen], SITE_RADIUS * unit)
+    problems = []
+    for j, vertices, around in zip(chosen, near, site_near, strict=True):
+        problem = _problem(
+            domain, centres[j], regions[j, :3], faces, vertices, sites[around], site_codes[around], h, unit
+        )
+        if problem is not None:
+            problems.append((j, vertices, problem))
+    if not problems:
+        return []
+    fits = fit_ys([problem[:3] for _, _, problem in problems], MARGIN)
+    fixes = []
+    for (j, vertices, problem), fit in zip(problems, fits, strict=True):
+        blend = min(BLEND * h, 0.5 * spacing[j])
+        fix = None if fit is None else _imposed(domain, centres[j], problem[3:], fit, vertices, blend, values, h, unit)
+        if fix is not None:
+            fixes.append(fix)
+    return fixes
+
+
+def _within(points, centres, radius):
+    """For each centre, the indices of ``points`` within ``radius`` of it: a window of the
+    points sorted along their first axis, so that each centre reads the points near it.
+    """
+    order = np.argsort(points[:, 0], kind="stable")
+    first = points[order, 0]
+    lo = np.searchsorted(first, centres[:, 0] - radius, side="left")
+    hi = np.searchsorted(first, centres[:, 0] + radius, side="right")
+    out = []
+    for c, a, b in zip(centres, lo, hi, strict=True):
+        window = order[a:b]
+        out.append(window[np.linalg.norm(points[window] - c, axis=1) <= radius])
+    return out
+
+
+def _ray_angles(faces, centre, trio, frame, h):
+    """First guesses of the rays between the three regions ``trio`` at ``centre``: the
+    direction of each pair's interface points 1-4 h away, and the sector of each region
+    (counter-clockwise order); None when a pair has no such points.
+    """
+    rays = []
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        mine = (faces.pairs[:, 0] == trio[a]) & (faces.pairs[:, 1] == trio[b])
+        points = faces.points[np.unique(faces.simplices[mine])]
+        d = np.linalg.norm(points - centre, axis=1)
+        points = points[(d >= h) & (d <= 4 * h)]
+        if len(points) == 0:
+            return None
+        direction = frame @ (points.mean(axis=0) - centre)
+        rays.append(((a, b), np.arctan2(direction[1], direction[0]) % (2 * np.pi)))
+    rays.sort(key=lambda ray: ray[1])
+    # the sector from one ray to the next belongs to the region both rays border
+    owners = [(set(rays[q][0]) & set(rays[(q + 1) % 3][0])).pop() for q in range(3)]
+    if sorted(owners) != [0, 1, 2]:
+        return None
+    return np.array([angle for _, angle in rays]), trio[owners]
+
+
+def _problem(domain, centre, trio, faces, near, sites, site_codes, h, unit):
+    """One junction's fit :func:`fit_y` as ``(sites, sector, angles, frame, owners)``, or
+    None: ``near`` are the vertices within :data:`SITE_RADIUS` sites' spacings ``unit`` of
+    it, ``sites`` and ``site_codes`` the labelled sites there (their coordinates in the
+    fit in units of ``unit``).
+    """
+    if near.size < 3:
+        return None
+    frame = _frame(domain.points[near])
+    guess = _ray_angles(faces, centre, trio, frame, h)
+    if guess is None:
+        return None
+    angles, owners = guess
+    mine = np.isin(site_codes, owners)
+    order = np.argsort(owners)
+    sector = order[np.searchsorted(owners, site_codes[mine], sorter=order)]
+    return (sites[mine] - centre) @ frame.T / unit, sector, angles, frame, owners
+
+
+def _imposed(domain, centre, geometry, fit, near, blend, values, h, unit):
+    """The fitted junction ``fit`` imposed on the region functions near it:
+    ``(vertices, regions, new values)``, or None when it moved too far or its sectors
+    cannot be parted by linear functions.
+    """
+    frame, owners = geometry
+    offset, angles = fit
+    if np.linalg.norm(offset) > MAX_MOVE:
+        return None
+    grads = y_gradients(angles)
+    if grads is None:
+        return None
+    core = min(CORE * h, 0.6 * blend)
+    centre = centre + (offset * unit) @ frame
+    vertices = near[np.linalg.norm(domain.points[near] - centre, axis=1) < blend]
+    stored = _values_at(values, vertices, owners)
+    if stored is None:
+        return None
+    rel = (domain.points[vertices] - centre) @ frame.T
+    linear = rel @ grads.T
+    # scale the linear functions to the relaxed ones' rise across the rays, read at the
+    # vertices within 2 h of each ray (not of its line's far half, beyond the centre)
+    along = rel @ np.stack([np.cos(angles), np.sin(angles)], axis=1).T
+    across = (np.abs(rel @ np.stack([-np.sin(angles), np.cos(angles)], axis=1).T) < 2 * h) & (along > 0)
+    rise, rise_linear = [], []
+    for q in range(3):
+        rise.append((stored[:, q] - stored[:, q - 1])[across[:, q]])
+        rise_linear.append((linear[:, q] - linear[:, q - 1])[across[:, q]])
+    rise, rise_linear = np.concatenate(rise), np.concatenate(rise_linear)
+    scale = float(rise @ rise_linear) / float(rise_linear @ rise_linear) if rise_linear.any() else 0.0
+    if not scale > 0:
+        return None
+    d = np.linalg.norm(rel, axis=1)
+    weight = np.clip((blend - d) / (blend - core), 0.0, 1.0)[:, None]
+    fitted = stored.max(axis=1, keepdims=True) + scale * linear
+    return vertices, owners, (1.0 - weight) * stored + weight * fitted
+
+
+def _values_at(values, vertices, regions):
+    """``values[vertices][:, regions]`` as an array, or None when a sparse ``values``
+    does not store one of them.
+    """
+    if not hasattr(values, "tocsr"):
+        return np.asarray(values)[np.ix_(vertices, regions)]
+    sub = values.tocsr()[vertices][:, regions].tocoo()
+    if sub.nnz != vertices.size * regions.size:
+        return None
+    out = np.empty((vertices.size, regions.size))
+    out[sub.row, sub.col] = sub.data
+    return out

@@ -1,0 +1,140 @@
+"""Point junctions fitted to the labels: nearer the truth, with the partition still exact."""
+
+import numpy as np
+import pytest
+
+from ndboundary import relax, relax_image
+from ndboundary.datasets import icosphere, kuhn_grid
+from ndboundary.pipeline import junctions
+from ndboundary.pipeline.junctions import BLEND, fit_y, y_gradients
+
+
+def sectors_of(points, centre, angles):
+    """The sector (0, 1, 2) of each point: counter-clockwise from ray q to ray q + 1."""
+    a = (np.arctan2(points[:, 1] - centre[1], points[:, 0] - centre[0]) - angles[0]) % (2 * np.pi)
+    return np.searchsorted((np.asarray(angles) - angles[0]) % (2 * np.pi), a, side="right") - 1
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_linear_functions_part_the_plane_at_the_rays(seed):
+    rng = np.random.default_rng(seed)
+    spans = rng.dirichlet([4, 4, 4]) * 2 * np.pi
+    while spans.max() >= np.pi:
+        spans = rng.dirichlet([4, 4, 4]) * 2 * np.pi
+    angles = rng.uniform(0, 2 * np.pi) + np.concatenate([[0.0], np.cumsum(spans[:2])])
+    grads = y_gradients(angles)
+    x = rng.normal(size=(500, 2))
+    np.testing.assert_array_equal(np.argmax(x @ grads.T, axis=1), sectors_of(x, (0.0, 0.0), angles))
+    for q in range(3):  # on ray q the functions of its two sectors tie, above the third
+        on_ray = np.array([np.cos(angles[q]), np.sin(angles[q])]) * 0.7
+        f = grads @ on_ray
+        assert f[q] == pytest.approx(f[q - 1], abs=1e-12) and f[q] > f[q - 2]
+
+
+def test_no_linear_functions_part_a_sector_of_half_a_turn():
+    assert y_gradients(np.radians([0.0, 90.0, 180.0])) is None
+    assert y_gradients(np.radians([0.0, 60.0, 120.0])) is None
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_fit_y_finds_the_centre_of_labelled_sites(seed):
+    rng = np.random.default_rng(seed)
+    centre = rng.uniform(-0.5, 0.5, 2)
+    angles = np.radians([20.0, 150.0, 260.0]) + rng.uniform(-0.3, 0.3, 3)
+    sites = rng.uniform(-6, 6, (300, 2))  # in units of h: about two sites per h^2, as triangles
+    sites = sites[np.linalg.norm(sites, axis=1) < 6]
+    sector = sectors_of(sites, centre, angles)
+    found, fitted = fit_y(sites, sector, angles + rng.uniform(-0.2, 0.2, 3))
+    assert np.linalg.norm(found - centre) < 0.25
+    assert np.abs(fitted - angles).max() < np.radians(8)
+
+
+def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None):
+    """Relax the Voronoi labels of ``sites``; the distance (h) from each true Voronoi
+    vertex inside the square to the nearest found junction, whether that vertex lies 3 h
+    or more from every other, and the result."""
+    from scipy.spatial import Voronoi
+
+    monkeypatch.setattr(junctions, "JUNCTION_FIT", fit)
+    where = mesh.element_centroids() if on == "elements" else mesh.points
+    labels = np.argmin(((where[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+    res = relax(mesh, labels, on=on)
+    h = mesh.mean_edge_length()
+    true = Voronoi(sites).vertices
+    true = true[np.abs(true).max(axis=1) < 0.9]
+    apart = np.sort(np.linalg.norm(true[:, None] - true[None], axis=2), axis=1)[:, 1] >= 3 * h
+    j = res.interfaces().junctions()
+    found = j.points[j.simplices[:, 0]]
+    d = np.linalg.norm(true[:, None] - found[None], axis=2).min(axis=1)
+    return d / h, apart, res
+
+
+@pytest.mark.parametrize("on", ["elements", "vertices"])
+def test_fitted_junctions_lie_nearer_the_true_ones(on, monkeypatch):
+    mesh = kuhn_grid(50, 2, jitter=0.25, random_state=0)
+    errors = {True: [], False: []}
+    for seed in range(3):
+        sites = np.random.default_rng(seed).uniform(-0.7, 0.7, (6, 2))
+        for fit in (True, False):
+            d, apart, res = voronoi_junctions(mesh, sites, on, fit, monkeypatch)
+            errors[fit].append(d[apart])  # two junctions nearer than 3 h are left as relaxed
+            if fit:
+                assert res.params["fitted_junctions"] >= 2
+    fitted, relaxed = np.concatenate(errors[True]), np.concatenate(errors[False])
+    assert fitted.size >= 8
+    assert fitted.mean() < 0.7 * relaxed.mean()
+    assert fitted.max() < 0.35
+
+
+def test_the_fit_changes_the_partition_near_junctions_only(monkeypatch):
+    mesh = kuhn_grid(40, 2, jitter=0.25, random_state=1)
+    sites = np.array([[-0.5, -0.4], [0.5, -0.5], [0.1, 0.6], [-0.6, 0.5]])
+    plain = voronoi_junctions(mesh, sites, fit=False, monkeypatch=monkeypatch)[2]
+    fitted = voronoi_junctions(mesh, sites, fit=True, monkeypatch=monkeypatch)[2]
+    # exact: no gap, no overlap
+    assert fitted.region_measures().sum() == pytest.approx(mesh.A.sum(), rel=1e-9)
+    # each region keeps its own relaxation; phi differs within BLEND h of a junction only
+    for a, b in zip(plain.regions, fitted.regions, strict=True):
+        np.testing.assert_array_equal(a.phi, b.phi)
+    changed = np.flatnonzero(np.any(plain.phi != fitted.phi, axis=1))
+    j = fitted.interfaces().junctions()
+    centres = j.points[j.simplices[:, 0]]
+    assert changed.size > 0
+    reach = np.linalg.norm(mesh.points[changed][:, None] - centres[None], axis=2).min(axis=1)
+    assert reach.max() < (BLEND + 1.6) * mesh.mean_edge_length()
+    # the filled phi and the sparse band values give the same partition, in either order
+    labels = np.argmin(((mesh.element_centroids()[:, None] - sites) ** 2).sum(axis=2), axis=1)
+    again = relax(mesh, labels, on="elements")
+    np.testing.assert_allclose(again.phi, fitted.phi)
+    np.testing.assert_allclose(again.region_measures(), fitted.region_measures(), rtol=1e-12)
+
+
+def test_junctions_on_a_surface_are_fitted_in_its_tangent_plane(monkeypatch):
+    sphere = icosphere(4)
+    c = sphere.element_centroids()
+    azimuth = np.arctan2(c[:, 1], c[:, 0]) % (2 * np.pi)
+    labels = np.searchsorted(np.radians([0.0, 100.0, 230.0]), azimuth, side="right") - 1
+    h = sphere.mean_edge_length()
+    errors = {}
+    for fit in (True, False):
+        monkeypatch.setattr(junctions, "JUNCTION_FIT", fit)
+        res = relax(sphere, labels, on="elements")
+        j = res.interfaces().junctions()
+        found = j.points[j.simplices[:, 0]]
+        poles = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+        errors[fit] = np.linalg.norm(poles[:, None] - found[None], axis=2).min(axis=1) / h
+        assert res.region_measures().sum() == pytest.approx(sphere.A.sum(), rel=1e-9)
+        if fit:
+            assert res.params["fitted_junctions"] == 2
+    assert errors[True].max() < 0.5
+
+
+def test_a_label_image_keeps_its_relaxed_junctions():
+    n = 64
+    x, y = np.meshgrid(np.arange(n) - 31.3, np.arange(n) - 30.8, indexing="ij")
+    labels = np.searchsorted(np.radians([0.0, 130.0, 245.0]), np.arctan2(y, x) % (2 * np.pi), side="right") - 1
+    res = relax_image(labels)
+    j = res.interfaces().junctions()
+    assert len(j) == 1 and "fitted_junctions" not in res.params
+    assert np.linalg.norm(j.points[0] - [31.3, 30.8]) < 0.5
+    assert res.region_measures().sum() == pytest.approx(n * n, rel=1e-9)
