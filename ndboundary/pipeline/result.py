@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from .._arrays import expand_ranges, unique_values
 from .._compiled_partition import point_simplices
@@ -531,8 +532,9 @@ class RegionsResult(_RegionMethods):
         """Fit the point junctions of the partition of the relaxed functions ``values`` to
         the labels (:mod:`~ndboundary.pipeline.junctions`), once; whether any was fitted.
 
-        When none is, the relaxed functions' cut is kept as the partition's; else it is
-        dropped, and the partition is cut again from the fitted values.
+        The junctions are found by cutting the complex near them only
+        (:func:`_near_junctions`); the mixed elements of the relaxed functions are kept
+        for the partition when no junction was fitted.
         """
         self._junction_values = []
         if self._codes is None or not junctions.JUNCTION_FIT or self.classes.size < 3:
@@ -541,20 +543,34 @@ class RegionsResult(_RegionMethods):
         mixed = _mixed_of(self.domain, values)
         if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
             return False  # the whole cut would not fit in memory: see _RegionCuts
-        cut = partition(*(_complex(self.domain, values) if mixed[0] is None else mixed[0]))
         h = self.params.get("h") or self.domain.mean_edge_length()
-        on = self.params.get("on", "elements")
-        faces = cut.interfaces()
-        self._junction_values = junctions.junction_corrections(self.domain, self._codes, on, values, faces, h)
+        near = _near_junctions(*(_complex(self.domain, values) if mixed[0] is None else mixed[0]), 5.0 * h)
+        if near is not None:
+            faces = partition(*near).interfaces()
+            on = self.params.get("on", "elements")
+            self._junction_values = junctions.junction_corrections(self.domain, self._codes, on, values, faces, h)
         self.params["fitted_junctions"] = len(self._junction_values)
         self.timings["junctions"] = time.perf_counter() - tick
         if not self._junction_values:
-            if mixed[0] is None:
-                self.__dict__["_partition"] = cut
             self.__dict__["_mixed_cache"] = mixed
-            self.__dict__["_cut_cache"] = (cut, mixed[1])
             return False
         return True
+
+
+def _near_junctions(points, simplices, values, radius):
+    """The part of the complex ``(points, simplices, values)`` within ``radius`` of its
+    simplices whose vertices lead with three or more regions, where point junctions may
+    be, as a complex of its own; None when there is none. Cutting it alone finds the
+    junctions and the interfaces near them at a cost that follows the junctions.
+    """
+    lead = np.sort(_argmax_rows(values)[simplices], axis=1)
+    seeds = np.flatnonzero((np.diff(lead, axis=1) != 0).sum(axis=1) >= 2)
+    if seeds.size == 0:
+        return None
+    near = cKDTree(points[np.unique(simplices[seeds])]).query(points, distance_upper_bound=radius)[0] < np.inf
+    kept = simplices[near[simplices].all(axis=1)]
+    used = np.unique(kept)
+    return points[used], np.searchsorted(used, kept), values[used]
 
 
 def _written(values, fitted):
