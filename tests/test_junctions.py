@@ -44,9 +44,10 @@ def test_fit_y_finds_the_centre_of_labelled_sites(seed):
     sites = rng.uniform(-6, 6, (300, 2))  # in units of h: about two sites per h^2, as triangles
     sites = sites[np.linalg.norm(sites, axis=1) < 6]
     sector = sectors_of(sites, centre, angles)
-    found, fitted = fit_y(sites, sector, angles + rng.uniform(-0.2, 0.2, 3))
-    assert np.linalg.norm(found - centre) < 0.25
-    assert np.abs(fitted - angles).max() < np.radians(8)
+    for off in (0.2, 0.5):  # from near, and with many sites far on the wrong side of a ray
+        found, fitted = fit_y(sites, sector, angles + rng.uniform(-off, off, 3))
+        assert np.linalg.norm(found - centre) < 0.25
+        assert np.abs(fitted - angles).max() < np.radians(8)
 
 
 def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None):

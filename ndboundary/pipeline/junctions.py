@@ -130,13 +130,13 @@ def fit_ys(problems, margin=MARGIN, iterations=100):
         loss, grad, hess = np.zeros(n), np.zeros((n, 5)), np.zeros((n, 5, 5))
         for normal, ray in ((left, 2 + sector), (right, 2 + following)):
             dist = np.einsum("ij,ij->i", rel, normal)
-            e = np.exp(np.minimum(-dist / margin, 50.0))
+            e, slope = _soft_exp(-dist / margin)
             d = np.zeros((sites.shape[0], 5))  # the distance's derivatives
             d[:, :2] = -normal
             d[rows, ray] = rel[:, 1] * normal[:, 0] - rel[:, 0] * normal[:, 1]  # turning the normal
             loss += summed @ e
-            grad += summed @ ((-e / margin)[:, None] * d)
-            hess += (summed @ ((e / margin**2)[:, None] * (d[:, :, None] * d[:, None, :]).reshape(-1, 25))).reshape(
+            grad += summed @ ((-slope / margin)[:, None] * d)
+            hess += (summed @ ((slope / margin**2)[:, None] * (d[:, :, None] * d[:, None, :]).reshape(-1, 25))).reshape(
                 n, 5, 5
             )
         return loss, grad, hess
@@ -192,6 +192,14 @@ def y_gradients(angles):
     grads[1] = alpha[1] * normals[1]
     grads[2] = grads[1] + alpha[2] * normals[2]
     return grads
+
+
+def _soft_exp(z, top=30.0):
+    """``exp(z)`` and its derivative, continued linearly beyond ``top``: the fit's loss
+    stays finite, and its gradient true, for sites far on the wrong side of a guess.
+    """
+    e = np.exp(np.minimum(z, top))
+    return np.where(z > top, e * (1.0 + z - top), e), e
 
 
 def _frame(points):
