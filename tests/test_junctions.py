@@ -73,17 +73,18 @@ def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None):
 @pytest.mark.parametrize("on", ["elements", "vertices"])
 def test_fitted_junctions_lie_nearer_the_true_ones(on, monkeypatch):
     mesh = kuhn_grid(50, 2, jitter=0.25, random_state=0)
-    errors = {True: [], False: []}
+    errors, alone = {True: [], False: []}, []
     for seed in range(3):
         sites = np.random.default_rng(seed).uniform(-0.7, 0.7, (6, 2))
         for fit in (True, False):
             d, apart, res = voronoi_junctions(mesh, sites, on, fit, monkeypatch)
-            errors[fit].append(d[apart])  # two junctions nearer than 3 h are left as relaxed
+            errors[fit].append(d)
             if fit:
-                assert res.params["fitted_junctions"] >= 2
+                assert res.params["fitted_junctions"] >= 3
+                alone.append(apart)
+    assert not np.concatenate(alone).all()  # the draws hold pairs of junctions nearer than 3 h
     fitted, relaxed = np.concatenate(errors[True]), np.concatenate(errors[False])
-    assert fitted.size >= 8
-    assert fitted.mean() < 0.7 * relaxed.mean()
+    assert fitted.mean() < 0.6 * relaxed.mean()
     assert fitted.max() < 0.35
 
 
@@ -139,3 +140,24 @@ def test_a_label_image_keeps_its_relaxed_junctions():
     assert len(j) == 1 and "fitted_junctions" not in res.params
     assert np.linalg.norm(j.points[0] - [31.3, 30.8]) < 0.5
     assert res.region_measures().sum() == pytest.approx(n * n, rel=1e-9)
+
+
+def test_a_pairs_linear_functions_tie_on_its_rays_and_short_interface():
+    from ndboundary.pipeline.junctions import _pair_functions
+
+    ends = np.array([[-1.0, 0.1], [0.9, -0.2]])
+    angles = np.radians([140.0, 215.0, 35.0, 320.0])  # x|p, x|q from the first, y|p, y|q from the second
+    linear = _pair_functions(ends, angles)
+
+    def top_two(point):
+        g = linear[:, :2] @ point + linear[:, 2]
+        order = np.argsort(g)[::-1]
+        return set(order[:2].tolist()), g[order[0]] - g[order[1]], g[order[1]] - g[order[2]]
+
+    for end, rays in ((0, ((0, (2, 0)), (1, (2, 1)))), (1, ((2, (3, 0)), (3, (3, 1))))):
+        for ray, pair in rays:
+            point = ends[end] + 2.0 * np.array([np.cos(angles[ray]), np.sin(angles[ray])])
+            regions, tie, lead = top_two(point)
+            assert regions == set(pair) and tie == pytest.approx(0, abs=1e-12) and lead > 0
+    regions, tie, lead = top_two(ends.mean(axis=0))  # the short interface parts p and q
+    assert regions == {0, 1} and tie == pytest.approx(0, abs=1e-12) and lead > 0

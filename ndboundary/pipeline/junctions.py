@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-__all__ = ["JUNCTION_FIT", "fit_y", "fit_ys", "junction_corrections", "y_gradients"]
+__all__ = ["JUNCTION_FIT", "PAIR_LINES", "fit_pair", "fit_y", "fit_ys", "junction_corrections", "y_gradients"]
 
 #: Whether a relaxation of three or more regions in the plane or on a surface fits its
 #: point junctions to the labels (read when the partition is first built; False keeps the
@@ -194,6 +194,126 @@ def y_gradients(angles):
     return grads
 
 
+#: The lines bounding each region of a pair of junctions joined by a short interface
+#: (:func:`fit_pair`): regions ``p``, ``q`` (either side of the short interface), ``x`` (at
+#: the first junction only), ``y`` (at the second); lines 0-3 the rays ``x|p``, ``x|q`` from
+#: the first junction and ``y|p``, ``y|q`` from the second, line 4 the short interface.
+PAIR_LINES = ((0, 4, 2), (1, 4, 3), (0, 1), (2, 3))
+
+
+def fit_pair(sites, region, ends, angles, margin=MARGIN, iterations=100):
+    """Two junctions joined by a short interface, fitted to labelled sites as
+    :func:`fit_y` fits one: each site on its own region's side of every line bounding that
+    region (:data:`PAIR_LINES`; each region convex), by the largest margin.
+
+    Parameters
+    ----------
+    sites : ndarray of shape (n, 2)
+        In units of the sites' spacing.
+    region : ndarray of int of shape (n,)
+        Each site's region: 0 ``p``, 1 ``q``, 2 ``x``, 3 ``y``.
+    ends : ndarray of shape (2, 2)
+        First guesses of the two junctions (``x`` meets ``p`` and ``q`` at the first).
+    angles : ndarray of shape (4,)
+        First guesses of the rays ``x|p``, ``x|q``, ``y|p``, ``y|q``.
+    margin : float, default=MARGIN
+    iterations : int, default=100
+
+    Returns
+    -------
+    (ends, angles) or None
+        None when a region's sites do not lie on one side of a line bounding it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sites = np.random.default_rng(0).uniform(-6, 6, (500, 2))
+    >>> x, y = sites.T
+    >>> # junctions at (-1, 0) and (1, 0): p above the short interface, q below
+    >>> region = np.where(x < -1 - np.abs(y), 2, np.where(x > 1 + np.abs(y), 3, np.where(y > 0, 0, 1)))
+    >>> ends, angles = fit_pair(sites, region, np.array([[-1.3, 0.2], [0.8, -0.1]]),
+    ...                         np.radians([130.0, 230.0, 50.0, 310.0]))
+    >>> bool(np.abs(ends - [[-1.0, 0.0], [1.0, 0.0]]).max() < 0.25)
+    True
+    """
+    sites = np.asarray(sites, dtype=np.float64)
+    region = np.asarray(region, dtype=np.intp)
+    rows, lines = [], []
+    for r, bounding in enumerate(PAIR_LINES):
+        at = np.flatnonzero(region == r)
+        for line in bounding:
+            rows.append(at)
+            lines.append(np.full(at.size, line))
+    rows, lines = np.concatenate(rows), np.concatenate(lines)
+    x = sites[rows]
+
+    def distances(p):
+        """Each (site, line) row's signed distance to its line (left of a ray, and of the
+        short interface from the first junction to the second) and its derivatives.
+        """
+        J = p[:4].reshape(2, 2)
+        theta = p[4:]
+        dist, d = np.zeros(rows.size), np.zeros((rows.size, 8))
+        ray = lines < 4
+        k = lines[ray]
+        origin = J[k // 2]
+        rel = x[ray] - origin
+        c, s = np.cos(theta[k]), np.sin(theta[k])
+        dist[ray] = -rel[:, 0] * s + rel[:, 1] * c
+        where = np.flatnonzero(ray)
+        for j in (0, 1):
+            at = where[k // 2 == j]
+            d[at, 2 * j] = s[k // 2 == j]
+            d[at, 2 * j + 1] = -c[k // 2 == j]
+        d[where, 4 + k] = -(rel[:, 0] * c + rel[:, 1] * s)
+        edge = np.flatnonzero(~ray)
+        v = J[1] - J[0]
+        length = np.linalg.norm(v)
+        u = v / length
+        n = np.array([-u[1], u[0]])
+        rel = x[edge] - J[0]
+        dist[edge] = rel @ n
+        # d dist / d v = (I - u u^T) R^T rel / |v|, with R the quarter turn taking u to n
+        dv = (np.column_stack([rel[:, 1], -rel[:, 0]]) - np.outer(rel @ n, u)) / length
+        d[edge, 2:4] = dv
+        d[edge, 0:2] = -n - dv
+        return dist, d
+
+    p = np.concatenate([np.asarray(ends, dtype=np.float64).ravel(), np.asarray(angles, dtype=np.float64)])
+    dist, _ = distances(p)
+    # each region's side of each line bounding it, from the first guess
+    sign = np.ones(rows.size)
+    for r, bounding in enumerate(PAIR_LINES):
+        for line in bounding:
+            mine = (region[rows] == r) & (lines == line)
+            side = np.sign(np.median(dist[mine])) if mine.any() else 1.0
+            sign[mine] = side if side != 0 else 1.0
+
+    def terms(p):
+        dist, d = distances(p)
+        e, slope = _soft_exp(-sign * dist / margin)
+        d = d * sign[:, None]
+        return e.sum(), (-slope / margin) @ d, (d * (slope / margin**2)[:, None]).T @ d
+
+    loss, grad, hess = terms(p)
+    damping = 1e-3
+    for _ in range(iterations):
+        step = -np.linalg.solve(hess + damping * np.diag(np.diag(hess) + 1e-12), grad)
+        trial = terms(p + step)
+        if trial[0] < loss:
+            p = p + step
+            loss, grad, hess = trial
+            damping /= 3.0
+        else:
+            damping *= 4.0
+        if np.abs(step).max() < 1e-7 or damping > 1e12:
+            break
+    fitted_dist, _ = distances(p)
+    if not (np.isfinite(p).all() and np.mean(sign * fitted_dist > 0) > 0.95):
+        return None
+    return p[:4].reshape(2, 2), p[4:]
+
+
 def _soft_exp(z, top=30.0):
     """``exp(z)`` and its derivative, continued linearly beyond ``top``: the fit's loss
     stays finite, and its gradient true, for sites far on the wrong side of a guess.
@@ -239,16 +359,27 @@ def junction_corrections(domain, codes, on, values, faces, h):
     triple = regions[:, 2] >= 0
     if regions.shape[1] > 3:
         triple &= regions[:, 3] < 0
-    if len(centres) > 1:
-        spacing = cKDTree(centres).query(centres, k=2)[0][:, 1]
-    else:
-        spacing = np.full(1, np.inf)
-    chosen = np.flatnonzero(triple & (spacing >= MIN_SPACING * h))
-    if chosen.size == 0:
+    n = len(centres)
+    k = min(3, n)
+    dist, nearest = cKDTree(centres).query(centres, k=k)
+    dist = np.column_stack([dist.reshape(n, k), np.full((n, 3 - k), np.inf)])
+    nearest = np.column_stack([nearest.reshape(n, k), np.full((n, 3 - k), n)])
+    apart = MIN_SPACING * h
+    # a junction alone, or two nearer than MIN_SPACING to each other and apart from the rest
+    singles = np.flatnonzero(triple & (dist[:, 1] >= apart))
+    pairs = []
+    for i in np.flatnonzero(triple & (dist[:, 1] < apart) & (dist[:, 2] >= apart)):
+        j = nearest[i, 1]
+        if i < j and triple[j] and nearest[j, 1] == i and dist[j, 2] >= apart:
+            if np.union1d(regions[i, :3], regions[j, :3]).size == 4:
+                pairs.append((i, j))
+    if singles.size == 0 and not pairs:
         return []
     n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
     unit = float(np.sqrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
-    near = _within(domain.points, centres[chosen], SITE_RADIUS * unit)
+    middles = np.array([0.5 * (centres[i] + centres[j]) for i, j in pairs]).reshape(-1, centres.shape[1])
+    where = np.concatenate([centres[singles], middles])
+    near = _within(domain.points, where, SITE_RADIUS * unit)
     if on == "vertices":
         sites, site_codes = domain.points, codes
         site_near = near
@@ -258,21 +389,34 @@ def junction_corrections(domain, codes, on, values, faces, h):
             mask[vertices] = True
         elements = np.flatnonzero(domain.elements_at(mask))
         sites, site_codes = domain.centroids_of(elements), codes[elements]
-        site_near = _within(sites, centres[chosen], SITE_RADIUS * unit)
+        site_near = _within(sites, where, SITE_RADIUS * unit)
     problems = []
-    for j, vertices, around in zip(chosen, near, site_near, strict=True):
+    for j, vertices, around in zip(singles, near, site_near, strict=False):
         problem = _problem(
             domain, centres[j], regions[j, :3], faces, vertices, sites[around], site_codes[around], h, unit
         )
         if problem is not None:
             problems.append((j, vertices, problem))
-    if not problems:
-        return []
-    fits = fit_ys([problem[:3] for _, _, problem in problems], MARGIN)
     fixes = []
-    for (j, vertices, problem), fit in zip(problems, fits, strict=True):
-        blend = min(BLEND * h, 0.5 * spacing[j])
-        fix = None if fit is None else _imposed(domain, centres[j], problem[3:], fit, vertices, blend, values, h, unit)
+    if problems:
+        fits = fit_ys([problem[:3] for _, _, problem in problems], MARGIN)
+        for (j, vertices, problem), fit in zip(problems, fits, strict=True):
+            blend = min(BLEND * h, 0.5 * dist[j, 1])
+            fix = (
+                None
+                if fit is None
+                else _imposed(domain, centres[j], problem[3:], fit, vertices, blend, values, h, unit)
+            )
+            if fix is not None:
+                fixes.append(fix)
+    for (i, j), middle, vertices, around in zip(
+        pairs, middles, near[singles.size :], site_near[singles.size :], strict=True
+    ):
+        ends, trios = centres[[i, j]], (regions[i, :3], regions[j, :3])
+        others = min(dist[i, 2], dist[j, 2])
+        fix = _pair(
+            domain, ends, trios, middle, faces, vertices, sites[around], site_codes[around], values, h, unit, others
+        )
         if fix is not None:
             fixes.append(fix)
     return fixes
@@ -371,6 +515,104 @@ def _imposed(domain, centre, geometry, fit, near, blend, values, h, unit):
     weight = np.clip((blend - d) / (blend - core), 0.0, 1.0)[:, None]
     fitted = stored.max(axis=1, keepdims=True) + scale * linear
     return vertices, owners, (1.0 - weight) * stored + weight * fitted
+
+
+def _pair(domain, ends, trios, middle, faces, near, sites, site_codes, values, h, unit, others):
+    """Two junctions ``ends`` nearer than :data:`MIN_SPACING` h to each other, between the
+    regions ``trios``, fitted as a pair (:func:`fit_pair`) to the sites near them and
+    imposed on the region functions: ``(vertices, regions, new values)``, or None when
+    the fit fails, moves a junction more than :data:`MAX_MOVE` site spacings, or gives a
+    sector that linear functions cannot part. ``others`` is the distance from the pair to
+    the nearest other junction.
+    """
+    if near.size < 3:
+        return None
+    p, q = np.intersect1d(trios[0], trios[1])
+    x, y = np.setdiff1d(trios[0], [p, q])[0], np.setdiff1d(trios[1], [p, q])[0]
+    four = np.array([p, q, x, y])
+    frame = _frame(domain.points[near])
+    angles = []
+    for end, (a, b) in ((0, (x, p)), (0, (x, q)), (1, (y, p)), (1, (y, q))):
+        mine = (faces.pairs[:, 0] == min(a, b)) & (faces.pairs[:, 1] == max(a, b))
+        points = faces.points[np.unique(faces.simplices[mine])]
+        d = np.linalg.norm(points - ends[end], axis=1)
+        points = points[(d >= h) & (d <= 4 * h)]
+        if len(points) == 0:
+            return None
+        direction = frame @ (points.mean(axis=0) - ends[end])
+        angles.append(np.arctan2(direction[1], direction[0]))
+    mine = np.isin(site_codes, four)
+    region = np.argsort(four)[np.searchsorted(np.sort(four), site_codes[mine])]
+    local_ends = (ends - middle) @ frame.T / unit
+    fit = fit_pair((sites[mine] - middle) @ frame.T / unit, region, local_ends, np.array(angles))
+    if fit is None or np.linalg.norm(fit[0] - local_ends, axis=1).max() > MAX_MOVE:
+        return None
+    linear = _pair_functions(*fit)
+    if linear is None:
+        return None
+    half = 0.5 * float(np.linalg.norm(ends[1] - ends[0]))
+    blend = min(BLEND * h + half, 0.5 * others)
+    return _imposed_linear(domain, middle, frame, four, linear, near, min(CORE * h + half, 0.6 * blend), blend,
+                           values, h, unit)  # fmt: skip
+
+
+def _pair_functions(ends, angles):
+    """Linear functions of the regions ``p``, ``q``, ``x``, ``y`` of :func:`fit_pair`
+    (rows: gradient and offset) whose largest parts the plane as the fitted pair does, or
+    None when a sector is not convex: a Y's functions at each junction
+    (:func:`y_gradients`), those of the second scaled to rise across the short interface
+    as the first's do.
+    """
+    edge = ends[1] - ends[0]
+    at_ends = []
+    for end, rays in ((0, ((0, 2), (1, 2), (0, 1))), (1, ((0, 3), (1, 3), (0, 1)))):
+        heading = np.arctan2(*(edge if end == 0 else -edge)[::-1])
+        ray_angles = np.array([angles[2 * end], angles[2 * end + 1], heading]) % (2 * np.pi)
+        order = np.argsort(ray_angles)
+        labels = [set(rays[o]) for o in order]
+        owners = [(labels[r] & labels[(r + 1) % 3]).pop() for r in range(3)]
+        grads = y_gradients(ray_angles[order])
+        if grads is None or sorted(owners) != sorted(set(rays[0]) | set(rays[1])):
+            return None
+        at_ends.append({owner: grad for owner, grad in zip(owners, grads, strict=True)})
+    first, second = at_ends
+    normal = np.array([-edge[1], edge[0]])
+    scale = float((first[0] - first[1]) @ normal) / float((second[0] - second[1]) @ normal)
+    if not scale > 0:
+        return None
+    linear = np.zeros((4, 3))
+    for r in (0, 1, 2):
+        linear[r] = [*first[r], -first[r] @ ends[0]]
+    rise = scale * (second[3] - second[0])
+    linear[3] = [*(first[0] + rise), -first[0] @ ends[0] - rise @ ends[1]]
+    return linear
+
+
+def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, values, h, unit):
+    """The linear functions ``linear`` (rows: gradient and offset, in the frame's
+    coordinates about ``centre`` in units of ``unit``) of the regions ``owners``, imposed
+    on their functions within ``core`` of ``centre`` and blended back by ``blend``:
+    ``(vertices, regions, new values)``, or None. They are scaled to the relaxed
+    functions' rise across their ties, read at the vertices within 2 h of the tie of
+    their two largest.
+    """
+    vertices = near[np.linalg.norm(domain.points[near] - centre, axis=1) < blend]
+    stored = _values_at(values, vertices, owners)
+    if stored is None:
+        return None
+    rel = (domain.points[vertices] - centre) @ frame.T
+    g = rel @ linear[:, :2].T / unit + linear[:, 2]
+    top = np.argsort(g, axis=1)[:, -2:]
+    rows = np.arange(vertices.size)
+    rise_linear = g[rows, top[:, 1]] - g[rows, top[:, 0]]
+    across = rise_linear < 2 * h * np.linalg.norm(linear[top[:, 1], :2] - linear[top[:, 0], :2], axis=1) / unit
+    rise = (stored[rows, top[:, 1]] - stored[rows, top[:, 0]])[across]
+    rise_linear = rise_linear[across]
+    scale = float(rise @ rise_linear) / float(rise_linear @ rise_linear) if rise_linear.any() else 0.0
+    if not scale > 0:
+        return None
+    weight = np.clip((blend - np.linalg.norm(rel, axis=1)) / (blend - core), 0.0, 1.0)[:, None]
+    return vertices, owners, (1.0 - weight) * stored + weight * (stored.max(axis=1, keepdims=True) + scale * g)
 
 
 def _values_at(values, vertices, regions):
