@@ -10,7 +10,8 @@ labels) pin down where three straight rays from one point may run between them f
 tightly than the nearest vertex does.
 
 So each point junction of the relaxed partition (three regions, no other junction within
-:data:`MIN_SPACING` h) is fitted: a centre and three ray angles, the sites within
+:data:`MIN_SPACING` h; two such junctions nearer to each other are fitted as a pair,
+:func:`fit_pair`) is fitted: a centre and three ray angles, the sites within
 :data:`SITE_RADIUS` site spacings of it (the spacing is the square root of the domain's
 measure per site) each on its own region's side of both rays bounding that region's
 sector, by the largest margin (the smooth loss :func:`fit_y` minimises). The fit is then
@@ -23,12 +24,13 @@ junction is left as relaxed when its fit moves it more than :data:`MAX_MOVE` sit
 spacings, or when a sector is not convex (three linear functions cannot part the plane
 that way).
 
-Only irregular sites are fitted this way, meshes of triangles, quads and polygons: on a
-pixel grid the sites lie on a lattice, whose rows let the rays slide between them, and
-the fit placed the junctions of random Y's no nearer than the relaxation does (0.27
-against 0.24 pixel on average), so :func:`~ndboundary.relax_image` keeps the relaxed
-ones. Junction curves in volumes are not fitted either: there the interfaces' own
-averaging already places them (``benchmarks/regions.py``).
+Meshes of triangles, quads and polygons are fitted this way, in the plane and on
+surfaces (each junction in the best plane through the vertices near it). Label images
+(:class:`~ndboundary.ImageGrid`) keep the relaxed junctions: their sites lie on a lattice,
+whose rows let the rays slide between them, and the fit placed the junctions of random
+Y's no nearer than the relaxation does (figures in the README). Junction curves in
+volumes are not fitted either: there the interfaces' own averaging already places them
+(``benchmarks/regions.py``).
 """
 
 from __future__ import annotations
@@ -61,8 +63,9 @@ MAX_MOVE = 2.5
 CORE = 2.0
 BLEND = 4.0
 
-#: Junctions nearer than this (units of h) to another are left as relaxed: a single Y
-#: does not model two of them (four regions meeting near a point).
+#: Two junctions nearer than this (units of h) to each other, and to no other, are fitted
+#: as a pair (:func:`fit_pair`): a Y each would not model them (four regions meeting near
+#: a point). A junction nearer than this to two others is left as relaxed.
 MIN_SPACING = 3.0
 
 
