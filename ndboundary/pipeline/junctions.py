@@ -554,7 +554,9 @@ def _pair(domain, ends, trios, middle, faces, near, sites, site_codes, values, h
     if linear is None:
         return None
     half = 0.5 * float(np.linalg.norm(ends[1] - ends[0]))
-    blend = min(BLEND * h + half, 0.5 * others)
+    blend = min(BLEND * h + half, 0.5 * others - half)  # no nearer another junction's blend
+    if blend < half + h:
+        return None
     return _imposed_linear(domain, middle, frame, four, linear, near, min(CORE * h + half, 0.6 * blend), blend,
                            values, h, unit)  # fmt: skip
 

@@ -415,10 +415,15 @@ class RegionsResult(_RegionMethods):
         One relaxed function per region, columns in ``classes`` order: region ``r``'s
         function is above 1/2 in region ``r``. A point belongs to the region whose
         function is largest there. Outside a region's band it is filled when first read.
+        Near the point junctions of a mesh in the plane or on a surface, the functions
+        are those of the junctions fitted to the labels
+        (:mod:`~ndboundary.pipeline.junctions`): their largest meets there, while their
+        values need not cross 1/2 on the region's boundary.
     classes : ndarray of shape (n_regions,)
     domain : Domain
     regions : list of RelaxResult
-        Region ``r`` relaxed against the rest (each filled when the list is first read).
+        Region ``r`` relaxed against the rest (each filled when the list is first read),
+        its own relaxation, without the fitted junctions.
     timings : dict
         Seconds per step, summed over the regions, and ``total``.
     params : dict
