@@ -46,6 +46,10 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   separately extracted level set (``res.regions[r].level_set()``) to the others'.
   ``argmax``: ``|sum(region_measures()) / domain - 1|`` of the argmax partition, which
   by construction has neither gap nor overlap (zero up to rounding).
+- ``image-y`` (not by default): 12 random Y's of three regions on 64 x 64 label images,
+  and a Voronoi partition by 24 random sites on 600 x 600 pixels: the distance (pixels)
+  from each true junction to the nearest found one, fitted to the labels (the default)
+  and relaxed (``JUNCTION_FIT = False``).
 - ``speed`` (or ``--speed``): ``kuhn_grid(500, 2, jitter=0.25)`` (251 001 vertices), 8
   Voronoi regions against 2 (the first two of the 8 sites), relax alone and relax plus
   ``interfaces().junctions()``, medians of 3 cold runs: each the first ``relax`` of a
@@ -362,6 +366,50 @@ def speed(seed, repeats=3):
     return targets(row, None, ("relax 8 regions / 2 regions", ratio, 3.0))
 
 
+def image_y(seed, n=64, count=12):
+    """Junctions of label images, relaxed and fitted to the labels: ``count`` Y's of three
+    regions on ``n x n`` pixels, each centred within half a pixel of the image's centre and
+    turned at random, its sectors 120 degrees give or take 15, and the Voronoi partition of
+    24 random sites on 600 x 600 pixels; the distance (pixels) from each true junction to
+    the nearest found one, with ``JUNCTION_FIT`` on (the default) and off."""
+    from scipy.spatial import Voronoi, cKDTree
+
+    from ndboundary import relax_image
+    from ndboundary.pipeline import junctions
+
+    rng = np.random.default_rng(seed)
+    images = []
+    for _ in range(count):
+        centre = (n - 1) / 2 + rng.uniform(-0.5, 0.5, 2)
+        spans = np.radians(120.0) + rng.uniform(-0.26, 0.26, 3)
+        spans *= 2 * np.pi / spans.sum()
+        turns = rng.uniform(0, 2 * np.pi) + np.concatenate([[0.0], np.cumsum(spans[:2])])
+        x, y = np.meshgrid(np.arange(n) - centre[0], np.arange(n) - centre[1], indexing="ij")
+        angle = (np.arctan2(y, x) - turns[0]) % (2 * np.pi)
+        images.append((np.searchsorted((turns - turns[0]) % (2 * np.pi), angle, side="right") - 1, centre[None]))
+    sites = rng.uniform(0, 600, (24, 2))
+    voronoi = cKDTree(sites).query(np.indices((600, 600)).reshape(2, -1).T)[1].reshape(600, 600)
+    true = Voronoi(sites).vertices
+    voronoi_case = (voronoi, true[((true > 5) & (true < 594)).all(axis=1)])
+    row = {"bench": "regions", "case": f"image Y {n}^2 x{count}, Voronoi 600^2 x24"}
+    for fit in (True, False):
+        junctions.JUNCTION_FIT = fit
+        try:
+            errors = []
+            for labels, truth in [*images, voronoi_case]:
+                j = relax_image(labels).interfaces().junctions()
+                found = j.points[j.simplices[:, 0]]
+                errors.append(np.linalg.norm(truth[:, None] - found[None], axis=2).min(axis=1))
+        finally:
+            junctions.JUNCTION_FIT = True
+        y, v = np.concatenate(errors[:-1]), errors[-1]
+        name = "fitted" if fit else "relaxed"
+        row.update({f"y_{name}_mean_px": y.mean(), f"y_{name}_max_px": y.max(), f"voronoi_{name}_mean_px": v.mean(),
+                    f"voronoi_{name}_max_px": v.max()})  # fmt: skip
+        print(f"image junctions, {name}: Y {n}^2 x{count} mean {y.mean():.3f} max {y.max():.3f} px; Voronoi 600^2 "
+              f"({v.size} junctions) mean {v.mean():.3f} max {v.max():.3f} px", flush=True)  # fmt: skip
+    return targets(row, None)
+
 def cases(args):
     rng = np.random.default_rng(args.seed)
     sites2, sites3 = rng.uniform(-0.8, 0.8, (args.sites, 2)), rng.uniform(-0.8, 0.8, (6, 3))
@@ -379,6 +427,7 @@ def cases(args):
         ),  # fmt: skip
         "volume-hex24": lambda: measure_volume("volume hex 24^3", hex_grid(24, jitter=0.25, random_state=0), sites3),
         "speed": lambda: speed(args.seed),
+        "image-y": lambda: image_y(args.seed),
     }
 
 
@@ -419,19 +468,19 @@ def main():
 
         junctions.JUNCTION_FIT = False
     table = cases(args)
-    names = args.cases.split(",") if args.cases else [n for n in table if n != "speed"]
+    names = args.cases.split(",") if args.cases else [n for n in table if n not in ("speed", "image-y")]
     if args.speed and "speed" not in names:
         names.append("speed")
     unknown = [n for n in names if n not in table]
     if unknown:
         parser.error(f"unknown cases {unknown}; choose from {', '.join(table)}")
-    if any(n != "speed" for n in names):
+    if any(n not in ("speed", "image-y") for n in names):
         print(f"{'case':22s} " + " ".join(f"{c:>{w}s}" for c, w, _, _ in COLUMNS), flush=True)
     rows = []
     for n in names:
         row = table[n]()
         rows.append(row)
-        if n != "speed":
+        if n not in ("speed", "image-y"):
             print(f"{row['case']:22s} " + " ".join(cell(row, k, w, f) for _, w, f, k in COLUMNS), flush=True)
     print_verdicts(rows, 22, 58, "6.2f")
 

@@ -258,7 +258,8 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
     timings["total"] = time.perf_counter() - t0
     params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
     params.update(pad=bool(pad), h=h, band_vertices=int(domain.n_vertices))
-    return RegionsResult(classes, domain, results, timings, params)
+    flat = codes.reshape(-1)
+    return RegionsResult(classes, domain, results, timings, params, codes=flat if pixels is None else flat[pixels])
 
 
 class _OnFirstCall:

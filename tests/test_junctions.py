@@ -80,7 +80,7 @@ def test_fitted_junctions_lie_nearer_the_true_ones(on, monkeypatch):
             d, apart, res = voronoi_junctions(mesh, sites, on, fit, monkeypatch)
             errors[fit].append(d)
             if fit:
-                assert res.params["fitted_junctions"] >= 3
+                assert res.params["fitted_junctions"] >= 2
                 alone.append(apart)
     assert not np.concatenate(alone).all()  # the draws hold pairs of junctions nearer than 3 h
     fitted, relaxed = np.concatenate(errors[True]), np.concatenate(errors[False])
@@ -131,16 +131,22 @@ def test_junctions_on_a_surface_are_fitted_in_its_tangent_plane(monkeypatch):
     assert errors[True].max() < 0.5
 
 
-def test_a_label_image_keeps_its_relaxed_junctions():
-    n = 64
-    x, y = np.meshgrid(np.arange(n) - 31.3, np.arange(n) - 30.8, indexing="ij")
-    labels = np.searchsorted(np.radians([0.0, 130.0, 245.0]), np.arctan2(y, x) % (2 * np.pi), side="right") - 1
-    res = relax_image(labels)
-    j = res.interfaces().junctions()
-    assert len(j) == 1 and "fitted_junctions" not in res.params
-    assert np.linalg.norm(j.points[0] - [31.3, 30.8]) < 0.5
-    assert res.region_measures().sum() == pytest.approx(n * n, rel=1e-9)
+def test_the_junctions_of_a_label_image_are_fitted(monkeypatch):
+    from scipy.spatial import Voronoi, cKDTree
 
+    sites = np.random.default_rng(2).uniform(0, 160, (8, 2))
+    labels = cKDTree(sites).query(np.indices((160, 160)).reshape(2, -1).T)[1].reshape(160, 160)
+    true = Voronoi(sites).vertices
+    true = true[((true > 5) & (true < 154)).all(axis=1)]
+    errors = {}
+    for fit in (True, False):
+        monkeypatch.setattr(junctions, "JUNCTION_FIT", fit)
+        res = relax_image(labels)
+        j = res.interfaces().junctions()
+        errors[fit] = np.linalg.norm(true[:, None] - j.points[j.simplices[:, 0]][None], axis=2).min(axis=1)
+        assert res.region_measures().sum() == pytest.approx(160 * 160, rel=1e-9)
+    assert true.shape[0] >= 5
+    assert errors[True].mean() < 0.7 * errors[False].mean() and errors[True].max() < 0.5
 
 def test_a_pairs_linear_functions_tie_on_its_rays_and_short_interface():
     from ndboundary.pipeline.junctions import _pair_functions

@@ -24,13 +24,10 @@ junction is left as relaxed when its fit moves it more than :data:`MAX_MOVE` sit
 spacings, or when a sector is not convex (three linear functions cannot part the plane
 that way).
 
-Meshes of triangles, quads and polygons are fitted this way, in the plane and on
-surfaces (each junction in the best plane through the vertices near it). Label images
-(:class:`~ndboundary.ImageGrid`) keep the relaxed junctions: their sites lie on a lattice,
-whose rows let the rays slide between them, and the fit placed the junctions of random
-Y's no nearer than the relaxation does (figures in the README). Junction curves in
-volumes are not fitted either: there the interfaces' own averaging already places them
-(``benchmarks/regions.py``).
+Meshes of triangles, quads and polygons and 2-D label images are fitted this way, in the
+plane and on surfaces (each junction in the best plane through the vertices near it).
+Junction curves in volumes are not fitted: there the interfaces' own averaging already
+places them (``benchmarks/regions.py``).
 """
 
 from __future__ import annotations
@@ -39,7 +36,15 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-__all__ = ["JUNCTION_FIT", "PAIR_LINES", "fit_pair", "fit_y", "fit_ys", "junction_corrections", "y_gradients"]
+__all__ = [
+    "JUNCTION_FIT",
+    "PAIR_LINES",
+    "fit_pair",
+    "fit_y",
+    "fit_ys",
+    "junction_corrections",
+    "y_gradients",
+]
 
 #: Whether a relaxation of three or more regions in the plane or on a surface fits its
 #: point junctions to the labels (read when the partition is first built; False keeps the
@@ -351,8 +356,9 @@ def junction_corrections(domain, codes, on, values, faces, h):
     Returns
     -------
     list of (vertices, regions, new)
-        For each fitted junction: the vertices near it, its three regions, and their new
-        values, shape (n_vertices_near, 3).
+        For each fitted junction (or pair of junctions): the vertices near it, its three
+        (four) regions, and their new values, shape (n_vertices_near, 3 or 4). No two
+        share a vertex.
     """
     junctions = faces.junctions()
     if len(junctions) == 0 or junctions.simplices.shape[1] != 1 or junctions.regions.shape[1] < 3:
@@ -422,7 +428,14 @@ def junction_corrections(domain, codes, on, values, faces, h):
         )
         if fix is not None:
             fixes.append(fix)
-    return fixes
+    # a fitted centre may move towards another: a fix that reaches one kept is dropped
+    taken = np.zeros(domain.n_vertices, dtype=bool)
+    kept = []
+    for fix in fixes:
+        if not taken[fix[0]].any():
+            taken[fix[0]] = True
+            kept.append(fix)
+    return kept
 
 
 def _within(points, centres, radius):

@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 from .._arrays import expand_ranges, unique_values
 from .._compiled_partition import point_simplices
 from .._threads import available_threads
-from ..domains.image import GridBand, ImageGrid
+from ..domains.image import GridBand
 from ..domains.pointcloud_operators import StencilDomain
 from ..levelset import LevelSet, marching_simplices, simplex_measures
 from ..partition import Cells, Partition, partition
@@ -415,7 +415,7 @@ class RegionsResult(_RegionMethods):
         One relaxed function per region, columns in ``classes`` order: region ``r``'s
         function is above 1/2 in region ``r``. A point belongs to the region whose
         function is largest there. Outside a region's band it is filled when first read.
-        Near the point junctions of a mesh in the plane or on a surface, the functions
+        Near the point junctions of a mesh or image in the plane or on a surface, the functions
         are those of the junctions fitted to the labels
         (:mod:`~ndboundary.pipeline.junctions`): their largest meets there, while their
         values need not cross 1/2 on the region's boundary.
@@ -450,9 +450,9 @@ class RegionsResult(_RegionMethods):
         self.timings = {} if timings is None else timings
         self.params = {} if params is None else params
         # the labels' region per element (or vertex), kept where point junctions are fitted:
-        # on meshes in the plane and on surfaces, not on a pixel grid's lattice nor a graph
+        # on meshes and images in the plane and on surfaces, not on a graph
         fitted = getattr(domain, "element_dim", None) == 2 and can_cut(domain)
-        fitted = fitted and not isinstance(domain, (ImageGrid, GridBand, StencilDomain))
+        fitted = fitted and not isinstance(domain, StencilDomain)
         self._codes = codes if fitted else None
         self._junction_values = []  # (vertices, regions, values) near each fitted junction
 
