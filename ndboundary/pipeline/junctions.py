@@ -86,7 +86,8 @@ def fit_y(sites, sector, angles, margin=MARGIN):
     Parameters
     ----------
     sites : ndarray of shape (n, 2)
-        Site coordinates, relative to the first guess of the centre, in units of h.
+        Site coordinates, relative to the first guess of the centre, in the unit of
+        ``margin`` (the sites' spacing, in the relaxation).
     sector : ndarray of int of shape (n,)
         Each site's sector, 0, 1 or 2.
     angles : ndarray of shape (3,)
@@ -102,7 +103,7 @@ def fit_y(sites, sector, angles, margin=MARGIN):
     Examples
     --------
     >>> import numpy as np
-    >>> sites = np.random.default_rng(0).uniform(-5, 5, (300, 2))  # a site per h^2 or so
+    >>> sites = np.random.default_rng(0).uniform(-5, 5, (300, 2))  # three sites per unit square
     >>> a = np.arctan2(sites[:, 1] - 0.3, sites[:, 0] + 0.2) % (2 * np.pi)  # a Y centred at (-0.2, 0.3)
     >>> sector = np.searchsorted(np.radians([0.0, 120.0, 240.0]), a, side="right") - 1
     >>> centre, angles = fit_y(sites, sector, np.radians([10.0, 110.0, 250.0]))
