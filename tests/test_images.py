@@ -332,7 +332,8 @@ def test_each_region_of_an_image_relaxes_on_its_own_band(shape, spacing, band):
     assert (band == 10.3) == (corners.size == grid.n_vertices)  # the union band is the whole grid
     np.testing.assert_array_equal(result.classes, whole.classes)
     a, b = result.region_values(), whole.region_values()[corners]
-    assert a.nnz == b.nnz and abs(a - b).max() == 0.0
+    # the same, but for the junctions fitted to the labels: iterated to a step of 1e-7
+    assert a.nnz == b.nnz and abs(a - b).max() < 1e-6
     for mine, theirs in zip(result._regions, whole._regions, strict=True):
         assert mine.params["band_vertices"] == theirs.params["band_vertices"] < corners.size
         np.testing.assert_array_equal(corners[mine.boundary.sources], theirs.boundary.sources)
@@ -340,7 +341,7 @@ def test_each_region_of_an_image_relaxes_on_its_own_band(shape, spacing, band):
         a, b = np.sort(corners[mine.boundary.facets], axis=1), np.sort(theirs.boundary.facets, axis=1)
         np.testing.assert_array_equal(a[np.lexsort(a.T)], b[np.lexsort(b.T)])
     assert not {"edges", "adjacency", "_faces"} & set(result.domain.__dict__)
-    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-12)
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-9)
     # filled beyond its band (along the domain's own edges), phi keeps the labels' sides
     pixels = getattr(result.domain, "pixels", np.arange(labels.size))
     bands = [res.phi.vertices for res in result._regions]

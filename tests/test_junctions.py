@@ -103,7 +103,8 @@ def test_the_fit_changes_the_partition_near_junctions_only(monkeypatch):
     centres = j.points[j.simplices[:, 0]]
     assert changed.size > 0
     reach = np.linalg.norm(mesh.points[changed][:, None] - centres[None], axis=2).min(axis=1)
-    assert reach.max() < (BLEND + 1.6) * mesh.mean_edge_length()
+    border = 1.0 - np.abs(mesh.points[changed]).max(axis=1)  # where interfaces meet the square's side
+    assert np.minimum(reach, border).max() < (BLEND + 1.6) * mesh.mean_edge_length()
     # the filled phi and the sparse band values give the same partition, in either order
     labels = np.argmin(((mesh.element_centroids()[:, None] - sites) ** 2).sum(axis=2), axis=1)
     again = relax(mesh, labels, on="elements")
@@ -167,3 +168,22 @@ def test_a_pairs_linear_functions_tie_on_its_rays_and_short_interface():
             assert regions == set(pair) and tie == pytest.approx(0, abs=1e-12) and lead > 0
     regions, tie, lead = top_two(ends.mean(axis=0))  # the short interface parts p and q
     assert regions == {0, 1} and tie == pytest.approx(0, abs=1e-12) and lead > 0
+
+
+@pytest.mark.parametrize("on", ["elements", "vertices"])
+def test_interfaces_meet_the_border_nearer_the_truth(on, monkeypatch):
+    mesh = kuhn_grid(50, 2, jitter=0.25, random_state=0)
+    errors = {True: [], False: []}
+    for seed in range(4):
+        sites = np.random.default_rng(seed).uniform(-0.7, 0.7, (6, 2))
+        where = mesh.element_centroids() if on == "elements" else mesh.points
+        labels = np.argmin(((where[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+        for fit in (True, False):
+            monkeypatch.setattr(junctions, "JUNCTION_FIT", fit)
+            faces = relax(mesh, labels, on=on).interfaces()
+            x = faces.points[np.abs(faces.points).max(axis=1) > 1 - 1e-9]  # on the square's side
+            a, b = np.argsort(((x[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)[:, :2].T
+            n = (sites[b] - sites[a]) / np.linalg.norm(sites[b] - sites[a], axis=1)[:, None]
+            errors[fit].append(np.abs(((x - (sites[a] + sites[b]) / 2) * n).sum(axis=1)))
+    fitted, relaxed = np.concatenate(errors[True]), np.concatenate(errors[False])
+    assert fitted.size >= 12 and fitted.mean() < 0.8 * relaxed.mean()

@@ -24,6 +24,10 @@ junction is left as relaxed when its fit moves it more than :data:`MAX_MOVE` sit
 spacings, or when a sector is not convex (three linear functions cannot part the plane
 that way).
 
+Where an interface meets the domain's border, the relaxation has one side to average
+over: such a crossing, with no junction among its sites, is fitted as a line between the
+two regions' sites (:func:`fit_line`) and imposed the same way.
+
 Meshes of triangles, quads and polygons and 2-D label images are fitted this way, in the
 plane and on surfaces (each junction in the best plane through the vertices near it).
 Junction curves in volumes are not fitted: there the interfaces' own averaging already
@@ -39,6 +43,7 @@ from scipy.spatial import cKDTree
 __all__ = [
     "JUNCTION_FIT",
     "PAIR_LINES",
+    "fit_line",
     "fit_pair",
     "fit_y",
     "fit_ys",
@@ -338,7 +343,7 @@ def _frame(points):
     return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][:2]
 
 
-def junction_corrections(domain, codes, on, values, faces, h):
+def junction_corrections(domain, codes, on, values, faces, h, crossings=None):
     """New values of the region functions near every point junction that fits.
 
     Parameters
@@ -350,9 +355,13 @@ def junction_corrections(domain, codes, on, values, faces, h):
     on : {"elements", "vertices"}
     values : ndarray or sparse matrix of shape (n_vertices, n_regions)
         The region functions (:meth:`RegionsResult.region_values`).
-    faces : Interfaces
-        The partition's interfaces, with their junctions.
+    faces : Interfaces or None
+        The partition's interfaces near its junctions, with their junctions.
     h : float
+    crossings : (points, pairs, lead) or None
+        Where interfaces meet the domain's border (:func:`fit_line`): the points, shape
+        (m, dim), the two regions of each, shape (m, 2), and the leading region at every
+        vertex of the domain.
 
     Returns
     -------
@@ -361,17 +370,29 @@ def junction_corrections(domain, codes, on, values, faces, h):
         (four) regions, and their new values, shape (n_vertices_near, 3 or 4). No two
         share a vertex.
     """
-    junctions = faces.junctions()
-    if len(junctions) == 0 or junctions.simplices.shape[1] != 1 or junctions.regions.shape[1] < 3:
-        return []
-    centres = junctions.points[junctions.simplices[:, 0]]
-    regions = junctions.regions
+    junctions = None if faces is None else faces.junctions()
+    if junctions is None or len(junctions) == 0 or junctions.simplices.shape[1] != 1:
+        centres, regions = np.zeros((0, domain.points.shape[1])), np.full((0, 3), -1)
+    else:
+        centres, regions = junctions.points[junctions.simplices[:, 0]], junctions.regions
+    if regions.shape[1] < 3:
+        regions = np.column_stack([regions, np.full((len(regions), 3 - regions.shape[1]), -1)])
+    if crossings is None:
+        crossings = (np.zeros((0, domain.points.shape[1])), np.zeros((0, 2), int), None)
+    n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
+    unit = float(np.sqrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
+    # a crossing is fitted as a line where no junction lies within its disk of sites
+    alone = [_nearest(centres, point) > SITE_RADIUS * unit for point in crossings[0]]
+    crossings = (crossings[0][alone], crossings[1][alone], crossings[2])
     triple = regions[:, 2] >= 0
     if regions.shape[1] > 3:
         triple &= regions[:, 3] < 0
     n = len(centres)
     k = min(3, n)
-    dist, nearest = cKDTree(centres).query(centres, k=k)
+    if n:
+        dist, nearest = cKDTree(centres).query(centres, k=k)
+    else:
+        dist, nearest = np.zeros((0, 0)), np.zeros((0, 0), int)
     dist = np.column_stack([dist.reshape(n, k), np.full((n, 3 - k), np.inf)])
     nearest = np.column_stack([nearest.reshape(n, k), np.full((n, 3 - k), n)])
     apart = MIN_SPACING * h
@@ -383,12 +404,10 @@ def junction_corrections(domain, codes, on, values, faces, h):
         if i < j and triple[j] and nearest[j, 1] == i and dist[j, 2] >= apart:
             if np.union1d(regions[i, :3], regions[j, :3]).size == 4:
                 pairs.append((i, j))
-    if singles.size == 0 and not pairs:
+    if singles.size == 0 and not pairs and len(crossings[0]) == 0:
         return []
-    n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
-    unit = float(np.sqrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
     middles = np.array([0.5 * (centres[i] + centres[j]) for i, j in pairs]).reshape(-1, centres.shape[1])
-    where = np.concatenate([centres[singles], middles])
+    where = np.concatenate([centres[singles], middles, crossings[0]])
     near = _within(domain.points, where, SITE_RADIUS * unit)
     if on == "vertices":
         sites, site_codes = domain.points, codes
@@ -411,7 +430,7 @@ def junction_corrections(domain, codes, on, values, faces, h):
     if problems:
         fits = fit_ys([problem[:3] for _, _, problem in problems], MARGIN)
         for (j, vertices, problem), fit in zip(problems, fits, strict=True):
-            blend = min(BLEND * h, 0.5 * dist[j, 1])
+            blend = min(BLEND * h, 0.5 * dist[j, 1], 0.5 * _nearest(crossings[0], centres[j]))
             fix = (
                 None
                 if fit is None
@@ -420,15 +439,26 @@ def junction_corrections(domain, codes, on, values, faces, h):
             if fix is not None:
                 fixes.append(fix)
     for (i, j), middle, vertices, around in zip(
-        pairs, middles, near[singles.size :], site_near[singles.size :], strict=True
-    ):
+        pairs, middles, near[singles.size : singles.size + len(pairs)],
+        site_near[singles.size : singles.size + len(pairs)], strict=True
+    ):  # fmt: skip
         ends, trios = centres[[i, j]], (regions[i, :3], regions[j, :3])
-        others = min(dist[i, 2], dist[j, 2])
+        others = min(dist[i, 2], dist[j, 2], _nearest(crossings[0], centres[i]), _nearest(crossings[0], centres[j]))
         fix = _pair(
             domain, ends, trios, middle, faces, vertices, sites[around], site_codes[around], values, h, unit, others
         )
         if fix is not None:
             fixes.append(fix)
+    if len(crossings[0]):
+        lead = crossings[2]
+        first = singles.size + len(pairs)
+        others = np.concatenate([centres, crossings[0]])
+        for m, (point, pair) in enumerate(zip(crossings[0], crossings[1], strict=True)):
+            blend = min(BLEND * h, 0.5 * _nearest(np.delete(others, n + m, axis=0), point))
+            fix = _crossing(domain, point, pair, near[first + m], sites[site_near[first + m]],
+                            site_codes[site_near[first + m]], values, lead, blend, h, unit)  # fmt: skip
+            if fix is not None:
+                fixes.append(fix)
     # a fitted centre may move towards another: a fix that reaches one kept is dropped
     taken = np.zeros(domain.n_vertices, dtype=bool)
     kept = []
@@ -437,6 +467,11 @@ def junction_corrections(domain, codes, on, values, faces, h):
             taken[fix[0]] = True
             kept.append(fix)
     return kept
+
+
+def _nearest(points, point):
+    """The distance from ``point`` to the nearest of ``points`` (inf for none)."""
+    return float(np.linalg.norm(points - point, axis=1).min(initial=np.inf))
 
 
 def _within(points, centres, radius):
@@ -632,6 +667,83 @@ def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, va
         return None
     weight = np.clip((blend - np.linalg.norm(rel, axis=1)) / (blend - core), 0.0, 1.0)[:, None]
     return vertices, owners, (1.0 - weight) * stored + weight * (stored.max(axis=1, keepdims=True) + scale * g)
+
+
+def fit_line(sites, side, angle, offset=0.0, margin=MARGIN, iterations=100):
+    """The line that best separates labelled sites of two regions: its normal at ``angle``
+    points into the sites of ``side`` +1, away from those of -1, and it passes at
+    ``offset`` from the origin along it. The loss is :func:`fit_y`'s over the sites' signed
+    distances to the line, minimised by damped Gauss-Newton steps from the guess.
+
+    Returns
+    -------
+    (angle, offset) or None
+        None when the fitted line leaves more than a twentieth of the sites on the wrong
+        side.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sites = np.random.default_rng(0).uniform(-5, 5, (300, 2))
+    >>> side = np.where(sites @ [np.cos(0.3), np.sin(0.3)] > 0.4, 1, -1)
+    >>> angle, offset = fit_line(sites, side, 0.0)
+    >>> round(float(angle), 1), bool(abs(offset - 0.4) < 0.2)
+    (0.3, True)
+    """
+    sites = np.asarray(sites, dtype=np.float64)
+    side = np.asarray(side, dtype=np.float64)
+
+    def terms(p):
+        c, s = np.cos(p[0]), np.sin(p[0])
+        dist = side * (sites @ [c, s] - p[1])
+        d = side[:, None] * np.column_stack([sites @ [-s, c], -np.ones(len(sites))])
+        e, slope = _soft_exp(-dist / margin)
+        return e.sum(), (-slope / margin) @ d, (d * (slope / margin**2)[:, None]).T @ d, dist
+
+    p = np.array([angle, offset], dtype=np.float64)
+    loss, grad, hess, _ = terms(p)
+    damping = 1e-3
+    for _ in range(iterations):
+        step = -np.linalg.solve(hess + damping * np.diag(np.diag(hess) + 1e-12), grad)
+        trial = terms(p + step)
+        if trial[0] < loss:
+            p, (loss, grad, hess, _) = p + step, trial
+            damping /= 3.0
+        else:
+            damping *= 4.0
+        if np.abs(step).max() < 1e-7 or damping > 1e12:
+            break
+    if not (np.isfinite(p).all() and np.mean(terms(p)[3] > 0) > 0.95):
+        return None
+    return p[0], p[1]
+
+
+def _crossing(domain, point, pair, near, sites, site_codes, values, lead, blend, h, unit):
+    """Where the interface of the regions ``pair`` meets the domain's border at ``point``,
+    fitted as a line to the two regions' sites near it (:func:`fit_line`) and imposed as
+    two linear functions: ``(vertices, regions, new values)``, or None when another region
+    leads near it, the fit fails or moves the crossing more than :data:`MAX_MOVE` site
+    spacings.
+    """
+    if near.size < 3 or blend <= 1.5 * h:
+        return None
+    if not np.isin(lead[near[np.linalg.norm(domain.points[near] - point, axis=1) < blend]], pair).all():
+        return None
+    frame = _frame(domain.points[near])
+    mine = np.isin(site_codes, pair)
+    local = (sites[mine] - point) @ frame.T / unit
+    side = np.where(site_codes[mine] == pair[0], 1.0, -1.0)
+    # the least-squares discriminant of the two regions to start from
+    w = np.linalg.lstsq(np.column_stack([local, np.ones(len(local))]), side, rcond=None)[0]
+    if not np.linalg.norm(w[:2]) > 0:
+        return None
+    fit = fit_line(local, side, np.arctan2(w[1], w[0]), -w[2] / np.linalg.norm(w[:2]))
+    if fit is None or abs(fit[1]) > MAX_MOVE:
+        return None
+    angle, offset = fit
+    linear = np.array([[np.cos(angle), np.sin(angle), -offset], [0.0, 0.0, 0.0]])
+    return _imposed_linear(domain, point, frame, np.asarray(pair), linear, near, min(CORE * h, 0.6 * blend), blend,
+                           values, h, unit)  # fmt: skip
 
 
 def _values_at(values, vertices, regions):

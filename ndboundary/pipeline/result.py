@@ -549,11 +549,16 @@ class RegionsResult(_RegionMethods):
         if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
             return False  # the whole cut would not fit in memory: see _RegionCuts
         h = self.params.get("h") or self.domain.mean_edge_length()
-        near = _near_junctions(*(_complex(self.domain, values) if mixed[0] is None else mixed[0]), 5.0 * h)
-        if near is not None:
-            faces = partition(*near).interfaces()
+        complex_ = _complex(self.domain, values) if mixed[0] is None else mixed[0]
+        near = _near_junctions(*complex_, 5.0 * h)
+        faces = None if near is None else partition(*near).interfaces()
+        crossings = _border_crossings(*complex_)
+        if faces is not None or len(crossings[0]):
             on = self.params.get("on", "elements")
-            self._junction_values = junctions.junction_corrections(self.domain, self._codes, on, values, faces, h)
+            crossings = (*crossings, _argmax_rows(values))
+            self._junction_values = junctions.junction_corrections(
+                self.domain, self._codes, on, values, faces, h, crossings
+            )
         self.params["fitted_junctions"] = len(self._junction_values)
         self.timings["junctions"] = time.perf_counter() - tick
         if not self._junction_values:
@@ -576,6 +581,35 @@ def _near_junctions(points, simplices, values, radius):
     kept = simplices[near[simplices].all(axis=1)]
     used = np.unique(kept)
     return points[used], np.searchsorted(used, kept), values[used]
+
+
+def _border_crossings(points, simplices, values):
+    """Where the interfaces meet the border of the 2-D complex ``(points, simplices,
+    values)``: the points, and the two regions leading at the ends of each border edge
+    that the interfaces cross. The complex is the domain's, or its mixed elements' (whose
+    border elsewhere no interface crosses: the elements beyond lie in one region, and both
+    ends of an edge they share lead with it).
+    """
+    if simplices.shape[1] != 3:
+        return np.zeros((0, points.shape[1])), np.zeros((0, 2), dtype=np.int64)
+    edges = np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]]), axis=1)
+    n = np.int64(points.shape[0])
+    keys, counts = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_counts=True)
+    edges = np.column_stack([keys // n, keys % n])[counts == 1]
+    lead = _argmax_rows(values)
+    edges = edges[lead[edges[:, 0]] != lead[edges[:, 1]]]
+    pairs = lead[edges]
+    if len(edges) == 0:
+        return np.zeros((0, points.shape[1])), np.zeros((0, 2), dtype=np.int64)
+    rows = values[edges.ravel()]
+    rows = rows.toarray() if sp.issparse(rows) else np.asarray(rows)
+    rows = rows.reshape(len(edges), 2, -1)
+    k = np.arange(len(edges))
+    # the difference of the two leading functions at each end, zero where the edge is cut
+    gap = rows[k, :, pairs[:, 0]] - rows[k, :, pairs[:, 1]]
+    t = gap[:, 0] / (gap[:, 0] - gap[:, 1])
+    crossing = points[edges[:, 0]] + t[:, None] * (points[edges[:, 1]] - points[edges[:, 0]])
+    return crossing, pairs
 
 
 def _written(values, fitted):
