@@ -344,7 +344,8 @@ def _frame(points):
 
 
 def junction_corrections(domain, codes, on, values, faces, h, crossings=None):
-    """New values of the region functions near every point junction that fits.
+    """New values of the region functions near every point junction, pair of junctions
+    and crossing of the border that fits.
 
     Parameters
     ----------
@@ -366,9 +367,9 @@ def junction_corrections(domain, codes, on, values, faces, h, crossings=None):
     Returns
     -------
     list of (vertices, regions, new)
-        For each fitted junction (or pair of junctions): the vertices near it, its three
-        (four) regions, and their new values, shape (n_vertices_near, 3 or 4). No two
-        share a vertex.
+        For each fitted junction, pair or crossing: the vertices near it, its three, four
+        or two regions, and their new values, shape (n_vertices_near, n_regions_there).
+        No two share a vertex.
     """
     junctions = None if faces is None else faces.junctions()
     if junctions is None or len(junctions) == 0 or junctions.simplices.shape[1] != 1:
@@ -384,41 +385,13 @@ def junction_corrections(domain, codes, on, values, faces, h, crossings=None):
     # a crossing is fitted as a line where no junction lies within its disk of sites
     alone = [_nearest(centres, point) > SITE_RADIUS * unit for point in crossings[0]]
     crossings = (crossings[0][alone], crossings[1][alone], crossings[2])
-    triple = regions[:, 2] >= 0
-    if regions.shape[1] > 3:
-        triple &= regions[:, 3] < 0
-    n = len(centres)
-    k = min(3, n)
-    if n:
-        dist, nearest = cKDTree(centres).query(centres, k=k)
-    else:
-        dist, nearest = np.zeros((0, 0)), np.zeros((0, 0), int)
-    dist = np.column_stack([dist.reshape(n, k), np.full((n, 3 - k), np.inf)])
-    nearest = np.column_stack([nearest.reshape(n, k), np.full((n, 3 - k), n)])
-    apart = MIN_SPACING * h
-    # a junction alone, or two nearer than MIN_SPACING to each other and apart from the rest
-    singles = np.flatnonzero(triple & (dist[:, 1] >= apart))
-    pairs = []
-    for i in np.flatnonzero(triple & (dist[:, 1] < apart) & (dist[:, 2] >= apart)):
-        j = nearest[i, 1]
-        if i < j and triple[j] and nearest[j, 1] == i and dist[j, 2] >= apart:
-            if np.union1d(regions[i, :3], regions[j, :3]).size == 4:
-                pairs.append((i, j))
+    singles, pairs, dist = _clusters(centres, regions, MIN_SPACING * h)
     if singles.size == 0 and not pairs and len(crossings[0]) == 0:
         return []
     middles = np.array([0.5 * (centres[i] + centres[j]) for i, j in pairs]).reshape(-1, centres.shape[1])
     where = np.concatenate([centres[singles], middles, crossings[0]])
-    near = _within(domain.points, where, SITE_RADIUS * unit)
-    if on == "vertices":
-        sites, site_codes = domain.points, codes
-        site_near = near
-    else:
-        mask = np.zeros(domain.n_vertices, dtype=bool)
-        for vertices in near:
-            mask[vertices] = True
-        elements = np.flatnonzero(domain.elements_at(mask))
-        sites, site_codes = domain.centroids_of(elements), codes[elements]
-        site_near = _within(sites, where, SITE_RADIUS * unit)
+    near, sites, site_codes, site_near = _sites_near(domain, codes, on, where, SITE_RADIUS * unit)
+    n = len(centres)
     problems = []
     for j, vertices, around in zip(singles, near, site_near, strict=False):
         problem = _problem(
@@ -467,6 +440,50 @@ def junction_corrections(domain, codes, on, values, faces, h, crossings=None):
             taken[fix[0]] = True
             kept.append(fix)
     return kept
+
+
+def _clusters(centres, regions, apart):
+    """The junctions at ``centres`` (between ``regions``) to fit alone, nearer than
+    ``apart`` to no other, and the pairs to fit together, nearer than ``apart`` to each
+    other and to no third; with each junction's distances to itself and its two nearest
+    others (inf where there are fewer), shape (n, 3).
+    """
+    triple = regions[:, 2] >= 0
+    if regions.shape[1] > 3:
+        triple &= regions[:, 3] < 0
+    n = len(centres)
+    k = min(3, n)
+    if n:
+        dist, nearest = cKDTree(centres).query(centres, k=k)
+    else:
+        dist, nearest = np.zeros((0, 0)), np.zeros((0, 0), int)
+    dist = np.column_stack([dist.reshape(n, k), np.full((n, 3 - k), np.inf)])
+    nearest = np.column_stack([nearest.reshape(n, k), np.full((n, 3 - k), n)])
+    singles = np.flatnonzero(triple & (dist[:, 1] >= apart))
+    pairs = []
+    for i in np.flatnonzero(triple & (dist[:, 1] < apart) & (dist[:, 2] >= apart)):
+        j = nearest[i, 1]
+        if i < j and triple[j] and nearest[j, 1] == i and dist[j, 2] >= apart:
+            if np.union1d(regions[i, :3], regions[j, :3]).size == 4:
+                pairs.append((i, j))
+    return singles, pairs, dist
+
+
+def _sites_near(domain, codes, on, where, radius):
+    """For each point of ``where``: the domain's vertices within ``radius``, and the
+    labelled sites there (element centroids, or vertices): ``(near, sites, site_codes,
+    site_near)``, ``site_near`` indexing ``sites``. Only the elements at those vertices
+    are read.
+    """
+    near = _within(domain.points, where, radius)
+    if on == "vertices":
+        return near, domain.points, codes, near
+    mask = np.zeros(domain.n_vertices, dtype=bool)
+    for vertices in near:
+        mask[vertices] = True
+    elements = np.flatnonzero(domain.elements_at(mask))
+    sites = domain.centroids_of(elements)
+    return near, sites, codes[elements], _within(sites, where, radius)
 
 
 def _nearest(points, point):
