@@ -607,7 +607,10 @@ def _border_crossings(points, simplices, values):
     k = np.arange(len(edges))
     # the difference of the two leading functions at each end, zero where the edge is cut
     gap = rows[k, :, pairs[:, 0]] - rows[k, :, pairs[:, 1]]
-    t = gap[:, 0] / (gap[:, 0] - gap[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = gap[:, 0] / (gap[:, 0] - gap[:, 1])
+    cut = np.isfinite(t)  # a tie at both ends crosses nowhere in particular
+    edges, pairs, t = edges[cut], pairs[cut], t[cut]
     crossing = points[edges[:, 0]] + t[:, None] * (points[edges[:, 1]] - points[edges[:, 0]])
     return crossing, pairs
 
