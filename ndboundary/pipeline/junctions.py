@@ -303,10 +303,24 @@ def fit_pair(sites, region, ends, angles, margin=MARGIN, iterations=100):
             side = np.sign(np.median(dist[mine])) if mine.any() else 1.0
             sign[mine] = side if side != 0 else 1.0
 
-    def terms(p):
+    def signed(p):
         dist, d = distances(p)
-        e, slope = _soft_exp(-sign * dist / margin)
-        d = d * sign[:, None]
+        return sign * dist, d * sign[:, None]
+
+    p = _separating(signed, p, margin, iterations)
+    return None if p is None else (p[:4].reshape(2, 2), p[4:])
+
+
+def _separating(signed, p, margin, iterations):
+    """The parameters from ``p`` that minimise :func:`fit_y`'s loss over the signed
+    distances ``signed(p) -> (distances, their derivatives)`` (positive on the right
+    side), by damped Gauss-Newton steps; None when more than a twentieth of the
+    distances stay negative, or the parameters are not finite.
+    """
+
+    def terms(p):
+        dist, d = signed(p)
+        e, slope = _soft_exp(-dist / margin)
         return e.sum(), (-slope / margin) @ d, (d * (slope / margin**2)[:, None]).T @ d
 
     loss, grad, hess = terms(p)
@@ -322,10 +336,9 @@ def fit_pair(sites, region, ends, angles, margin=MARGIN, iterations=100):
             damping *= 4.0
         if np.abs(step).max() < 1e-7 or damping > 1e12:
             break
-    fitted_dist, _ = distances(p)
-    if not (np.isfinite(p).all() and np.mean(sign * fitted_dist > 0) > 0.95):
+    if not (np.isfinite(p).all() and np.mean(signed(p)[0] > 0) > 0.95):
         return None
-    return p[:4].reshape(2, 2), p[4:]
+    return p
 
 
 def _soft_exp(z, top=30.0):
@@ -560,30 +573,10 @@ def _imposed(domain, centre, geometry, fit, near, blend, values, h, unit):
     grads = y_gradients(angles)
     if grads is None:
         return None
-    core = min(CORE * h, 0.6 * blend)
     centre = centre + (offset * unit) @ frame
-    vertices = near[np.linalg.norm(domain.points[near] - centre, axis=1) < blend]
-    stored = _values_at(values, vertices, owners)
-    if stored is None:
-        return None
-    rel = (domain.points[vertices] - centre) @ frame.T
-    linear = rel @ grads.T
-    # scale the linear functions to the relaxed ones' rise across the rays, read at the
-    # vertices within 2 h of each ray (not of its line's far half, beyond the centre)
-    along = rel @ np.stack([np.cos(angles), np.sin(angles)], axis=1).T
-    across = (np.abs(rel @ np.stack([-np.sin(angles), np.cos(angles)], axis=1).T) < 2 * h) & (along > 0)
-    rise, rise_linear = [], []
-    for q in range(3):
-        rise.append((stored[:, q] - stored[:, q - 1])[across[:, q]])
-        rise_linear.append((linear[:, q] - linear[:, q - 1])[across[:, q]])
-    rise, rise_linear = np.concatenate(rise), np.concatenate(rise_linear)
-    scale = float(rise @ rise_linear) / float(rise_linear @ rise_linear) if rise_linear.any() else 0.0
-    if not scale > 0:
-        return None
-    d = np.linalg.norm(rel, axis=1)
-    weight = np.clip((blend - d) / (blend - core), 0.0, 1.0)[:, None]
-    fitted = stored.max(axis=1, keepdims=True) + scale * linear
-    return vertices, owners, (1.0 - weight) * stored + weight * fitted
+    linear = np.column_stack([grads, np.zeros(3)])
+    core = min(CORE * h, 0.6 * blend)
+    return _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, values, h, unit, angles)
 
 
 def _pair(domain, ends, trios, middle, faces, near, sites, site_codes, values, h, unit, others):
@@ -659,13 +652,16 @@ def _pair_functions(ends, angles):
     return linear
 
 
-def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, values, h, unit):
+def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, values, h, unit, rays=None):
     """The linear functions ``linear`` (rows: gradient and offset, in the frame's
     coordinates about ``centre`` in units of ``unit``) of the regions ``owners``, imposed
     on their functions within ``core`` of ``centre`` and blended back by ``blend``:
-    ``(vertices, regions, new values)``, or None. They are scaled to the relaxed
-    functions' rise across their ties, read at the vertices within 2 h of the tie of
-    their two largest.
+    ``(vertices, regions, new values)``, or None.
+
+    They are scaled to the relaxed functions' rise across their ties, read at the vertices
+    within 2 h of the tie of their two largest, or, for a Y with ``rays`` (the angles of
+    :func:`y_gradients`, from ``centre``), within 2 h of each ray (not of its line's far
+    half, beyond the centre), between the two sectors it parts.
     """
     vertices = near[np.linalg.norm(domain.points[near] - centre, axis=1) < blend]
     stored = _values_at(values, vertices, owners)
@@ -673,12 +669,19 @@ def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, va
         return None
     rel = (domain.points[vertices] - centre) @ frame.T
     g = rel @ linear[:, :2].T / unit + linear[:, 2]
-    top = np.argsort(g, axis=1)[:, -2:]
     rows = np.arange(vertices.size)
-    rise_linear = g[rows, top[:, 1]] - g[rows, top[:, 0]]
-    across = rise_linear < 2 * h * np.linalg.norm(linear[top[:, 1], :2] - linear[top[:, 0], :2], axis=1) / unit
-    rise = (stored[rows, top[:, 1]] - stored[rows, top[:, 0]])[across]
-    rise_linear = rise_linear[across]
+    if rays is None:
+        top = np.argsort(g, axis=1)[:, -2:]
+        first, second = top[:, 1], top[:, 0]
+        slope = np.linalg.norm(linear[first, :2] - linear[second, :2], axis=1) / unit
+        across = g[rows, first] - g[rows, second] < 2 * h * slope
+        parted = [(first, second, across)]
+    else:
+        along = rel @ np.stack([np.cos(rays), np.sin(rays)], axis=1).T
+        near_ray = (np.abs(rel @ np.stack([-np.sin(rays), np.cos(rays)], axis=1).T) < 2 * h) & (along > 0)
+        parted = [(np.full(rows.size, q), np.full(rows.size, q - 1), near_ray[:, q]) for q in range(3)]
+    rise = np.concatenate([(stored[rows, a] - stored[rows, b])[m] for a, b, m in parted])
+    rise_linear = np.concatenate([(g[rows, a] - g[rows, b])[m] for a, b, m in parted])
     scale = float(rise @ rise_linear) / float(rise_linear @ rise_linear) if rise_linear.any() else 0.0
     if not scale > 0:
         return None
@@ -710,29 +713,13 @@ def fit_line(sites, side, angle, offset=0.0, margin=MARGIN, iterations=100):
     sites = np.asarray(sites, dtype=np.float64)
     side = np.asarray(side, dtype=np.float64)
 
-    def terms(p):
+    def signed(p):
         c, s = np.cos(p[0]), np.sin(p[0])
-        dist = side * (sites @ [c, s] - p[1])
         d = side[:, None] * np.column_stack([sites @ [-s, c], -np.ones(len(sites))])
-        e, slope = _soft_exp(-dist / margin)
-        return e.sum(), (-slope / margin) @ d, (d * (slope / margin**2)[:, None]).T @ d, dist
+        return side * (sites @ [c, s] - p[1]), d
 
-    p = np.array([angle, offset], dtype=np.float64)
-    loss, grad, hess, _ = terms(p)
-    damping = 1e-3
-    for _ in range(iterations):
-        step = -np.linalg.solve(hess + damping * np.diag(np.diag(hess) + 1e-12), grad)
-        trial = terms(p + step)
-        if trial[0] < loss:
-            p, (loss, grad, hess, _) = p + step, trial
-            damping /= 3.0
-        else:
-            damping *= 4.0
-        if np.abs(step).max() < 1e-7 or damping > 1e12:
-            break
-    if not (np.isfinite(p).all() and np.mean(terms(p)[3] > 0) > 0.95):
-        return None
-    return p[0], p[1]
+    p = _separating(signed, np.array([angle, offset], dtype=np.float64), margin, iterations)
+    return None if p is None else (p[0], p[1])
 
 
 def _crossing(domain, point, pair, near, sites, site_codes, values, lead, blend, h, unit):

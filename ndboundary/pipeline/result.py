@@ -482,8 +482,9 @@ class RegionsResult(_RegionMethods):
         """
         cached = self.__dict__.get("_phi")
         if cached is None:
-            self.region_values()  # the junctions fitted
-            cached = _written(np.stack([res.phi for res in self.regions], axis=1), self._junction_values)
+            cached = self.region_values()  # the junctions fitted
+            if sp.issparse(cached):  # the regions' bands only: filled now
+                cached = _written(np.stack([res.phi for res in self.regions], axis=1), self._junction_values)
             self.__dict__["_phi"] = cached
             self.__dict__.pop("_values", None)
         return cached
@@ -545,17 +546,19 @@ class RegionsResult(_RegionMethods):
         if self._codes is None or not junctions.JUNCTION_FIT or self.classes.size < 3:
             return False
         tick = time.perf_counter()
-        mixed = _mixed_of(self.domain, values)
+        lead = _argmax_rows(values)
+        mixed = _mixed_of(self.domain, values, lead)
         if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
             return False  # the whole cut would not fit in memory: see _RegionCuts
         h = self.params.get("h") or self.domain.mean_edge_length()
         complex_ = _complex(self.domain, values) if mixed[0] is None else mixed[0]
-        near = _near_junctions(*complex_, 5.0 * h)
+        complex_lead = _argmax_rows(complex_[2])
+        near = _near_junctions(*complex_, complex_lead, 5.0 * h)
         faces = None if near is None else partition(*near).interfaces()
-        crossings = _border_crossings(*complex_)
+        crossings = _border_crossings(*complex_, complex_lead)
         if faces is not None or len(crossings[0]):
             on = self.params.get("on", "elements")
-            crossings = (*crossings, _argmax_rows(values))
+            crossings = (*crossings, lead)
             self._junction_values = junctions.junction_corrections(
                 self.domain, self._codes, on, values, faces, h, crossings
             )
@@ -567,13 +570,14 @@ class RegionsResult(_RegionMethods):
         return True
 
 
-def _near_junctions(points, simplices, values, radius):
+def _near_junctions(points, simplices, values, lead, radius):
     """The part of the complex ``(points, simplices, values)`` within ``radius`` of its
-    simplices whose vertices lead with three or more regions, where point junctions may
-    be, as a complex of its own; None when there is none. Cutting it alone finds the
-    junctions and the interfaces near them at a cost that follows the junctions.
+    simplices whose vertices lead (``lead``, each point's largest function) with three or
+    more regions, where point junctions may be, as a complex of its own; None when there
+    is none. Cutting it alone finds the junctions and the interfaces near them at a cost
+    that follows the junctions.
     """
-    lead = np.sort(_argmax_rows(values)[simplices], axis=1)
+    lead = np.sort(lead[simplices], axis=1)
     seeds = np.flatnonzero((np.diff(lead, axis=1) != 0).sum(axis=1) >= 2)
     if seeds.size == 0:
         return None
@@ -583,12 +587,12 @@ def _near_junctions(points, simplices, values, radius):
     return points[used], np.searchsorted(used, kept), values[used]
 
 
-def _border_crossings(points, simplices, values):
+def _border_crossings(points, simplices, values, lead):
     """Where the interfaces meet the border of the 2-D complex ``(points, simplices,
-    values)``: the points, and the two regions leading at the ends of each border edge
-    that the interfaces cross. The complex is the domain's, or its mixed elements' (whose
-    border elsewhere no interface crosses: the elements beyond lie in one region, and both
-    ends of an edge they share lead with it).
+    values)``, each point's largest function ``lead``: the points, and the two regions
+    leading at the ends of each border edge that the interfaces cross. The complex is the
+    domain's, or its mixed elements' (whose border elsewhere no interface crosses: the
+    elements beyond lie in one region, and both ends of an edge they share lead with it).
     """
     if simplices.shape[1] != 3:
         return np.zeros((0, points.shape[1])), np.zeros((0, 2), dtype=np.int64)
@@ -596,7 +600,6 @@ def _border_crossings(points, simplices, values):
     n = np.int64(points.shape[0])
     keys, counts = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_counts=True)
     edges = np.column_stack([keys // n, keys % n])[counts == 1]
-    lead = _argmax_rows(values)
     edges = edges[lead[edges[:, 0]] != lead[edges[:, 1]]]
     pairs = lead[edges]
     if len(edges) == 0:
@@ -637,9 +640,11 @@ def _written(values, fitted):
     return out
 
 
-def _mixed_of(domain, values):
-    """:meth:`_RegionMethods._mixed` of the region functions ``values`` on ``domain``."""
-    mixed, lowest = domain.mixed_elements(_argmax_rows(values))
+def _mixed_of(domain, values, lead=None):
+    """:meth:`_RegionMethods._mixed` of the region functions ``values`` on ``domain``
+    (``lead``: each vertex's largest function, when known).
+    """
+    mixed, lowest = domain.mixed_elements(_argmax_rows(values) if lead is None else lead)
     if not can_cut(domain) or mixed.all() or not mixed.any():
         return None, np.zeros(values.shape[1])
     sub, vertices = domain.subdomain(mixed)
