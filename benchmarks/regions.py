@@ -49,7 +49,8 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
 - ``image-y`` (not by default): 12 random Y's of three regions on 64 x 64 label images,
   and a Voronoi partition by 24 random sites on 600 x 600 pixels: the distance (pixels)
   from each true junction to the nearest found one, fitted to the labels (the default)
-  and relaxed (``JUNCTION_FIT = False``).
+  and relaxed (``JUNCTION_FIT = False``); and the Voronoi image's ``relax_image`` and
+  first ``interfaces()`` seconds, each way, medians of 3 cold processes, alternated.
 - ``speed`` (or ``--speed``): ``kuhn_grid(500, 2, jitter=0.25)`` (251 001 vertices), 8
   Voronoi regions against 2 (the first two of the 8 sites), relax alone and relax plus
   ``interfaces().junctions()``, medians of 3 cold runs: each the first ``relax`` of a
@@ -344,14 +345,15 @@ def speed_one(seed, n_regions):
     print(seconds, time.perf_counter() - t0)
 
 
-def speed(seed, repeats=3):
+def speed(seed, repeats=3, fit=True):
     print("speed: kuhn_grid(500, 2) (251 001 vertices); every timed relax is the first of a fresh process on a "
           "fresh domain: it pays the assembly and the loading of the compiled kernels, as a user's first call "
           "does (the imports and the mesh's construction are not timed)", flush=True)  # fmt: skip
     times = {(L, w): [] for L in (2, 8) for w in ("relax", "with_junctions")}
     for _ in range(repeats):
         for L in (2, 8):
-            out = subprocess.run([sys.executable, __file__, "--speed-one", str(L), "--seed", str(seed)],
+            flags = [] if fit else ["--no-junction-fit"]
+            out = subprocess.run([sys.executable, __file__, "--speed-one", str(L), "--seed", str(seed), *flags],
                                  check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
             times[L, "relax"].append(float(out[0]))
             times[L, "with_junctions"].append(float(out[1]))
@@ -408,7 +410,40 @@ def image_y(seed, n=64, count=12):
                     f"voronoi_{name}_max_px": v.max()})  # fmt: skip
         print(f"image junctions, {name}: Y {n}^2 x{count} mean {y.mean():.3f} max {y.max():.3f} px; Voronoi 600^2 "
               f"({v.size} junctions) mean {v.mean():.3f} max {v.max():.3f} px", flush=True)  # fmt: skip
+    # the seconds of the Voronoi image's relax_image, then of its first interfaces(): each
+    # the first of a fresh process, the fit on and off alternated, medians of 3
+    times = {True: [], False: []}
+    for _ in range(3):
+        for fit in (True, False):
+            flags = [] if fit else ["--no-junction-fit"]
+            out = subprocess.run([sys.executable, __file__, "--image-one", "--seed", str(seed), *flags],
+                                 check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
+            times[fit].append([float(t) for t in out])
+    for fit, name in ((True, "fitted"), (False, "relaxed")):
+        relax_s, partition_s = np.median(times[fit], axis=0)
+        row.update({f"voronoi_{name}_relax_s": relax_s, f"voronoi_{name}_partition_s": partition_s})
+        print(f"image Voronoi 600^2, {name}: relax_image {relax_s:.2f} s, then interfaces() {partition_s:.2f} s "
+              "(medians of 3 fresh processes)", flush=True)  # fmt: skip
     return targets(row, None)
+
+
+def image_one(seed):
+    """One cold relax_image of :func:`image_y`'s Voronoi image and its first interfaces():
+    prints both seconds."""
+    from scipy.spatial import cKDTree
+
+    from ndboundary import relax_image
+
+    rng = np.random.default_rng(seed)
+    for _ in range(12):  # the Y's draws come first
+        rng.uniform(-0.5, 0.5, 2), rng.uniform(-0.26, 0.26, 3), rng.uniform(0, 2 * np.pi)
+    sites = rng.uniform(0, 600, (24, 2))
+    image = cKDTree(sites).query(np.indices((600, 600)).reshape(2, -1).T)[1].reshape(600, 600)
+    t0 = time.perf_counter()
+    res = relax_image(image)
+    t1 = time.perf_counter()
+    res.interfaces()
+    print(t1 - t0, time.perf_counter() - t1)
 
 def cases(args):
     rng = np.random.default_rng(args.seed)
@@ -426,7 +461,7 @@ def cases(args):
             "volume tet 24^3", kuhn_grid(24, 3, jitter=0.25, random_state=0), sites3
         ),  # fmt: skip
         "volume-hex24": lambda: measure_volume("volume hex 24^3", hex_grid(24, jitter=0.25, random_state=0), sites3),
-        "speed": lambda: speed(args.seed),
+        "speed": lambda: speed(args.seed, fit=not args.no_junction_fit),
         "image-y": lambda: image_y(args.seed),
     }
 
@@ -444,6 +479,7 @@ def main():
     parser.add_argument("--seed", type=int, default=0, help="random state of the sites")
     parser.add_argument("--speed", action="store_true", help="add the speed case")
     parser.add_argument("--speed-one", type=int, help=argparse.SUPPRESS)  # one cold relax of the speed case
+    parser.add_argument("--image-one", action="store_true", help=argparse.SUPPRESS)  # one cold image of image-y
     parser.add_argument("--cases", default=None, help="comma-separated case names (default: every fidelity case)")
     parser.add_argument(
         "--independent",
@@ -456,17 +492,20 @@ def main():
         help="keep the point junctions where the relaxed functions put them (not fitted to the labels)",
     )
     args = parser.parse_args()
+    if args.no_junction_fit:
+        from ndboundary.pipeline import junctions
+
+        junctions.JUNCTION_FIT = False
     if args.speed_one:
         speed_one(args.seed, args.speed_one)
+        return
+    if args.image_one:
+        image_one(args.seed)
         return
     if args.independent:
         from ndboundary.pipeline import sectors
 
         sectors.SECTOR_SMOOTHING = False
-    if args.no_junction_fit:
-        from ndboundary.pipeline import junctions
-
-        junctions.JUNCTION_FIT = False
     table = cases(args)
     names = args.cases.split(",") if args.cases else [n for n in table if n not in ("speed", "image-y")]
     if args.speed and "speed" not in names:
