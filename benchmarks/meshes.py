@@ -12,10 +12,15 @@
     length h, the same for the jagged boundary's vertices, and the time of ``relax``.
     Target (issue): mean <= 0.25 h.
 
+``--vertex-pins`` holds phi at the jagged boundary's vertices on triangles and tetrahedra,
+as the paper does, instead of at its facets' centres
+(``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
+
 Run::
 
     python benchmarks/meshes.py            # about a minute
     python benchmarks/meshes.py --no-shared
+    python benchmarks/meshes.py --vertex-pins
 
 Prints two tables, then one JSON line per case (``{"bench": "meshes", ...}``).
 """
@@ -126,7 +131,12 @@ def run_shared():
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--no-shared", action="store_true", help="Fig. 6 cases only")
+    ap.add_argument("--vertex-pins", action="store_true", help="pin zeta's vertices on simplices, not its facets' centres")
     args = ap.parse_args(argv)
+    if args.vertex_pins:
+        from ndboundary.pipeline import boundary
+
+        boundary.FACET_CENTRE_PINS = False
     rows = run_fig6()
     if not args.no_shared:
         if MESHES.is_dir():

@@ -62,7 +62,9 @@ as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline 
 smoothing within sectors is measured against. ``--no-junction-fit`` keeps the point
 junctions (in the plane, on the sphere) where the relaxed functions put them
 (``ndboundary.pipeline.junctions.JUNCTION_FIT = False``): the baseline that fitting them
-to the labels is measured against.
+to the labels is measured against. ``--vertex-pins`` holds phi at the jagged boundary's
+vertices on triangles and tetrahedra, as the paper does, instead of at its facets'
+centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
 
 Columns: ``mean/h``, ``max/h`` over the interface points; ``away``, ``away max`` over
 those farther than 2 h from every true junction and from the border (where the largest
@@ -345,14 +347,14 @@ def speed_one(seed, n_regions):
     print(seconds, time.perf_counter() - t0)
 
 
-def speed(seed, repeats=3, fit=True):
+def speed(seed, repeats=3, fit=True, vertex_pins=False):
     print("speed: kuhn_grid(500, 2) (251 001 vertices); every timed relax is the first of a fresh process on a "
           "fresh domain: it pays the assembly and the loading of the compiled kernels, as a user's first call "
           "does (the imports and the mesh's construction are not timed)", flush=True)  # fmt: skip
     times = {(L, w): [] for L in (2, 8) for w in ("relax", "with_junctions")}
     for _ in range(repeats):
         for L in (2, 8):
-            flags = [] if fit else ["--no-junction-fit"]
+            flags = ([] if fit else ["--no-junction-fit"]) + (["--vertex-pins"] if vertex_pins else [])
             out = subprocess.run([sys.executable, __file__, "--speed-one", str(L), "--seed", str(seed), *flags],
                                  check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
             times[L, "relax"].append(float(out[0]))
@@ -461,7 +463,7 @@ def cases(args):
             "volume tet 24^3", kuhn_grid(24, 3, jitter=0.25, random_state=0), sites3
         ),  # fmt: skip
         "volume-hex24": lambda: measure_volume("volume hex 24^3", hex_grid(24, jitter=0.25, random_state=0), sites3),
-        "speed": lambda: speed(args.seed, fit=not args.no_junction_fit),
+        "speed": lambda: speed(args.seed, fit=not args.no_junction_fit, vertex_pins=args.vertex_pins),
         "image-y": lambda: image_y(args.seed),
     }
 
@@ -491,11 +493,20 @@ def main():
         action="store_true",
         help="keep the point junctions where the relaxed functions put them (not fitted to the labels)",
     )
+    parser.add_argument(
+        "--vertex-pins",
+        action="store_true",
+        help="hold phi at the jagged boundary's vertices on simplices, not at its facets' centres",
+    )
     args = parser.parse_args()
     if args.no_junction_fit:
         from ndboundary.pipeline import junctions
 
         junctions.JUNCTION_FIT = False
+    if args.vertex_pins:
+        from ndboundary.pipeline import boundary
+
+        boundary.FACET_CENTRE_PINS = False
     if args.speed_one:
         speed_one(args.seed, args.speed_one)
         return

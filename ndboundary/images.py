@@ -305,6 +305,7 @@ def _moved(boundary, vertices, domain, codes, region):
         sp.csr_matrix((S.data, vertices[S.indices], S.indptr), shape=(S.shape[0], domain.n_vertices)),
         boundary.points,
         facets=functools.partial(_region_facets, domain, codes, region, sources),
+        targets=boundary.targets,
     )
 
 

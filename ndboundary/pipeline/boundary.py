@@ -9,9 +9,20 @@ import scipy.sparse as sp
 
 from .._arrays import used_vertices
 from ..domains.image import grid_facets
+from ..domains.simplicial import SimplicialComplex
 from .band import can_cut, element_rings
 
-__all__ = ["Boundary", "element_boundary", "facet_pins", "pinned_rows", "vertex_boundary", "zeta_facets"]
+__all__ = [
+    "FACET_CENTRE_PINS",
+    "Boundary",
+    "element_boundary",
+    "facet_centre_rows",
+    "facet_pins",
+    "pinned_rows",
+    "pins_facet_centres",
+    "vertex_boundary",
+    "zeta_facets",
+]
 
 
 class Boundary:
@@ -23,15 +34,21 @@ class Boundary:
         Vertices that receive heat (zeta's vertices for element labels; the ends of
         cut edges for vertex labels).
     S : sparse matrix of shape (n_points, n_vertices)
-        One row per point of zeta with its interpolation weights over the vertices.
+        One row per point of zeta with its interpolation weights over the vertices,
+        times the square root of the point's weight in the boundary term. Given as a
+        callable of the boundary returning ``(S, points, targets)``, they are built when
+        first read.
     points : ndarray of shape (n_points, dim)
-        The points of zeta (``S @ domain.points``).
+        The points of zeta: its vertices, the centres of its facets
+        (:func:`element_boundary`) or the midpoints of cut edges (:func:`vertex_boundary`).
     edges : ndarray of int of shape (n_cut_edges, 2) or None
         For vertex labels, the edges whose ends differ.
     facets : ndarray of int of shape (n_facets, k) or None
         For element labels, the facets between elements of different labels: the
-        jagged boundary as a complex over the domain's vertices. The relaxation needs
-        only the vertices: the facets are sought when first read (given as a callable).
+        jagged boundary as a complex over the domain's vertices, sought when first read
+        (given as a callable).
+    targets : ndarray of shape (n_points,)
+        The values the rows ``S`` hold phi at: 1/2 times each row's scale.
 
     Examples
     --------
@@ -42,11 +59,37 @@ class Boundary:
     >>> zeta = element_boundary(mesh, label_by(mesh, circle) == 1)
     >>> isinstance(zeta, Boundary), zeta.S.shape, zeta.points.shape, zeta.facets.shape
     (True, (20, 121), (20, 2), (20, 2))
+    >>> bool((zeta.targets == 0.5).all())  # 20 facets, 20 vertices: every pin weighs one
+    True
     """
 
-    def __init__(self, sources, S, points, edges=None, facets=None):
-        self.sources, self.S, self.points, self.edges = sources, S, points, edges
+    def __init__(self, sources, S, points, edges=None, facets=None, targets=None):
+        self.sources, self.edges = sources, edges
         self._facets = facets
+        self._pins = (S, points, targets)
+
+    def _pinned(self):
+        """``(S, points, targets)``, built when first read where ``S`` was given as a
+        callable returning them from this boundary."""
+        S, points, targets = self._pins
+        if callable(S):
+            S, points, targets = S(self)
+        if targets is None:
+            targets = np.full(S.shape[0], 0.5)
+        self._pins = (S, points, targets)
+        return self._pins
+
+    @property
+    def S(self):
+        return self._pinned()[0]
+
+    @property
+    def points(self):
+        return self._pinned()[1]
+
+    @property
+    def targets(self):
+        return self._pinned()[2]
 
     @property
     def facets(self):
@@ -56,16 +99,31 @@ class Boundary:
         return self._facets
 
     def __repr__(self):
-        return f"Boundary(n_sources={self.sources.size}, n_points={self.points.shape[0]})"
+        return f"Boundary(n_sources={self.sources.size}, n_points={self.S.shape[0]})"
 
 
 def element_boundary(domain, region1, sources=None):
-    """Zeta for element labels: the vertices shared by elements of both labels.
+    """Zeta for element labels: the vertices shared by elements of both labels, which
+    receive the heat, and the points where phi is held at 1/2.
 
-    The facets between the labels, which the relaxation does not need, are sought when
-    first read, among the elements that touch zeta's vertices only (every such facet lies
-    there), so that beyond the linear passes of the incidence the cost follows zeta.
-    ``sources``, when given, are those vertices, found before (for many regions at once,
+    On a complex of triangles or higher simplices (:func:`pins_facet_centres`) phi is
+    held at the centre of every facet between the labels, elsewhere at zeta's vertices
+    (the paper's pins). A staircase of simplices zig-zags across their diagonals: its
+    vertices alternate between the tips and the roots of its teeth, so that holding phi
+    at each bends the level set towards every tip, where two tips close together folded
+    it; the centres of its facets lie between them. Against the vertex pins
+    (``python benchmarks/meshes.py --vertex-pins``, ``benchmarks/regions.py``), the
+    mean distance to the truth fell on every triangle and tetrahedron mesh measured, by
+    up to a third on tetrahedra, and the largest by up to half. On quads, hexahedra and
+    Voronoi cells, whose staircases run along the cells' sides as a voxel's do, the
+    facets' centres did no better, and the vertices stay pinned. The rows weigh alike and
+    their weights sum to the number of zeta's vertices, so that ``lam`` means what it
+    means with a pin per vertex.
+
+    The facets between the labels are sought among the elements that touch zeta's
+    vertices only (every such facet lies there), so that beyond the linear passes of the
+    incidence the cost follows zeta. The facets and the pins are found when first read.
+    ``sources``, when given, are zeta's vertices, found before (for many regions at once,
     by :meth:`~ndboundary.Domain.code_boundaries`).
 
     Examples
@@ -76,14 +134,64 @@ def element_boundary(domain, region1, sources=None):
     >>> zeta = element_boundary(mesh, label_by(mesh, circle) == 1)
     >>> zeta.sources.size, zeta.facets.shape  # 20 vertices, joined by 20 jagged edges
     (20, (20, 2))
+    >>> zeta.S.shape, zeta.S[0].data.tolist()  # one pin at the middle of each edge
+    ((20, 121), [0.5, 0.5])
     """
     if sources is None:
         sources = np.flatnonzero(domain.vertices_of(region1) & domain.vertices_of(~region1))
+    # the pins are built when first read: a band's relaxation reads its own zeta's alone
+    pins = functools.partial(_element_pins, domain)
+    return Boundary(sources, pins, None, facets=functools.partial(zeta_facets, domain, region1, sources))
+
+
+def _element_pins(domain, zeta):
+    """``(S, points, targets)`` of :func:`element_boundary`'s ``zeta`` on ``domain``."""
+    sources = zeta.sources
+    if pins_facet_centres(domain):
+        facets = zeta.facets
+        if facets is not None and len(facets):
+            S, targets = facet_centre_rows(facets, sources.size, domain.n_vertices)
+            return S, domain.points[facets].mean(axis=1), targets
     S = sp.csr_matrix(
         (np.ones(sources.size), (np.arange(sources.size), sources)), shape=(sources.size, domain.n_vertices)
     )
-    facets = functools.partial(zeta_facets, domain, region1, sources)
-    return Boundary(sources, S, domain.points[sources], facets=facets)
+    return S, domain.points[sources], None
+
+
+#: Whether element labels on a complex of triangles or higher simplices hold phi at the
+#: centres of zeta's facets (read at call time; False holds it at zeta's vertices, the
+#: paper's pins, which the benchmarks compare with).
+FACET_CENTRE_PINS = True
+
+
+def pins_facet_centres(domain):
+    """Whether :func:`element_boundary` holds phi at the centres of zeta's facets on
+    ``domain``: a simplicial complex of triangles or higher simplices, while
+    :data:`FACET_CENTRE_PINS` is set.
+    """
+    return FACET_CENTRE_PINS and isinstance(domain, SimplicialComplex) and domain.simplex_dim >= 2
+
+
+def facet_centre_rows(facets, n_sources, n_vertices):
+    """Rows holding phi at 1/2 at the centre of each of ``facets``, and their targets.
+
+    Each row averages its facet's vertices and is scaled by ``sqrt(n_sources / n_facets)``
+    (its target too), so that the weights of the rows in the boundary term sum to
+    ``n_sources``, as a pin per vertex of zeta's ``n_sources`` would.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ndboundary.pipeline.boundary import facet_centre_rows
+    >>> S, targets = facet_centre_rows(np.array([[0, 1, 2], [1, 2, 3]]), 4, 5)
+    >>> S.toarray().round(3).tolist()[0], targets.round(3).tolist()
+    ([0.471, 0.471, 0.471, 0.0, 0.0], [0.707, 0.707])
+    """
+    n, k = facets.shape
+    scale = np.sqrt(n_sources / n)
+    cols = np.sort(facets, axis=1).ravel()
+    S = sp.csr_matrix((np.full(n * k, scale / k), cols, np.arange(0, n * k + 1, k)), shape=(n, n_vertices))
+    return S, np.full(n, 0.5 * scale)
 
 
 def zeta_facets(domain, region1, sources):

@@ -143,6 +143,6 @@ def pad(domain, region1, boundary: Boundary, on, enabled=True, *, vertex_pins=Fa
         slabs = tuple(np.concatenate([a, np.full((more,) + a.shape[1:], -1)]) for a in (inside, outside))
         slabs += (np.concatenate([lift, np.zeros(more)]),)
     else:
-        S, targets = pinned_rows(domain, boundary.S, vert_region1, all_reached=all_reached)
+        S, targets = pinned_rows(domain, boundary.S, vert_region1, boundary.targets, all_reached)
     S = sp.hstack([S, sp.csr_matrix((S.shape[0], work.n_vertices - domain.n_vertices))]).tocsr()
     return Padded(work, split, parent, elem_region1, straddle, left, S, targets, slabs)
