@@ -108,6 +108,38 @@ def test_4d_level_set_is_closer_than_the_jagged_boundary():
     assert f["mean"] <= 0.85 * f_jag["mean"]
 
 
+def test_zeta_pins_sit_at_facet_centres_on_simplices_and_at_vertices_elsewhere():
+    """On triangles phi is held at the middle of each jagged edge, the rows weighing alike
+    and their weights summing to zeta's vertices; on quads at zeta's vertices."""
+    from ndboundary.datasets import quad_grid
+
+    tri = kuhn_grid(12, 2, jitter=0.2, random_state=0)
+    zeta = relax(tri, label_by(tri, circle), on="elements").boundary
+    facets = zeta.facets
+    assert zeta.S.shape == (len(facets), tri.n_vertices) and zeta.sources.size > 0
+    np.testing.assert_allclose(zeta.points, tri.points[facets].mean(axis=1))
+    np.testing.assert_allclose(zeta.S @ tri.points, 2 * zeta.targets[:, None] * zeta.points)
+    assert np.sum((2 * zeta.targets) ** 2) == pytest.approx(zeta.sources.size)
+    quads = quad_grid(12, jitter=0.2, random_state=0)
+    zeta = relax(quads, label_by(quads, circle), on="elements").boundary
+    assert zeta.S.shape == (zeta.sources.size, quads.n_vertices) and (zeta.targets == 0.5).all()
+    np.testing.assert_array_equal(zeta.S.indices, zeta.sources)
+
+
+def test_facet_centre_pins_bring_the_level_set_nearer_on_tetrahedra(monkeypatch):
+    """The jagged boundary of tetrahedra zig-zags across their diagonals: held at its
+    facets' centres, between the teeth, the level set lies nearer the truth than held at
+    its vertices, the tips and roots of the teeth (the paper's pins)."""
+    from ndboundary.pipeline import boundary
+
+    dom = kuhn_grid(16, 3, jitter=0.25, random_state=0)
+    labels = label_by(dom, ball)
+    facets = fidelity(relax(dom, labels, on="elements").level_set(), ball, 2 / 16)
+    monkeypatch.setattr(boundary, "FACET_CENTRE_PINS", False)
+    vertices = fidelity(relax(dom, labels, on="elements").level_set(), ball, 2 / 16)
+    assert facets["mean"] < 0.8 * vertices["mean"] and facets["max"] < 0.8 * vertices["max"], (facets, vertices)
+
+
 def rigid(points, rng, scale):
     Q, _ = np.linalg.qr(rng.standard_normal((points.shape[1],) * 2))
     Q[:, 0] *= np.sign(np.linalg.det(Q))  # a rotation, not a reflection: orientation is kept

@@ -70,7 +70,8 @@ class Boundary:
 
     def _pinned(self):
         """``(S, points, targets)``, built when first read where ``S`` was given as a
-        callable returning them from this boundary."""
+        callable returning them from this boundary.
+        """
         S, points, targets = self._pins
         if callable(S):
             S, points, targets = S(self)
@@ -81,14 +82,17 @@ class Boundary:
 
     @property
     def S(self):
+        """The pins' rows (see the class docstring)."""
         return self._pinned()[0]
 
     @property
     def points(self):
+        """The pins' points (see the class docstring)."""
         return self._pinned()[1]
 
     @property
     def targets(self):
+        """The pins' targets (see the class docstring)."""
         return self._pinned()[2]
 
     @property
