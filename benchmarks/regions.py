@@ -71,7 +71,10 @@ those farther than 2 h from every true junction and from the border (where the l
 errors are not); ``t>f`` the largest distance from a true junction to the found ones,
 ``f>t`` from a found junction to the true ones; ``jag t>f`` the same ``t>f`` for the
 jagged labels' junctions (the vertices where three labels meet); ``meas%`` the largest relative error of
-a region's measure; ``s`` the seconds of the relax call.
+a region's measure; ``jag%`` the same for the labelled regions (their elements' measures
+summed: the relaxation keeps them, so that they bound what it can reach) and ``cell/h``
+the square root of the mean element's measure, in h (plane cases); ``s`` the seconds of
+the relax call.
 
 Usage::
 
@@ -107,7 +110,8 @@ COLUMNS = [("L", 3, "d", "n_regions"), ("h", 7, ".4f", "h"), ("mean/h", 7, ".3f"
            ("junc t/f", 9, "s", "junctions"), ("t>f/h", 7, ".3f", "true_to_found_h"),
            ("f>t/h", 7, ".3f", "found_to_true_h"), ("jag t>f", 7, ".3f", "jagged_true_to_found_h"),
            ("jcurve/h", 8, ".3f", "junction_curve_mean_h"),
-           ("meas%", 7, ".3f", "measure_err_pct"), ("gap%", 6, ".3f", "naive_gap_pct"),
+           ("meas%", 7, ".3f", "measure_err_pct"), ("jag%", 6, ".3f", "jagged_measure_err_pct"),
+           ("cell/h", 6, ".2f", "cell_h"), ("gap%", 6, ".3f", "naive_gap_pct"),
            ("over%", 6, ".3f", "naive_overlap_pct"), ("seam/h", 6, ".2f", "naive_seam_max_h"),
            ("argmax", 8, ".1e", "argmax_gap_rel"), ("s", 6, ".2f", "seconds")]  # fmt: skip
 
@@ -222,7 +226,8 @@ def targets(row, res, *items):
 
 def measure_plane(name, mesh, sites):
     truth = VoronoiTruth(sites)
-    res, seconds = relaxed(mesh, truth.labels(mesh.element_centroids()))
+    labels = truth.labels(mesh.element_centroids())
+    res, seconds = relaxed(mesh, labels)
     row, h = base_row(name, mesh, res, seconds)
     true, triples = truth.vertices_scipy()
     s = truth.sites
@@ -236,7 +241,11 @@ def measure_plane(name, mesh, sites):
     t2f, f2t = t2f.max(initial=0) / h, f2t.max(initial=0) / h
     jagged = match(*jagged_junctions(mesh, truth.labels(mesh.element_centroids())), true,
                    [set(t.tolist()) for t in triples])[0].max(initial=0) / h  # fmt: skip
-    err = 100 * np.abs(res.region_measures() / truth.exact_measures(mesh)[res.classes] - 1)
+    exact = truth.exact_measures(mesh)[res.classes]
+    err = 100 * np.abs(res.region_measures() / exact - 1)
+    labelled = np.bincount(np.searchsorted(res.classes, labels), weights=mesh.A, minlength=res.classes.size)
+    row.update(jagged_measure_err_pct=float(100 * np.abs(labelled / exact - 1).max()),
+               cell_h=float(np.sqrt(mesh.A.mean()) / h))  # fmt: skip
     row.update(junctions=f"{len(true)}/{len(found)}", true_to_found_h=t2f, found_to_true_h=f2t,
                jagged_true_to_found_h=jagged, measure_err_pct=err.max(), bisector_line_max_h=line["max_h"])  # fmt: skip
     return targets(row, res, ("interface mean / h", row["mean_h"], 0.12), ("interface max / h", row["max_h"], 0.5),
