@@ -212,29 +212,36 @@ def test_regions_relax_the_same_with_what_they_share(voronoi):
     np.testing.assert_array_equal(relaxer.relax(labels, on="elements").phi, res.phi)
 
 
+def _voronoi_tetrahedra():
+    """Six Voronoi regions of [-1, 1]^3 on jittered tetrahedra 16^3, the sites of the volume
+    cases of benchmarks/regions.py: ``(mesh, sites, labels)``."""
+    mesh = kuhn_grid(16, 3, jitter=0.25, random_state=0)
+    rng = np.random.default_rng(0)
+    rng.uniform(-0.8, 0.8, (7, 2))  # the plane's sites of benchmarks/regions.py come first
+    sites = rng.uniform(-0.8, 0.8, (6, 3))
+    c = mesh.element_centroids()
+    return mesh, sites, np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+
+
+def _bisector_distances(mesh, sites, labels):
+    """The distances (in h) of the relaxed interfaces' corners to their pair's bisector plane."""
+    faces = relax(mesh, labels, on="elements").interfaces()
+    a, b = sites[faces.pairs[:, 0]], sites[faces.pairs[:, 1]]
+    n = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
+    d = np.abs(((faces.points[faces.simplices] - 0.5 * (a + b)[:, None]) * n[:, None]).sum(axis=2))
+    return d / mesh.mean_edge_length()
+
+
 def test_sector_smoothing_brings_volume_interfaces_nearer(monkeypatch):
     """Six Voronoi regions in a cube: smoothing each region's field within the sectors of
     its neighbours puts the interfaces nearer to the true bisector planes than relaxing
     each region on its own (the independent one-vs-rest relaxations)."""
     from ndboundary.pipeline import sectors
 
-    mesh = kuhn_grid(16, 3, jitter=0.25, random_state=0)
-    rng = np.random.default_rng(0)
-    rng.uniform(-0.8, 0.8, (7, 2))  # the plane's sites of benchmarks/regions.py come first
-    sites = rng.uniform(-0.8, 0.8, (6, 3))
-    c = mesh.element_centroids()
-    labels = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
-
-    def mean_distance():
-        faces = relax(mesh, labels, on="elements").interfaces()
-        a, b = sites[faces.pairs[:, 0]], sites[faces.pairs[:, 1]]
-        n = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
-        d = np.abs(((faces.points[faces.simplices] - 0.5 * (a + b)[:, None]) * n[:, None]).sum(axis=2))
-        return d.mean() / mesh.mean_edge_length()
-
-    coupled = mean_distance()
+    voronoi = _voronoi_tetrahedra()
+    coupled = _bisector_distances(*voronoi).mean()
     monkeypatch.setattr(sectors, "SECTOR_SMOOTHING", False)
-    independent = mean_distance()
+    independent = _bisector_distances(*voronoi).mean()
     assert coupled < 0.12 and coupled < 0.9 * independent, (coupled, independent)
 
 
@@ -243,23 +250,10 @@ def test_facet_centre_pins_bring_volume_interfaces_nearer(monkeypatch):
     facets gives interfaces nearer the bisector planes than held at the facets' vertices."""
     from ndboundary.pipeline import boundary
 
-    mesh = kuhn_grid(16, 3, jitter=0.25, random_state=0)
-    rng = np.random.default_rng(0)
-    rng.uniform(-0.8, 0.8, (7, 2))  # the plane's sites of benchmarks/regions.py come first
-    sites = rng.uniform(-0.8, 0.8, (6, 3))
-    c = mesh.element_centroids()
-    labels = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
-
-    def distances():
-        faces = relax(mesh, labels, on="elements").interfaces()
-        a, b = sites[faces.pairs[:, 0]], sites[faces.pairs[:, 1]]
-        n = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
-        d = np.abs(((faces.points[faces.simplices] - 0.5 * (a + b)[:, None]) * n[:, None]).sum(axis=2))
-        return d / mesh.mean_edge_length()
-
-    facets = distances()
+    voronoi = _voronoi_tetrahedra()
+    facets = _bisector_distances(*voronoi)
     monkeypatch.setattr(boundary, "FACET_CENTRE_PINS", False)
-    vertices = distances()
+    vertices = _bisector_distances(*voronoi)
     assert facets.mean() < 0.85 * vertices.mean() and facets.max() < 0.75 * vertices.max()
 
 

@@ -115,12 +115,12 @@ def element_boundary(domain, region1, sources=None):
     (the paper's pins). A staircase of simplices zig-zags across their diagonals: its
     vertices alternate between the tips and the roots of its teeth, so that holding phi
     at each bends the level set towards every tip, where two tips close together folded
-    it; the centres of its facets lie between them. Against the vertex pins
-    (``python benchmarks/meshes.py --vertex-pins``, ``benchmarks/regions.py``), the
-    mean distance to the truth fell on every triangle and tetrahedron mesh measured, by
-    up to a third on tetrahedra, and the largest by up to half. On quads, hexahedra and
-    Voronoi cells, whose staircases run along the cells' sides as a voxel's do, the
-    facets' centres did no better, and the vertices stay pinned. The rows weigh alike and
+    it; the centres of its facets lie between them. The level sets then lie nearer the
+    truth on the triangle and tetrahedron meshes of the benchmarks, most on tetrahedra
+    (``benchmarks/meshes.py`` and ``benchmarks/regions.py``, with and without
+    ``--vertex-pins``; figures in the README). On quads, hexahedra and Voronoi cells,
+    whose staircases run along the cells' sides as a voxel's do, the facets' centres did
+    no better, and the vertices stay pinned. The rows weigh alike and
     their weights sum to the number of zeta's vertices, so that ``lam`` means what it
     means with a pin per vertex.
 
