@@ -28,6 +28,8 @@ What is measured, per size, each run in its own subprocess (so that peak memory,
       as a user's first call would.
     * ``--assembly``: the whole domain's operator assembly (``.K``, ``.G``, ``.mass``,
       ``.adjacency``), which ``relax`` no longer needs (it raises the peak memory).
+    * ``--vertex-pins``: phi held at the jagged boundary's vertices, as the paper does,
+      instead of at its facets' centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS``).
     * peak resident memory of the process, and the resident size right after imports.
     * a peer measured in the same run, up to ``--peer-max`` vertices: the whole
       domain's integration system (``band=None``, captured from the pipeline)
@@ -178,6 +180,9 @@ def _emit(obj):
 def worker_ours(args):
     import ndboundary
     from ndboundary import SimplicialComplex, relax
+    from ndboundary.pipeline import boundary
+
+    boundary.FACET_CENTRE_PINS = not args.vertex_pins
 
     _emit({"type": "start", "rss_after_import_mb": rss_mb()})
     t = time.perf_counter()
@@ -265,7 +270,8 @@ def worker_peer(args):
 def run_worker(kind, family, param, args, timeout):
     cmd = [sys.executable, os.path.abspath(__file__), "--_worker", kind, "--_family", family,
            "--_param", str(param), "--repeats", "1", "--params", args.params, "--cut", args.cut,
-           "--jitter", str(args.jitter)] + (["--assembly"] if args.assembly else [])
+           "--jitter", str(args.jitter)] + (["--assembly"] if args.assembly else []) + (
+               ["--vertex-pins"] if args.vertex_pins else [])
     t = time.perf_counter()
     timed_out = False
     try:
@@ -325,6 +331,8 @@ def main(argv=None):
     ap.add_argument("--assembly", action="store_true",
                     help="also time the whole domain's operator assembly (K, G, mass, adjacency), which relax "
                          "no longer needs; it raises the peak memory reported")
+    ap.add_argument("--vertex-pins", action="store_true",
+                    help="hold phi at the jagged boundary's vertices, as the paper does, not at its facets' centres")
     ap.add_argument("--_worker", choices=("ours", "peer"), help=argparse.SUPPRESS)
     ap.add_argument("--_family", help=argparse.SUPPRESS)
     ap.add_argument("--_param", type=int, help=argparse.SUPPRESS)
