@@ -268,7 +268,9 @@ class Relaxer:
             u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
             groups = None
             if self._sectors is not None:
-                groups = region_sectors(self.domain, *self._sectors)[padded.parent]
+                # on the padded domain, whose adjacency the smoothing reads: one a region
+                codes, region = self._sectors
+                groups = region_sectors(padded.work, codes[padded.parent], region)
             Xs = smooth(padded.work, X, p["smoothing"], groups)
             prog.step("smoothing")
             start = time.perf_counter()
