@@ -44,6 +44,8 @@ INTEGRATION_RTOL_SCALE = 1000.0
 #: See :data:`INTEGRATION_RTOL_SCALE`.
 INTEGRATION_RTOL_MAX = 1e-4
 #: The paper's own setting (Fig. 8, Table 1): 3 passes, its unweighted form, no first-order term.
+#: Its pins at zeta's vertices on simplices are a switch of their own
+#: (:data:`~ndboundary.pipeline.boundary.FACET_CENTRE_PINS`).
 PAPER = {"lam": 0.5, "smoothing": 3, "form": "plain", "mu": 0.0}
 
 
