@@ -224,7 +224,8 @@ def _voronoi_tetrahedra():
 
 
 def _bisector_distances(mesh, sites, labels):
-    """The distances (in h) of the relaxed interfaces' corners to their pair's bisector plane."""
+    """The distances (in h) of the relaxed interfaces' corners to their pair's bisector
+    (a line in the plane, a plane in space)."""
     faces = relax(mesh, labels, on="elements").interfaces()
     a, b = sites[faces.pairs[:, 0]], sites[faces.pairs[:, 1]]
     n = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
@@ -255,6 +256,23 @@ def test_facet_centre_pins_bring_volume_interfaces_nearer(monkeypatch):
     monkeypatch.setattr(boundary, "FACET_CENTRE_PINS", False)
     vertices = _bisector_distances(*voronoi)
     assert facets.mean() < 0.85 * vertices.mean() and facets.max() < 0.75 * vertices.max()
+
+
+def test_facet_centre_pins_keep_a_triangle_partition_from_folding(monkeypatch):
+    """Seven Voronoi regions on triangles 160^2 (the sites of seed 5 of
+    benchmarks/regions.py): held at its staircase's vertices, one region's level set
+    folds between two tips of its teeth, half an h off the bisector; held at its
+    facets' centres, every interface stays within a quarter of an h."""
+    from ndboundary.pipeline import boundary
+
+    mesh = kuhn_grid(160, 2, jitter=0.25, random_state=0)
+    sites = np.random.default_rng(5).uniform(-0.8, 0.8, (7, 2))
+    c = mesh.element_centroids()
+    labels = np.argmin(((c[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
+    facets = _bisector_distances(mesh, sites, labels).max()
+    monkeypatch.setattr(boundary, "FACET_CENTRE_PINS", False)
+    vertices = _bisector_distances(mesh, sites, labels).max()
+    assert facets < 0.3 < 0.45 < vertices, (facets, vertices)
 
 
 @pytest.mark.parametrize("kind", ["triangles", "hexahedra"])
