@@ -526,20 +526,30 @@ def _ray_angles(faces, centre, trio, frame, h):
     """
     rays = []
     for a, b in ((0, 1), (0, 2), (1, 2)):
-        mine = (faces.pairs[:, 0] == trio[a]) & (faces.pairs[:, 1] == trio[b])
-        points = faces.points[np.unique(faces.simplices[mine])]
-        d = np.linalg.norm(points - centre, axis=1)
-        points = points[(d >= h) & (d <= 4 * h)]
-        if len(points) == 0:
+        angle = _interface_angle(faces, (trio[a], trio[b]), centre, frame, h)
+        if angle is None:
             return None
-        direction = frame @ (points.mean(axis=0) - centre)
-        rays.append(((a, b), np.arctan2(direction[1], direction[0]) % (2 * np.pi)))
+        rays.append(((a, b), angle % (2 * np.pi)))
     rays.sort(key=lambda ray: ray[1])
     # the sector from one ray to the next belongs to the region both rays border
     owners = [(set(rays[q][0]) & set(rays[(q + 1) % 3][0])).pop() for q in range(3)]
     if sorted(owners) != [0, 1, 2]:
         return None
     return np.array([angle for _, angle in rays]), trio[owners]
+
+
+def _interface_angle(faces, pair, centre, frame, h):
+    """The direction from ``centre``, in the frame's plane, of the interface points of
+    the two regions ``pair`` 1-4 h away (an angle), or None when there is none.
+    """
+    mine = (faces.pairs[:, 0] == min(pair)) & (faces.pairs[:, 1] == max(pair))
+    points = faces.points[np.unique(faces.simplices[mine])]
+    d = np.linalg.norm(points - centre, axis=1)
+    points = points[(d >= h) & (d <= 4 * h)]
+    if len(points) == 0:
+        return None
+    direction = frame @ (points.mean(axis=0) - centre)
+    return np.arctan2(direction[1], direction[0])
 
 
 def _problem(domain, centre, trio, faces, near, sites, site_codes, h, unit):
@@ -594,15 +604,11 @@ def _pair(domain, ends, trios, middle, faces, near, sites, site_codes, values, h
     four = np.array([p, q, x, y])
     frame = _frame(domain.points[near])
     angles = []
-    for end, (a, b) in ((0, (x, p)), (0, (x, q)), (1, (y, p)), (1, (y, q))):
-        mine = (faces.pairs[:, 0] == min(a, b)) & (faces.pairs[:, 1] == max(a, b))
-        points = faces.points[np.unique(faces.simplices[mine])]
-        d = np.linalg.norm(points - ends[end], axis=1)
-        points = points[(d >= h) & (d <= 4 * h)]
-        if len(points) == 0:
+    for end, pair in ((0, (x, p)), (0, (x, q)), (1, (y, p)), (1, (y, q))):
+        angle = _interface_angle(faces, pair, ends[end], frame, h)
+        if angle is None:
             return None
-        direction = frame @ (points.mean(axis=0) - ends[end])
-        angles.append(np.arctan2(direction[1], direction[0]))
+        angles.append(angle)
     mine = np.isin(site_codes, four)
     region = np.argsort(four)[np.searchsorted(np.sort(four), site_codes[mine])]
     local_ends = (ends - middle) @ frame.T / unit

@@ -13,6 +13,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from .._arrays import expand_ranges, unique_values
+from .._compiled import unique_pairs
 from .._compiled_partition import point_simplices
 from .._threads import available_threads
 from ..domains.image import GridBand
@@ -597,9 +598,9 @@ def _border_crossings(points, simplices, values, lead):
     if simplices.shape[1] != 3:
         return np.zeros((0, points.shape[1])), np.zeros((0, 2), dtype=np.int64)
     edges = np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]]), axis=1)
-    n = np.int64(points.shape[0])
-    keys, counts = np.unique(edges[:, 0].astype(np.int64) * n + edges[:, 1], return_counts=True)
-    edges = np.column_stack([keys // n, keys % n])[counts == 1]
+    edges = edges.astype(np.int32)  # the complex is cut whole only below PARTITION_BY_REGION_SIMPLICES
+    distinct, which = unique_pairs(edges[:, 0], edges[:, 1], points.shape[0])
+    edges = distinct[np.bincount(which, minlength=len(distinct)) == 1]  # in one simplex: on the border
     edges = edges[lead[edges[:, 0]] != lead[edges[:, 1]]]
     pairs = lead[edges]
     if len(edges) == 0:
