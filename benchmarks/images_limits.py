@@ -181,7 +181,8 @@ def refine(points, step, sites, side, beta, tau):
         shape=(sites.shape[0], n),
     )
     cycle = np.arange(n)
-    D = sp.csr_matrix((np.concatenate([-np.ones(n), np.ones(n)]), (np.tile(cycle, 2), np.concatenate([cycle, (cycle + 1) % n]))), shape=(n, n)) / step  # fmt: skip
+    ends = (np.tile(cycle, 2), np.concatenate([cycle, (cycle + 1) % n]))
+    D = sp.csr_matrix((np.concatenate([-np.ones(n), np.ones(n)]) / step, ends), shape=(n, n))  # d/ds on the cycle
     kappa = ((ahead - 2.0 * points + behind) / step**2 * -normal).sum(axis=1)  # positive where convex
     dkappa = -(D @ D) - sp.diags(kappa**2)  # kappa of the curve moved by delta, to first order
     A = D @ dkappa
