@@ -19,11 +19,14 @@ made three times: ``band="auto"`` (the default, whose result the script then che
 meshes under ``AUTO_BAND_MIN_VERTICES`` vertices whole); it prints the gaps to the
 whole-domain level set per call, then the scripts' own tables.
 
-The cases ``voxels-96`` and ``voxels-128`` (a ball in a cube of voxels) are relaxed by
+The cases ``voxels-96``, ``voxels-128`` (a ball in a cube of voxels) and ``voxels-torus-96``
+(a torus of radii 0.5 and 0.22 in [-1, 1]^3, its tube of radius 10.6 voxels) are relaxed by
 ``relax_image``, whose band is cut from the label array, against ``relax_image(...,
 band=None)``. ``--integrate-whole-band`` makes image grids integrate their whole band, as
 meshes do, instead of the inner band within their ``integration_reach`` of zeta: the
-level set and the time it buys.
+level set and the time it buys. Their truths are exact signed distances, so for them the
+table adds each level set's mean distance to the truth (``band>t``, ``whole>t``, in h): where
+the band strays from the whole grid's level set, whether it strays towards the truth.
 
 Prints a table, then one JSON line per case and width.
 """
@@ -34,10 +37,12 @@ import argparse
 import json
 import time
 
+import numpy as np
+
 import ndboundary
 from ndboundary import ImageGrid, relax, relax_image
 from ndboundary.domains.image import GridBand
-from ndboundary.metrics import level_set_distance
+from ndboundary.metrics import level_set_distance, sample_points
 from ndboundary.pipeline.band import band_width, can_cut
 from ndboundary.datasets import (
     ball,
@@ -48,6 +53,7 @@ from ndboundary.datasets import (
     kuhn_grid,
     label_by,
     quad_grid,
+    torus,
     voronoi_polygons,
 )
 
@@ -66,6 +72,7 @@ CASES = {
     "4d-ball-12": lambda: (kuhn_grid(12, 4, jitter=0.1, random_state=0), ball),
     "voxels-96": lambda: (voxel_cube(96), ball),
     "voxels-128": lambda: (voxel_cube(128), ball),
+    "voxels-torus-96": lambda: (voxel_cube(96), lambda x: torus(x - 0.01, 0.5, 0.22)),
 }
 DEFAULT_CASES = (
     "flower-160,flower-400,quads-80,voronoi-80,ico5-plane,ball-44,hex-40,ball-64-r0.3,hex-56-r0.3,4d-ball-12"
@@ -76,6 +83,10 @@ def image_relax(grid, labels, on, **params):
     """``relax_image`` on the labels of an image grid's voxels (its own band: the width
     ``auto`` chooses for label images, cut from the label array)."""
     return relax_image(labels.reshape(grid.shape), spacing=grid.spacing, origin=grid.origin, **params)
+
+
+#: The cases whose truth is the exact signed distance to the true boundary.
+EXACT_DISTANCE = ("voxels-96", "voxels-128", "voxels-torus-96")
 
 
 def voxel_cube(n):
@@ -180,6 +191,7 @@ def main():
     print(f"# band: relax parameters {params}; distances in h; verts = share of the vertices in the band")
     print(
         f"{'case':12s} {'width':>6s} {'verts':>6s} {'mean':>7s} {'max':>7s} {'comp':>5s} {'band s':>7s} {'whole s':>8s}"
+        f" {'band>t':>7s} {'whole>t':>7s}"
     )
     lines = []
     for name in args.cases.split(","):
@@ -191,6 +203,8 @@ def main():
         whole = run(mesh, labels, on="elements", band=None, **params)
         t_whole = time.perf_counter() - t0
         ref = whole.level_set()
+        exact = name in EXACT_DISTANCE
+        whole_truth = float(np.abs(truth(sample_points(ref))).mean() / h) if exact else np.nan
         for w in widths:
             t0 = time.perf_counter()
             res = run(mesh, labels, on="elements", band=w, **params)
@@ -203,11 +217,14 @@ def main():
                 "bench": "band", "case": name, "width": w, "band_share": share, "mean_h": float(there.mean()),
                 "max_h": float(max(there.max(), back.max())), "components": ls.n_components(),
                 "whole_components": ref.n_components(), "band_s": t_band, "whole_s": t_whole, "params": repr(params),
+                "band_to_truth_h": float(np.abs(truth(sample_points(ls))).mean() / h) if exact else None,
+                "whole_to_truth_h": whole_truth if exact else None,
             }  # fmt: skip
             lines.append(row)
             print(
                 f"{name:12s} {w!s:>6s} {share:6.2f} {row['mean_h']:7.4f} {row['max_h']:7.4f} "
-                f"{row['components']}/{row['whole_components']:<3d} {t_band:7.2f} {t_whole:8.2f}",
+                f"{row['components']}/{row['whole_components']:<3d} {t_band:7.2f} {t_whole:8.2f}"
+                + (f" {row['band_to_truth_h']:7.4f} {whole_truth:7.4f}" if exact else ""),
                 flush=True,
             )
     for row in lines:
