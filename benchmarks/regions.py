@@ -55,7 +55,9 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   Voronoi regions against 2 (the first two of the 8 sites), relax alone and relax plus
   ``interfaces().junctions()``, medians of 3 cold runs: each the first ``relax`` of a
   fresh process on a fresh domain (the mesh's construction not timed). Target: the
-  ratio <= 3.
+  ratio <= 3. ``--speed-warm PAIRS`` times the same relaxations warm instead, in PAIRS
+  pairs in one process (2 then 8 regions and 8 then 2 in turn, a fresh mesh each time):
+  the ratio without the first call's costs, each pair adjacent in time.
 
 ``--independent`` relaxes every region against the rest on its own, its field smoothed
 as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline that
@@ -81,6 +83,7 @@ Usage::
     python benchmarks/regions.py                     # every fidelity case, ~25 s
     python benchmarks/regions.py --speed             # and the speed case, ~10 s more
     python benchmarks/regions.py --cases plane-tri80,speed
+    python benchmarks/regions.py --speed-warm 8
 
 Prints a table of measures, a table of targets (value, bound, PASS/FAIL), then one JSON
 line per case.
@@ -356,6 +359,32 @@ def speed_one(seed, n_regions):
     print(seconds, time.perf_counter() - t0)
 
 
+def speed_warm(seed, pairs):
+    """``pairs`` pairs of relaxations in this process, 2 regions then 8 and 8 then 2 in
+    turn, each on a fresh mesh (no operators cached from the last), after one of each to
+    warm up: the median of each side and its ratio, and each pair's ratio. The cold runs of
+    :func:`speed` pay what a user's first call pays; these show the ratio without it, and,
+    adjacent in time, less of the host's drift.
+    """
+    for L in (2, 8):
+        relax(*speed_case(seed, L), on="elements")
+    times = {2: [], 8: []}
+    for k in range(pairs):
+        for L in (2, 8) if k % 2 == 0 else (8, 2):
+            mesh, labels = speed_case(seed, L)
+            t0 = time.perf_counter()
+            relax(mesh, labels, on="elements")
+            times[L].append(time.perf_counter() - t0)
+    each = np.array(times[8]) / np.array(times[2])
+    med = {L: float(np.median(v)) for L, v in times.items()}
+    print(f"speed, {pairs} warm pairs in one process: relax 2 regions {med[2]:.2f} s ({min(times[2]):.2f}-"
+          f"{max(times[2]):.2f}), 8 regions {med[8]:.2f} s ({min(times[8]):.2f}-{max(times[8]):.2f}), ratio of the "
+          f"medians {med[8] / med[2]:.2f}; pairs {np.round(each, 2).tolist()}", flush=True)  # fmt: skip
+    row = {"bench": "regions", "case": "speed-warm", "pairs": pairs, "relax_2_s": times[2], "relax_8_s": times[8],
+           "ratio": med[8] / med[2]}  # fmt: skip
+    return targets(row, None, ("relax 8 regions / 2 regions, warm", row["ratio"], 3.0))
+
+
 def speed(seed, repeats=3, fit=True, vertex_pins=False):
     print("speed: kuhn_grid(500, 2) (251 001 vertices); every timed relax is the first of a fresh process on a "
           "fresh domain: it pays the assembly and the loading of the compiled kernels, as a user's first call "
@@ -489,6 +518,9 @@ def main():
     parser.add_argument("--sites", type=int, default=7, help="Voronoi sites of the plane cases")
     parser.add_argument("--seed", type=int, default=0, help="random state of the sites")
     parser.add_argument("--speed", action="store_true", help="add the speed case")
+    parser.add_argument(
+        "--speed-warm", type=int, metavar="PAIRS", help="the speed case's relaxations, warm, in PAIRS pairs in this process"
+    )
     parser.add_argument("--speed-one", type=int, help=argparse.SUPPRESS)  # one cold relax of the speed case
     parser.add_argument("--image-one", action="store_true", help=argparse.SUPPRESS)  # one cold image of image-y
     parser.add_argument("--cases", default=None, help="comma-separated case names (default: every fidelity case)")
@@ -521,6 +553,9 @@ def main():
         return
     if args.image_one:
         image_one(args.seed)
+        return
+    if args.speed_warm:
+        print_verdicts([speed_warm(args.seed, args.speed_warm)], 22, 58, "6.2f")
         return
     if args.independent:
         from ndboundary.pipeline import sectors
