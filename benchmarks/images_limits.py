@@ -16,14 +16,10 @@ truth, inside the relaxation, and measures the relaxed curve against the truth:
   weights in the pixel holding that point), its weight kept;
 * ``both``: the exact field and the exact pins;
 * ``refined``: no truth at all, the relaxed curve of ``labels`` refined by a prototype
-  estimator: each closed curve resampled every half pixel and moved along its normals by
-  the one Newton-solved ``delta`` that minimises ``beta * sum(kappa'^2) h +
-  sum(exp(-margin / tau))`` over the pixel centres within 2 pixels (``margin``: a
-  centre's signed distance to the moved curve, positive on its label's side; the
-  curvature ``kappa`` linearised about the relaxed curve). It keeps the smoothest curve
-  that parts the centres with the largest margins: a curvature-variation prior (circles
-  and lines cost nothing) against the labels' corridor. ``--beta`` (1000) and ``--tau``
-  (0.1 pixel) trade the two.
+  estimator (``curve_refinement.py``): resampled every half pixel and moved to the
+  smoothest curve (least change of curvature; circles and lines cost nothing) that parts
+  the pixel centres within 2 pixels with the largest margins. ``--beta`` (1000) and
+  ``--tau`` (0.1 pixel) trade the two.
 
 Cases: the flower of ``images.py`` (5 lobes, amplitude 0.2, radius 0.3 n), discs of
 radius 0.3 n and 12.3 pixels, and flowers of 3 and 7 lobes, on 128^2 pixels, each off the
@@ -52,7 +48,7 @@ import json
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
+from curve_refinement import polylines, refine, resample
 from images_truths import StarShape
 from scipy.spatial import cKDTree
 
@@ -131,80 +127,14 @@ class Oracle:
 # --------------------------------------------------------------------------- refinement
 
 
-def closed_curves(level_set):
-    """The closed polylines of a 2-D level set, each as its points in order."""
-    following = dict(level_set.simplices.tolist())
-    seen, curves = set(), []
-    for start in following:
-        if start in seen:
-            continue
-        loop, v = [start], following[start]
-        seen.add(start)
-        while v != start:
-            if v not in following:
-                raise ValueError("the level set holds an open curve")
-            loop.append(v)
-            seen.add(v)
-            v = following[v]
-        curves.append(level_set.points[loop])
-    return curves
-
-
-def resample(points, spacing):
-    """The closed polyline ``points`` at equal arclength steps of about ``spacing``."""
-    ring = np.vstack([points, points[:1]])
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ring, axis=0), axis=1))])
-    m = max(8, int(round(s[-1] / spacing)))
-    t = np.arange(m) * s[-1] / m
-    return np.stack([np.interp(t, s, ring[:, k]) for k in range(2)], axis=1), s[-1] / m
-
-
-def refine(points, step, sites, side, beta, tau):
-    """The closed curve ``points`` (equal steps ``step``) moved along its normals to
-    part the ``sites`` (``side`` +1 inside, -1 outside) with the largest margins at the
-    least curvature variation: one Newton solve of the energy in the module docstring.
-    """
-    n = points.shape[0]
-    ahead, behind = np.roll(points, -1, axis=0), np.roll(points, 1, axis=0)
-    tangent = ahead - behind
-    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
-    normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-    nearest = cKDTree(points).query(sites)[1]
-    signed = ((sites - points[nearest]) * normal[nearest]).sum(axis=1)
-    if np.mean(np.sign(signed) == -side) < 0.5:  # the normals point out of the inside
-        normal, signed = -normal, -signed
-    along = np.clip(((sites - points[nearest]) * tangent[nearest]).sum(axis=1) / step, -0.999, 0.999)
-    j0 = np.where(along >= 0, nearest, (nearest - 1) % n)
-    w = np.where(along >= 0, along, 1.0 + along)
-    foot = sp.csr_matrix(
-        (np.concatenate([1.0 - w, w]), (np.tile(np.arange(sites.shape[0]), 2), np.concatenate([j0, (j0 + 1) % n]))),
-        shape=(sites.shape[0], n),
-    )
-    cycle = np.arange(n)
-    ends = (np.tile(cycle, 2), np.concatenate([cycle, (cycle + 1) % n]))
-    D = sp.csr_matrix((np.concatenate([-np.ones(n), np.ones(n)]) / step, ends), shape=(n, n))  # d/ds on the cycle
-    kappa = ((ahead - 2.0 * points + behind) / step**2 * -normal).sum(axis=1)  # positive where convex
-    dkappa = -(D @ D) - sp.diags(kappa**2)  # kappa of the curve moved by delta, to first order
-    A = D @ dkappa
-    H0, g0 = beta * step * (A.T @ A), beta * step * (A.T @ (D @ kappa))
-    delta = np.zeros(n)
-    for _ in range(30):
-        e = np.exp(np.clip(-side * (foot @ delta - signed) / tau, -50.0, 50.0))
-        grad = H0 @ delta + g0 - foot.T @ (side * e / tau)
-        hess = H0 + foot.T @ sp.diags(e / tau**2) @ foot + 1e-9 * sp.identity(n)
-        move = spla.spsolve(hess.tocsc(), -grad)
-        delta += move
-        if np.abs(move).max() < 1e-7:
-            break
-    return points + delta[:, None] * normal
-
-
 def refined_points(result, centres, inside, beta, tau, reach=2.0):
-    out = []
-    for curve in closed_curves(result.level_set()):
-        points, step = resample(curve, 0.5)
+    """The vertices of the relaxed curves refined (:func:`curve_refinement.refine`) against
+    the pixel centres within ``reach`` pixels of each."""
+    level_set, out = result.level_set(), []
+    for curve, closed in polylines(level_set.points, level_set.simplices):
+        points, step = resample(curve, 0.5, closed)
         near = cKDTree(points).query(centres)[0] < reach
-        out.append(refine(points, step, centres[near], np.where(inside[near], 1.0, -1.0), beta, tau))
+        out.append(refine(points, step, centres[near], np.where(inside[near], 1.0, -1.0), beta, tau, closed))
     return np.concatenate(out)
 
 
