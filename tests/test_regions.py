@@ -321,3 +321,24 @@ def test_the_compiled_walk_graph_and_group_filter_are_their_array_definitions(in
     kept = within_groups(grid.adjacency, groups)
     assert kept.nnz == same.sum()
     assert (kept != sp.csr_matrix((A.data[same], (rows[same], A.indices[same])), shape=A.shape)).nnz == 0
+
+
+def test_fitted_interfaces_bring_polygon_interfaces_nearer(monkeypatch):
+    """Seven Voronoi regions on Voronoi polygons: each interface fitted to its two regions'
+    centroids (the smoothest curve that parts them) lies nearer to the true bisectors
+    than the relaxed one, within the many-regions target of 0.12 h on average; the
+    partition stays exact and every region keeps its one component."""
+    from ndboundary.datasets import voronoi_polygons
+    from ndboundary.pipeline import interface_fit
+
+    mesh = voronoi_polygons(40, random_state=0)
+    sites = np.random.default_rng(0).uniform(-0.8, 0.8, (7, 2))
+    labels = np.argmin(((mesh.element_centroids()[:, None] - sites) ** 2).sum(axis=2), axis=1)
+    fitted = _bisector_distances(mesh, sites, labels)
+    result = relax(mesh, labels, on="elements")
+    assert result.region_measures().sum() == pytest.approx(mesh.A.sum(), rel=1e-9)
+    assert result.params["fitted_interfaces"] > 0
+    assert all(result.region_boundary(r).n_components() == 1 for r in range(7))
+    monkeypatch.setattr(interface_fit, "INTERFACE_FIT", False)
+    relaxed = _bisector_distances(mesh, sites, labels)
+    assert fitted.mean() < 0.12 and fitted.mean() < 0.8 * relaxed.mean(), (fitted.mean(), relaxed.mean())

@@ -21,7 +21,7 @@ from ..domains.pointcloud_operators import StencilDomain
 from ..levelset import LevelSet, marching_simplices, simplex_measures
 from ..partition import Cells, Partition, partition
 from ..partition_clip import sweep_sparse
-from . import junctions
+from . import interface_fit, junctions
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
@@ -456,6 +456,7 @@ class RegionsResult(_RegionMethods):
         fitted = fitted and not isinstance(domain, StencilDomain)
         self._codes = codes if fitted else None
         self._junction_values = []  # (vertices, regions, values) near each fitted junction
+        self._interface_values = []  # the same near each fitted interface
 
     def __repr__(self):
         return f"RegionsResult(n_regions={self.classes.size}, n_vertices={self.domain.n_vertices})"
@@ -485,7 +486,8 @@ class RegionsResult(_RegionMethods):
         if cached is None:
             cached = self.region_values()  # the junctions fitted
             if sp.issparse(cached):  # the regions' bands only: filled now
-                cached = _written(np.stack([res.phi for res in self.regions], axis=1), self._junction_values)
+                cached = np.stack([res.phi for res in self.regions], axis=1)
+                cached = _written(_written(cached, self._junction_values), self._interface_values)
             self.__dict__["_phi"] = cached
             self.__dict__.pop("_values", None)
         return cached
@@ -509,6 +511,9 @@ class RegionsResult(_RegionMethods):
             cached = self._relaxed_values()
             if self._fit_junctions(cached):
                 cached = _written(cached, self._junction_values)
+            if self._fit_interfaces(cached):
+                cached = _written(cached, self._interface_values)
+                self.__dict__.pop("_mixed_cache", None)  # cut from the values before the fit
             self.__dict__["_values"] = cached
         return cached
 
@@ -569,6 +574,35 @@ class RegionsResult(_RegionMethods):
             self.__dict__["_mixed_cache"] = mixed
             return False
         return True
+
+    def _fit_interfaces(self, values):
+        """Fit the interfaces of the partition of ``values`` (the junctions' fits written)
+        to the labels (:mod:`~ndboundary.pipeline.interface_fit`), once, on domains in the
+        plane; whether any was fitted.
+        """
+        self._interface_values = []
+        if (
+            self._codes is None
+            or not interface_fit.INTERFACE_FIT
+            or self.classes.size < 3
+            or self.domain.points.shape[1] != 2
+        ):
+            return False
+        tick = time.perf_counter()
+        complex_ = _mixed_of(self.domain, values)[0]
+        if complex_ is None or complex_[1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
+            return False
+        h = self.params.get("h") or self.domain.mean_edge_length()
+        faces = partition(*complex_).interfaces()
+        written = [v for v, _, _ in self._junction_values]
+        skip = np.concatenate(written) if written else np.zeros(0, dtype=np.int64)
+        on = self.params.get("on", "elements")
+        self._interface_values = interface_fit.interface_corrections(
+            self.domain, self._codes, on, values, faces, h, skip
+        )
+        self.params["fitted_interfaces"] = len(self._interface_values)
+        self.timings["interfaces"] = time.perf_counter() - tick
+        return bool(self._interface_values)
 
 
 def _near_junctions(points, simplices, values, lead, radius):
