@@ -15,10 +15,11 @@ truth, inside the relaxation, and measures the relaxed curve against the truth:
   boundary crosses the segment between the centres of the facet's two pixels (bilinear
   weights in the pixel holding that point), its weight kept;
 * ``both``: the exact field and the exact pins;
-* ``refined``: no truth at all, the relaxed curve of ``labels`` refined by a prototype
-  estimator (``curve_refinement.py``): resampled every half pixel and moved to the
-  smoothest curve (least change of curvature; circles and lines cost nothing) that parts
-  the pixel centres within 2 pixels with the largest margins. ``--beta`` (1000) and
+* ``refined``: no truth at all, the relaxed curve of ``labels`` refined as the interfaces
+  of partitions in the plane are (``ndboundary.pipeline.interface_fit``, which two-region
+  results do not use): resampled every half pixel and moved to the smoothest curve (least
+  change of curvature; circles and lines cost nothing) that parts the pixel centres within
+  2 pixels with the largest margins. ``--beta`` (1000 here, 3000 for partitions) and
   ``--tau`` (0.1 pixel) trade the two.
 
 Cases: the flower of ``images.py`` (5 lobes, amplitude 0.2, radius 0.3 n), discs of
@@ -30,8 +31,7 @@ What it shows: with the exact pins, the same relaxation is within a few hundredt
 pixel on average; with the exact field and the labels' pins it is where it was. The
 error lies in where the staircase puts the pins: each pixel pair says only that the
 boundary crosses the segment between their centres. An estimator of those crossings
-that reads more of the labels than one pair is what the target needs; ``refined`` is a
-first one.
+that reads more of the labels than one pair is what the target needs; ``refined`` is one.
 
 Usage::
 
@@ -48,7 +48,6 @@ import json
 
 import numpy as np
 import scipy.sparse as sp
-from curve_refinement import polylines, refine, resample
 from images_truths import StarShape
 from scipy.spatial import cKDTree
 
@@ -56,6 +55,7 @@ import ndboundary.pipeline.padding as padding
 import ndboundary.pipeline.relaxer as relaxer
 from ndboundary import relax_image
 from ndboundary.metrics import sample_points
+from ndboundary.pipeline.interface_fit import polylines, refine, resample
 
 N = 128
 MODES = ("labels", "exact field", "exact pins", "both", "refined")
@@ -128,13 +128,14 @@ class Oracle:
 
 
 def refined_points(result, centres, inside, beta, tau, reach=2.0):
-    """The vertices of the relaxed curves refined (:func:`curve_refinement.refine`) against
-    the pixel centres within ``reach`` pixels of each."""
+    """The vertices of the relaxed curves refined (:func:`ndboundary.pipeline.interface_fit.refine`)
+    against the pixel centres within ``reach`` pixels of each."""
     level_set, out = result.level_set(), []
-    for curve, closed in polylines(level_set.points, level_set.simplices):
-        points, step = resample(curve, 0.5, closed)
+    for ids, closed in polylines(level_set.points, level_set.simplices):
+        points, step = resample(level_set.points[ids], 0.5, closed)
         near = cKDTree(points).query(centres)[0] < reach
-        out.append(refine(points, step, centres[near], np.where(inside[near], 1.0, -1.0), beta, tau, closed))
+        delta, normal = refine(points, step, centres[near], np.where(inside[near], 1.0, -1.0), beta, tau, closed)
+        out.append(points + delta[:, None] * normal)
     return np.concatenate(out)
 
 

@@ -535,6 +535,11 @@ def main():
         help="keep the point junctions where the relaxed functions put them (not fitted to the labels)",
     )
     parser.add_argument(
+        "--no-interface-fit",
+        action="store_true",
+        help="keep the interfaces of plane partitions as relaxed (not fitted to the labels' sites)",
+    )
+    parser.add_argument(
         "--vertex-pins",
         action="store_true",
         help="hold phi at the jagged boundary's vertices on simplices, not at its facets' centres",
@@ -544,6 +549,10 @@ def main():
         from ndboundary.pipeline import junctions
 
         junctions.JUNCTION_FIT = False
+    if args.no_interface_fit:
+        from ndboundary.pipeline import interface_fit
+
+        interface_fit.INTERFACE_FIT = False
     if args.vertex_pins:
         from ndboundary.pipeline import boundary
 
