@@ -30,11 +30,13 @@ are not fitted.
 
 from __future__ import annotations
 
+import warnings
 from collections import defaultdict
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.linalg import solveh_banded
 from scipy.spatial import cKDTree
 
 __all__ = ["INTERFACE_FIT", "interface_corrections", "polylines", "refine", "resample"]
@@ -175,14 +177,28 @@ def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iteration
     A = D @ dkappa
     H0, g0 = beta * step * (A.T @ A), beta * step * (A.T @ (D @ kappa))
     free = np.arange(n) if closed else np.arange(1, n - 1)
-    H0_free = (H0.tocsr()[free][:, free] + 1e-9 * sp.identity(free.size)).tocsc()
-    foot_free = foot.tocsc()[:, free]
+    H0_free = (H0.tocsr()[free][:, free] + 1e-9 * sp.identity(free.size)).tocsr()
+    # on a chain the Hessian is banded (the prior couples 3 vertices on either side, a
+    # site's foot 2): LAPACK's banded Cholesky solves each step in a pass over it
+    banded = not closed and free.size > 3
+    bands = np.stack([np.r_[np.zeros(k), H0_free.diagonal(k)] for k in (3, 2, 1, 0)]) if banded else None
     delta = np.zeros(n)
     for _ in range(iterations):
         e = np.exp(np.clip(-side * (foot @ delta - signed) / tau, -50.0, 50.0))
         grad = H0 @ delta + g0 - foot.T @ (side * e / tau)
-        hess = H0_free + foot_free.T @ foot_free.multiply((e / tau**2)[:, None]).tocsc()
-        move = spla.spsolve(hess.tocsc(), -grad[free])
+        weight = e / tau**2
+        if bands is None:
+            hess = H0_free + (foot.T @ sp.diags(weight) @ foot).tocsr()[free][:, free]
+            move = spla.spsolve(hess.tocsc(), -grad[free])
+        else:
+            hess = bands.copy()
+            lo, hi = j0 - 1, j0  # the foot's two vertices among the free ones (-1 and n - 2: held ends)
+            for at, value in ((lo, weight * (1.0 - w) ** 2), (hi, weight * w**2)):
+                keep = (at >= 0) & (at < n - 2)
+                hess[3] += np.bincount(at[keep], value[keep], minlength=n - 2)
+            keep = (lo >= 0) & (hi < n - 2)
+            hess[2, 1:] += np.bincount(lo[keep], (weight * w * (1.0 - w))[keep], minlength=n - 2)[:-1]
+            move = solveh_banded(hess, -grad[free], check_finite=False)
         delta[free] += move
         if np.abs(move).max() < 1e-6:
             break
@@ -208,56 +224,50 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         site_ids = np.flatnonzero(domain.elements_at(mask))
         sites = domain.element_centroids()[site_ids]
     site_codes, points_near = codes[site_ids], domain.points[vertices_near]
-    claims = []  # (vertices, their distances, pair, move at each, signed distance) per polyline
+    lines = []  # (a, b, points, step, closed), lengths in h
     for pair in np.unique(faces.pairs, axis=0):
-        a, b = int(pair[0]), int(pair[1])
         mine = faces.simplices[np.all(faces.pairs == pair, axis=1)]
         for ids, closed in polylines(faces.points, mine):
-            if ids.size < 3:
-                continue
-            points, step = resample(faces.points[ids] / h, 0.5, closed)
-            if points.shape[0] < 4:
-                continue
-            tree = cKDTree(points)
-            near = _within(tree, sites / h, SITE_REACH)
-            near = near[(site_codes[near] == a) | (site_codes[near] == b)]
-            if near.size < 3:
-                continue
-            side = np.where(site_codes[near] == a, 1.0, -1.0)
-            delta, normal = refine(points, step, sites[near] / h, side, closed=closed)
-            if not closed:
-                j = np.arange(points.shape[0])
-                delta = delta * np.clip(np.minimum(j, j[::-1]) * step / END_RAMP, 0.0, 1.0)
-            close = _within(tree, points_near / h, BLEND)
-            if close.size == 0:
-                continue
-            dist, at = tree.query(points_near[close] / h)
-            signed = ((points_near[close] / h - points[at]) * normal[at]).sum(axis=1)
-            claims.append((vertices_near[close], dist, (a, b), delta[at] * h, signed))
-    if not claims:
+            if ids.size >= 3:
+                points, step = resample(faces.points[ids] / h, 0.5, closed)
+                if points.shape[0] >= 4:
+                    lines.append((int(pair[0]), int(pair[1]), points, step, closed))
+    if not lines:
         return []
-    # each vertex follows the polyline nearest to it
-    allv = np.concatenate([c[0] for c in claims])
-    alld = np.concatenate([c[1] for c in claims])
-    order = np.lexsort((alld, allv))
-    first = np.r_[True, allv[order][1:] != allv[order][:-1]]
-    keep = np.zeros(allv.size, dtype=bool)
-    keep[order[first]] = True
+    # one search for all the polylines: each site and vertex goes with the nearest
+    starts = np.cumsum([0] + [line[2].shape[0] for line in lines])
+    tree = cKDTree(np.concatenate([line[2] for line in lines]))
+    site_line, site_at = _nearest_line(tree, starts, sites / h, SITE_REACH)
+    vertex_line, vertex_at = _nearest_line(tree, starts, points_near / h, BLEND)
     skipped = np.zeros(domain.n_vertices, dtype=bool)
     skipped[skip] = True
-    out, offset = [], 0
-    for close, dist, (a, b), move, signed in claims:
-        mask = keep[offset : offset + close.size] & ~skipped[close]
-        offset += close.size
-        vertices = close[mask]
-        if vertices.size == 0:
+    out = []
+    for k, (a, b, points, step, closed) in enumerate(lines):
+        near = np.flatnonzero(site_line == k)
+        near = near[(site_codes[near] == a) | (site_codes[near] == b)]
+        if near.size < 3:
             continue
+        side = np.where(site_codes[near] == a, 1.0, -1.0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", spla.MatrixRankWarning)
+            delta, normal = refine(points, step, sites[near] / h, side, closed=closed)
+        if not (np.isfinite(delta).all() and np.isfinite(normal).all()):
+            continue  # a degenerate polyline (a singular system) stays as relaxed
+        if not closed:
+            j = np.arange(points.shape[0])
+            delta = delta * np.clip(np.minimum(j, j[::-1]) * step / END_RAMP, 0.0, 1.0)
+        mine = np.flatnonzero((vertex_line == k) & ~skipped[vertices_near])
+        if mine.size == 0:
+            continue
+        at = vertex_at[mine]
+        offset = points_near[mine] / h - points[at]
+        d, s = np.linalg.norm(offset, axis=1), (offset * normal[at]).sum(axis=1)
         regions = np.array([a, b])
-        stored = _stored(values, vertices, regions)
+        stored = _stored(values, vertices_near[mine], regions)
         if stored is None:
             continue
         now, rows = stored
-        vertices, d, s, move = vertices[rows], dist[mask][rows], signed[mask][rows], move[mask][rows]
+        vertices, d, s, move = vertices_near[mine][rows], d[rows], s[rows], delta[at][rows]
         diff = now[:, 0] - now[:, 1]  # positive on a's side, which the normals point away from
         core = d <= CORE
         if core.sum() < 3 or not (s[core] ** 2).sum() > 0:
@@ -266,9 +276,23 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         if not np.isfinite(slope) or slope <= 0.0:
             continue
         weight = np.clip((BLEND - d) / (BLEND - CORE), 0.0, 1.0)
-        shift = 0.5 * slope * weight * move / h  # the tie moves by move along the normal
+        shift = 0.5 * slope * weight * move  # the tie moves by move (in h) along the normal
         out.append((vertices, regions, now + np.stack([shift, -shift], axis=1)))
     return out
+
+
+def _nearest_line(tree, starts, x, radius):
+    """For each of the points ``x``, the polyline (``starts``: each one's first point in
+    ``tree``) whose point is nearest within ``radius``, -1 beyond, and that point's index
+    in its polyline.
+    """
+    d, i = tree.query(x, distance_upper_bound=radius)
+    line = np.full(x.shape[0], -1)
+    found = np.isfinite(d)
+    line[found] = np.searchsorted(starts, i[found], side="right") - 1
+    at = np.zeros(x.shape[0], dtype=np.int64)
+    at[found] = i[found] - starts[line[found]]
+    return line, at
 
 
 def _top_gap(values):
@@ -294,16 +318,6 @@ def _top_gap(values):
     second[tie] = first[tie]
     gap[rows] = first[rows] - second[rows]
     return gap
-
-
-def _within(tree, x, radius):
-    """The indices of the points ``x`` within ``radius`` of the points of ``tree``: those in
-    the tree's box grown by ``radius`` first, then by distance.
-    """
-    lo, hi = tree.mins - radius, tree.maxes + radius
-    box = np.flatnonzero(np.all((x >= lo) & (x <= hi), axis=1))
-    d = tree.query(x[box], distance_upper_bound=radius)[0]
-    return box[d <= radius]
 
 
 def _stored(values, vertices, regions):
