@@ -36,7 +36,7 @@ from collections import defaultdict
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg import solveh_banded
+from scipy.linalg import LinAlgError, solveh_banded
 from scipy.spatial import cKDTree
 
 __all__ = ["INTERFACE_FIT", "interface_corrections", "polylines", "refine", "resample"]
@@ -248,9 +248,12 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         if near.size < 3:
             continue
         side = np.where(site_codes[near] == a, 1.0, -1.0)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", spla.MatrixRankWarning)
-            delta, normal = refine(points, step, sites[near] / h, side, closed=closed)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", spla.MatrixRankWarning)
+                delta, normal = refine(points, step, sites[near] / h, side, closed=closed)
+        except LinAlgError:
+            continue
         if not (np.isfinite(delta).all() and np.isfinite(normal).all()):
             continue  # a degenerate polyline (a singular system) stays as relaxed
         if not closed:

@@ -418,13 +418,15 @@ class RegionsResult(_RegionMethods):
         function is largest there. Outside a region's band it is filled when first read.
         Near the point junctions of a mesh or image in the plane or on a surface, the functions
         are those of the junctions fitted to the labels
-        (:mod:`~ndboundary.pipeline.junctions`): their largest meets there, while their
-        values need not cross 1/2 on the region's boundary.
+        (:mod:`~ndboundary.pipeline.junctions`), and in the plane near every interface
+        those of the interface fitted to them (:mod:`~ndboundary.pipeline.interface_fit`):
+        their largest meets and parts there, while their values need not cross 1/2 on the
+        region's boundary.
     classes : ndarray of shape (n_regions,)
     domain : Domain
     regions : list of RelaxResult
         Region ``r`` relaxed against the rest (each filled when the list is first read),
-        its own relaxation, without the fitted junctions.
+        its own relaxation, without the fitted junctions and interfaces.
     timings : dict
         Seconds per step, summed over the regions, and ``total``.
     params : dict
@@ -501,8 +503,10 @@ class RegionsResult(_RegionMethods):
 
         In the plane and on surfaces, the values near each point junction are those of
         the junction fitted to the labels (:mod:`~ndboundary.pipeline.junctions`), so
-        that the partition's junctions are the fitted ones; ``regions`` keeps every
-        region's own relaxation.
+        that the partition's junctions are the fitted ones, and in the plane the values
+        near each interface those of the interface fitted to them
+        (:mod:`~ndboundary.pipeline.interface_fit`); ``regions`` keeps every region's own
+        relaxation.
         """
         if "_phi" in self.__dict__:
             return self.__dict__["_phi"]
