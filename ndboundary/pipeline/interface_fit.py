@@ -225,8 +225,12 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         sites = domain.element_centroids()[site_ids]
     site_codes, points_near = codes[site_ids], domain.points[vertices_near]
     lines = []  # (a, b, points, step, closed), lengths in h
-    for pair in np.unique(faces.pairs, axis=0):
-        mine = faces.simplices[np.all(faces.pairs == pair, axis=1)]
+    key = faces.pairs[:, 0].astype(np.int64) * (int(faces.pairs.max(initial=0)) + 1) + faces.pairs[:, 1]
+    order = np.argsort(key, kind="stable")
+    bounds = np.flatnonzero(np.r_[True, np.diff(key[order]) != 0, True])
+    for first, last in zip(bounds[:-1], bounds[1:], strict=True):
+        pair = faces.pairs[order[first]]
+        mine = faces.simplices[order[first:last]]
         for ids, closed in polylines(faces.points, mine):
             if ids.size >= 3:
                 points, step = resample(faces.points[ids] / h, 0.5, closed)
@@ -237,7 +241,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     # one search for all the polylines: each site and vertex goes with the nearest
     starts = np.cumsum([0] + [line[2].shape[0] for line in lines])
     tree = cKDTree(np.concatenate([line[2] for line in lines]))
-    site_line, site_at = _nearest_line(tree, starts, sites / h, SITE_REACH)
+    site_line = _nearest_line(tree, starts, sites / h, SITE_REACH)[0]
     vertex_line, vertex_at = _nearest_line(tree, starts, points_near / h, BLEND)
     skipped = np.zeros(domain.n_vertices, dtype=bool)
     skipped[skip] = True
