@@ -385,6 +385,14 @@ def speed_warm(seed, pairs):
     return targets(row, None, ("relax 8 regions / 2 regions, warm", row["ratio"], 3.0))
 
 
+def _interface_fit_flag():
+    """The command-line flag that keeps a subprocess's interfaces as relaxed when this
+    process's are (``--no-interface-fit``)."""
+    from ndboundary.pipeline import interface_fit
+
+    return [] if interface_fit.INTERFACE_FIT else ["--no-interface-fit"]
+
+
 def speed(seed, repeats=3, fit=True, vertex_pins=False):
     print("speed: kuhn_grid(500, 2) (251 001 vertices); every timed relax is the first of a fresh process on a "
           "fresh domain: it pays the assembly and the loading of the compiled kernels, as a user's first call "
@@ -393,6 +401,7 @@ def speed(seed, repeats=3, fit=True, vertex_pins=False):
     for _ in range(repeats):
         for L in (2, 8):
             flags = ([] if fit else ["--no-junction-fit"]) + (["--vertex-pins"] if vertex_pins else [])
+            flags += _interface_fit_flag()
             out = subprocess.run([sys.executable, __file__, "--speed-one", str(L), "--seed", str(seed), *flags],
                                  check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
             times[L, "relax"].append(float(out[0]))
@@ -455,7 +464,7 @@ def image_y(seed, n=64, count=12):
     times = {True: [], False: []}
     for _ in range(3):
         for fit in (True, False):
-            flags = [] if fit else ["--no-junction-fit"]
+            flags = ([] if fit else ["--no-junction-fit"]) + _interface_fit_flag()
             out = subprocess.run([sys.executable, __file__, "--image-one", "--seed", str(seed), *flags],
                                  check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
             times[fit].append([float(t) for t in out])

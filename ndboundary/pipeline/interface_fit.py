@@ -39,6 +39,8 @@ import scipy.sparse.linalg as spla
 from scipy.linalg import LinAlgError, solveh_banded
 from scipy.spatial import cKDTree
 
+from .junctions import stored_values
+
 __all__ = ["INTERFACE_FIT", "interface_corrections", "polylines", "refine", "resample"]
 
 #: Whether a relaxation of three or more regions in the plane fits its interfaces to the
@@ -121,12 +123,13 @@ def _stencil(rows, cols, weights, step, cyclic=False):
     return sp.csr_matrix((values, (np.tile(i, len(weights)), columns)), shape=(rows, cols))
 
 
-def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iterations=30):
+def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iterations=30, nearest=None):
     """The polyline ``points`` (equal steps ``step``, in the units of ``beta`` and ``tau``)
     moved along its normals to the smoothest curve parting the ``sites`` (``side`` +1 on
     one side, -1 on the other) with the largest margins: ``(delta, normal)``, each
     vertex's move along its ``normal``, which points away from the +1 sites. An open
-    polyline keeps its ends.
+    polyline keeps its ends. ``nearest``, each site's nearest vertex, is found when not
+    given.
 
     Examples
     --------
@@ -147,7 +150,8 @@ def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iteration
     tangent = (np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)) if closed else np.gradient(points, axis=0)
     tangent /= np.linalg.norm(tangent, axis=1)[:, None]
     normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-    nearest = cKDTree(points).query(sites)[1]
+    if nearest is None:  # each site's nearest vertex, unless the caller found them
+        nearest = cKDTree(points).query(sites)[1]
     signed = ((sites - points[nearest]) * normal[nearest]).sum(axis=1)
     if np.mean(np.sign(signed) == -side) < 0.5:
         normal, signed = -normal, -signed
@@ -241,7 +245,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     # one search for all the polylines: each site and vertex goes with the nearest
     starts = np.cumsum([0] + [line[2].shape[0] for line in lines])
     tree = cKDTree(np.concatenate([line[2] for line in lines]))
-    site_line = _nearest_line(tree, starts, sites / h, SITE_REACH)[0]
+    site_line, site_at = _nearest_line(tree, starts, sites / h, SITE_REACH)
     vertex_line, vertex_at = _nearest_line(tree, starts, points_near / h, BLEND)
     skipped = np.zeros(domain.n_vertices, dtype=bool)
     skipped[skip] = True
@@ -255,7 +259,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", spla.MatrixRankWarning)
-                delta, normal = refine(points, step, sites[near] / h, side, closed=closed)
+                delta, normal = refine(points, step, sites[near] / h, side, closed=closed, nearest=site_at[near])
         except LinAlgError:
             continue
         if not (np.isfinite(delta).all() and np.isfinite(normal).all()):
@@ -331,10 +335,6 @@ def _stored(values, vertices, regions):
     """``(values[vertices][:, regions], rows)``: the values at the rows that store both
     regions (a sparse ``values`` may not), or None when none does.
     """
-    if not hasattr(values, "tocsr"):
-        return np.asarray(values)[np.ix_(vertices, regions)], np.arange(vertices.size)
-    sub = values.tocsr()[vertices][:, regions].tocoo()
-    out = np.full((vertices.size, regions.size), np.nan)
-    out[sub.row, sub.col] = sub.data
+    out = stored_values(values, vertices, regions)
     rows = np.flatnonzero(~np.isnan(out).any(axis=1))
     return (out[rows], rows) if rows.size else None

@@ -756,15 +756,21 @@ def _crossing(domain, point, pair, near, sites, site_codes, values, lead, blend,
                            values, h, unit)  # fmt: skip
 
 
-def _values_at(values, vertices, regions):
-    """``values[vertices][:, regions]`` as an array, or None when a sparse ``values``
-    does not store one of them.
+def stored_values(values, vertices, regions):
+    """``values[vertices][:, regions]`` as an array, NaN where a sparse ``values`` does not
+    store the entry.
     """
     if not hasattr(values, "tocsr"):
         return np.asarray(values)[np.ix_(vertices, regions)]
     sub = values.tocsr()[vertices][:, regions].tocoo()
-    if sub.nnz != vertices.size * regions.size:
-        return None
-    out = np.empty((vertices.size, regions.size))
+    out = np.full((vertices.size, regions.size), np.nan)
     out[sub.row, sub.col] = sub.data
     return out
+
+
+def _values_at(values, vertices, regions):
+    """``values[vertices][:, regions]`` as an array, or None when a sparse ``values``
+    does not store one of them.
+    """
+    out = stored_values(values, vertices, regions)
+    return None if np.isnan(out).any() else out
