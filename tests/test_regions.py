@@ -281,7 +281,11 @@ def test_only_the_elements_where_the_largest_function_changes_are_cut(kind):
     those of the whole domain's partition."""
     from ndboundary.datasets import hex_grid
 
-    mesh = kuhn_grid(40, 2, jitter=0.2, random_state=0) if kind == "triangles" else hex_grid(10, jitter=0.2, random_state=0)
+    mesh = (
+        kuhn_grid(40, 2, jitter=0.2, random_state=0)
+        if kind == "triangles"
+        else hex_grid(10, jitter=0.2, random_state=0)
+    )
     c = mesh.element_centroids()
     res = relax(mesh, _t_labels(c), on="elements")
     full = res.partition()
@@ -342,3 +346,23 @@ def test_fitted_interfaces_bring_polygon_interfaces_nearer(monkeypatch):
     monkeypatch.setattr(interface_fit, "INTERFACE_FIT", False)
     relaxed = _bisector_distances(mesh, sites, labels)
     assert fitted.mean() < 0.12 and fitted.mean() < 0.8 * relaxed.mean(), (fitted.mean(), relaxed.mean())
+
+
+@pytest.mark.parametrize("loose", [(False, False), (False, True), (True, True)])
+def test_an_interface_fit_slides_only_its_loose_ends(loose):
+    """A straight polyline 0.2 off the middle of the gap between two rows of sites moves
+    to the middle, all of it when both its ends are loose (on the domain's border); a
+    held end stays put, and a loose one moves most of the way beside a held one."""
+    from ndboundary.pipeline.interface_fit import refine
+
+    x = np.linspace(0.0, 10.0, 21)
+    points = np.column_stack([x, np.full(x.size, 0.2)])
+    grid = np.arange(0.25, 10.0, 0.5)
+    rows = [np.column_stack([grid, np.full(grid.size, y)]) for y in (-0.3, 0.3)]
+    side = np.r_[np.ones(grid.size), -np.ones(grid.size)]
+    delta, normal = refine(points, 0.5, np.concatenate(rows), side, closed=False, loose=loose)
+    y = (points + delta[:, None] * normal)[:, 1]
+    for end, free in zip((0, -1), loose, strict=True):
+        assert abs(y[end]) < 0.1 if free else y[end] == 0.2, (end, y[end])
+    if all(loose):
+        assert np.abs(y).max() < 0.01, y

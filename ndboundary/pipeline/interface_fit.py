@@ -58,6 +58,9 @@ SITE_REACH = 2.0
 CORE = 1.5
 BLEND = 3.0
 END_RAMP = 2.0
+#: An end on the domain's border slides with the fit, unless it would move farther than
+#: this (in h): then it is held.
+LOOSE_MAX = 1.0
 
 
 def polylines(points, segments):
@@ -123,13 +126,16 @@ def _stencil(rows, cols, weights, step, cyclic=False):
     return sp.csr_matrix((values, (np.tile(i, len(weights)), columns)), shape=(rows, cols))
 
 
-def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iterations=30, nearest=None):
+def refine(
+    points, step, sites, side, beta=BETA, tau=TAU, closed=True, iterations=30, nearest=None, loose=(False, False)
+):
     """The polyline ``points`` (equal steps ``step``, in the units of ``beta`` and ``tau``)
     moved along its normals to the smoothest curve parting the ``sites`` (``side`` +1 on
     one side, -1 on the other) with the largest margins: ``(delta, normal)``, each
     vertex's move along its ``normal``, which points away from the +1 sites. An open
-    polyline keeps its ends. ``nearest``, each site's nearest vertex, is found when not
-    given.
+    polyline keeps its ends, but for its first and last where ``loose`` says so (an end
+    on the domain's border, which slides along it). ``nearest``, each site's nearest
+    vertex, is found when not given.
 
     Examples
     --------
@@ -180,12 +186,14 @@ def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iteration
         D = _stencil(kappa.size - 1, kappa.size, (-1.0, 1.0), step)
     A = D @ dkappa
     H0, g0 = beta * step * (A.T @ A), beta * step * (A.T @ (D @ kappa))
-    free = np.arange(n) if closed else np.arange(1, n - 1)
+    first, last = (0, n) if closed else (0 if loose[0] else 1, n if loose[1] else n - 1)
+    free = np.arange(first, last)
     H0_free = (H0.tocsr()[free][:, free] + 1e-9 * sp.identity(free.size)).tocsr()
     # on a chain the Hessian is banded (the prior couples 3 vertices on either side, a
     # site's foot 2): LAPACK's banded Cholesky solves each step in a pass over it
     banded = not closed and free.size > 3
     bands = np.stack([np.r_[np.zeros(k), H0_free.diagonal(k)] for k in (3, 2, 1, 0)]) if banded else None
+    lo, hi = j0 - first, j0 + 1 - first  # the foot's two vertices among the free ones
     delta = np.zeros(n)
     for _ in range(iterations):
         e = np.exp(np.clip(-side * (foot @ delta - signed) / tau, -50.0, 50.0))
@@ -195,13 +203,12 @@ def refine(points, step, sites, side, beta=BETA, tau=TAU, closed=True, iteration
             hess = H0_free + (foot.T @ sp.diags(weight) @ foot).tocsr()[free][:, free]
             move = spla.spsolve(hess.tocsc(), -grad[free])
         else:
-            hess = bands.copy()
-            lo, hi = j0 - 1, j0  # the foot's two vertices among the free ones (-1 and n - 2: held ends)
+            hess, size = bands.copy(), free.size
             for at, value in ((lo, weight * (1.0 - w) ** 2), (hi, weight * w**2)):
-                keep = (at >= 0) & (at < n - 2)
-                hess[3] += np.bincount(at[keep], value[keep], minlength=n - 2)
-            keep = (lo >= 0) & (hi < n - 2)
-            hess[2, 1:] += np.bincount(lo[keep], (weight * w * (1.0 - w))[keep], minlength=n - 2)[:-1]
+                keep = (at >= 0) & (at < size)  # not a held end
+                hess[3] += np.bincount(at[keep], value[keep], minlength=size)
+            keep = (lo >= 0) & (hi < size)
+            hess[2, 1:] += np.bincount(lo[keep], (weight * w * (1.0 - w))[keep], minlength=size)[:-1]
             move = solveh_banded(hess, -grad[free], check_finite=False)
         delta[free] += move
         if np.abs(move).max() < 1e-6:
@@ -228,8 +235,11 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         site_ids = np.flatnonzero(domain.elements_at(mask))
         sites = domain.element_centroids()[site_ids]
     site_codes, points_near = codes[site_ids], domain.points[vertices_near]
-    lines = []  # (a, b, points, step, closed), lengths in h
+    lines = []  # (a, b, points, step, closed, loose ends), lengths in h
     key = faces.pairs[:, 0].astype(np.int64) * (int(faces.pairs.max(initial=0)) + 1) + faces.pairs[:, 1]
+    # an interface ends at a junction (three or more pieces meet there) or on the border,
+    # where it is the only piece: that end slides along the border with the fit
+    degree = np.bincount(faces.simplices.ravel(), minlength=faces.points.shape[0])
     order = np.argsort(key, kind="stable")
     bounds = np.flatnonzero(np.r_[True, np.diff(key[order]) != 0, True])
     for first, last in zip(bounds[:-1], bounds[1:], strict=True):
@@ -239,7 +249,8 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
             if ids.size >= 3:
                 points, step = resample(faces.points[ids] / h, 0.5, closed)
                 if points.shape[0] >= 4:
-                    lines.append((int(pair[0]), int(pair[1]), points, step, closed))
+                    loose = (False, False) if closed else (bool(degree[ids[0]] == 1), bool(degree[ids[-1]] == 1))
+                    lines.append((int(pair[0]), int(pair[1]), points, step, closed, loose))
     if not lines:
         return []
     # one search for all the polylines: each site and vertex goes with the nearest
@@ -250,7 +261,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     skipped = np.zeros(domain.n_vertices, dtype=bool)
     skipped[skip] = True
     out = []
-    for k, (a, b, points, step, closed) in enumerate(lines):
+    for k, (a, b, points, step, closed, loose) in enumerate(lines):
         near = np.flatnonzero(site_line == k)
         near = near[(site_codes[near] == a) | (site_codes[near] == b)]
         if near.size < 3:
@@ -259,14 +270,22 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", spla.MatrixRankWarning)
-                delta, normal = refine(points, step, sites[near] / h, side, closed=closed, nearest=site_at[near])
+                delta, normal = refine(
+                    points, step, sites[near] / h, side, closed=closed, nearest=site_at[near], loose=loose
+                )
+                if any(loose) and np.abs(delta[[0, -1]]).max() > LOOSE_MAX:
+                    # the sites near the border hold that end too loosely (a short
+                    # interface swings about its held end): it stays where it was
+                    loose = (False, False)
+                    delta, normal = refine(points, step, sites[near] / h, side, closed=closed, nearest=site_at[near])
         except LinAlgError:
             continue
         if not (np.isfinite(delta).all() and np.isfinite(normal).all()):
             continue  # a degenerate polyline (a singular system) stays as relaxed
-        if not closed:
-            j = np.arange(points.shape[0])
-            delta = delta * np.clip(np.minimum(j, j[::-1]) * step / END_RAMP, 0.0, 1.0)
+        if not closed:  # the move grows from a held end
+            j = np.arange(points.shape[0], dtype=np.float64)
+            ramp = np.minimum(np.inf if loose[0] else j, np.inf if loose[1] else j[::-1])
+            delta = delta * np.clip(ramp * step / END_RAMP, 0.0, 1.0)
         mine = np.flatnonzero((vertex_line == k) & ~skipped[vertices_near])
         if mine.size == 0:
             continue
