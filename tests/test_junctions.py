@@ -50,13 +50,15 @@ def test_fit_y_finds_the_centre_of_labelled_sites(seed):
         assert np.abs(fitted - angles).max() < np.radians(8)
 
 
-def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None):
-    """Relax the Voronoi labels of ``sites``; the distance (h) from each true Voronoi
-    vertex inside the square to the nearest found junction, whether that vertex lies 3 h
-    or more from every other, and the result."""
+def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None, interfaces=False):
+    """Relax the Voronoi labels of ``sites``, the junctions fitted or not (``fit``), the
+    interfaces and the junctions with them not fitted unless ``interfaces``; the distance
+    (h) from each true Voronoi vertex inside the square to the nearest found junction,
+    whether that vertex lies 3 h or more from every other, and the result."""
     from scipy.spatial import Voronoi
 
     monkeypatch.setattr(junctions, "JUNCTION_FIT", fit)
+    monkeypatch.setattr(interface_fit, "INTERFACE_FIT", interfaces)
     where = mesh.element_centroids() if on == "elements" else mesh.points
     labels = np.argmin(((where[:, None] - sites[None]) ** 2).sum(axis=2), axis=1)
     res = relax(mesh, labels, on=on)
@@ -72,20 +74,26 @@ def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None):
 
 @pytest.mark.parametrize("on", ["elements", "vertices"])
 def test_fitted_junctions_lie_nearer_the_true_ones(on, monkeypatch):
+    """The junctions fitted to the sites around them, and the defaults (refitted with
+    their interfaces where they lie alone), lie nearer to the true Voronoi vertices than
+    the relaxed ones."""
     mesh = kuhn_grid(50, 2, jitter=0.25, random_state=0)
-    errors, alone = {True: [], False: []}, []
+    arms = {"relaxed": (False, False), "fitted": (True, False), "defaults": (True, True)}
+    errors, alone = {arm: [] for arm in arms}, []
     for seed in range(3):
         sites = np.random.default_rng(seed).uniform(-0.7, 0.7, (6, 2))
-        for fit in (True, False):
-            d, apart, res = voronoi_junctions(mesh, sites, on, fit, monkeypatch)
-            errors[fit].append(d)
+        for arm, (fit, interfaces) in arms.items():
+            d, apart, res = voronoi_junctions(mesh, sites, on, fit, monkeypatch, interfaces)
+            errors[arm].append(d)
             if fit:
                 assert res.params["fitted_junctions"] >= 2
+            if arm == "defaults":
+                assert res.params["refitted_junctions"] >= 1
                 alone.append(apart)
     assert not np.concatenate(alone).all()  # the draws hold pairs of junctions nearer than 3 h
-    fitted, relaxed = np.concatenate(errors[True]), np.concatenate(errors[False])
-    assert fitted.mean() < 0.6 * relaxed.mean()
-    assert fitted.max() < 0.35
+    d = {arm: np.concatenate(e) for arm, e in errors.items()}
+    for arm in ("fitted", "defaults"):
+        assert d[arm].mean() < 0.6 * d["relaxed"].mean() and d[arm].max() < 0.35, (arm, d[arm], d["relaxed"])
 
 
 def test_the_fit_changes_the_partition_near_junctions_only(monkeypatch):
@@ -149,6 +157,7 @@ def test_the_junctions_of_a_label_image_are_fitted(monkeypatch):
         assert res.region_measures().sum() == pytest.approx(160 * 160, rel=1e-9)
     assert true.shape[0] >= 5
     assert errors[True].mean() < 0.7 * errors[False].mean() and errors[True].max() < 0.5
+
 
 def test_a_pairs_linear_functions_tie_on_its_rays_and_short_interface():
     from ndboundary.pipeline.junctions import _pair_functions

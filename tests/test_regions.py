@@ -366,3 +366,36 @@ def test_an_interface_fit_slides_only_its_loose_ends(loose):
         assert abs(y[end]) < 0.1 if free else y[end] == 0.2, (end, y[end])
     if all(loose):
         assert np.abs(y).max() < 0.01, y
+
+
+def test_a_junction_fitted_with_its_interfaces_moves_nearer_the_true_one():
+    """Three straight interfaces from a junction, labelled on a jittered lattice of sites,
+    drawn from a point up to 0.6 off the true junction to their true far ends (held): the
+    junction fitted with them (its move shared by the three ends) lands nearer."""
+    from ndboundary.pipeline.interface_fit import BEND, BETA, _line_terms, fit_network
+
+    before, after = [], []
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        grid = np.stack(np.meshgrid(np.arange(-20.0, 20.0), np.arange(-20.0, 20.0)), axis=-1).reshape(-1, 2)
+        sites = grid + rng.uniform(-0.3, 0.3, grid.shape)
+        angles = np.sort((np.radians([90.0, 210.0, 330.0]) + rng.uniform(-0.2, 0.2, 3)) % (2 * np.pi))
+        centre = rng.uniform(-0.5, 0.5, 2)
+        start = centre + rng.uniform(-0.4, 0.4, 2)
+        region = np.searchsorted(angles, np.arctan2(*(sites - centre).T[::-1]) % (2 * np.pi)) % 3
+        lines = []
+        for q in range(3):  # ray q parts region q (before it, counter-clockwise) from q + 1
+            d = np.array([np.cos(angles[q]), np.sin(angles[q])])
+            points = start + np.linspace(0.0, 1.0, 37)[:, None] * (centre + 18.0 * d - start)
+            mine = np.isin(region, [q, (q + 1) % 3]) & (np.abs((sites - centre) @ [-d[1], d[0]]) < 2.0)
+            mine &= (sites - centre) @ d > -3.0
+            nearest = np.argmin(((sites[mine][:, None] - points[None]) ** 2).sum(axis=2), axis=1)
+            side = np.where(region[mine] == q, 1.0, -1.0)
+            step = float(np.linalg.norm(points[1] - points[0]))
+            terms = _line_terms(points, step, sites[mine], side, BETA, False, nearest, (True, False), BEND)
+            lines.append((terms, (0, "held")))
+        moves, shifts = fit_network(lines, 1)
+        assert len(moves) == 3 and all(m[-1] == 0.0 for m in moves)  # the far ends held
+        before.append(np.linalg.norm(start - centre))
+        after.append(np.linalg.norm(start + shifts[0] - centre))
+    assert np.mean(after) < 0.5 * np.mean(before), (before, after)

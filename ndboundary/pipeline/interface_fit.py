@@ -15,16 +15,32 @@ curve that minimises
 
 over the sites of its two regions within :data:`SITE_REACH` h: ``kappa'`` the change of
 its curvature from vertex to vertex (circles and lines cost nothing), ``margin`` a site's
-signed distance to the curve, positive on its region's side, lengths in h. Its ends, the
-fitted junctions and border crossings, are held. The displacement is then imposed on the
-two regions' functions: their difference, which the partition's interface is the zero
-of, is shifted by the displacement times its slope, fully within :data:`CORE` h of the
-curve and blended out by :data:`BLEND` h, so that every output of the partition
-(interfaces, region boundaries and measures) follows.
+signed distance to the curve, positive on its region's side, lengths in h.
 
-On the Voronoi partition of ``benchmarks/regions.py`` (``--no-interface-fit`` for the
-interfaces as relaxed) this took the interface mean on Voronoi polygons from 0.16 h to
-0.11 h, and on triangles from 0.05 h to 0.036 h. Surfaces, volumes and two-region results
+A point junction that lies alone (no other junction or border end within
+``junctions.MIN_SPACING`` h) moves with its three interfaces (:func:`fit_network`): its
+move ``u`` moves each one's end by ``n . u``, and the sites within :data:`JUNCTION_SITES`
+h of it part all three, beyond their ends too. Where the interfaces meet is then read
+along their whole length, not from the sites around the point alone, which the largest
+margin of a Y of straight rays misplaces (its rays turn to widen the margins: the truth
+runs nearer some sites than the widest parting does). Those interfaces also pay
+``BEND * sum(kappa^2) step``, which holds them straight where the sites do not bend them.
+An interface's end on the domain's border slides along it; the other ends (pairs of
+junctions, crossings fitted by the junctions' fits) are held. An end or a junction the
+fit would move farther than :data:`LOOSE_MAX` or :data:`JUNCTION_MAX` h is held, and the
+lines fitted again. A moved junction is imposed as the junctions' fits impose theirs:
+three linear functions whose ties run from it towards its fitted interfaces.
+
+The displacement of each interface is then imposed on its two regions' functions: their
+difference, which the partition's interface is the zero of, is shifted by the
+displacement times its slope, fully within :data:`CORE` h of the curve and blended out by
+:data:`BLEND` h, so that every output of the partition (interfaces, region boundaries and
+measures) follows.
+
+Against the interfaces as relaxed (``benchmarks/regions.py --no-interface-fit``), on the
+Voronoi partitions of that benchmark, this takes the interface mean on Voronoi polygons
+from 0.16 h to 0.09 h, on triangles from 0.05 h to 0.03 h, and the junctions of 2-D label
+images nearer to the truth (``--cases image-y``). Surfaces, volumes and two-region results
 are not fitted.
 """
 
@@ -39,6 +55,7 @@ import scipy.sparse.linalg as spla
 from scipy.linalg import LinAlgError, solveh_banded
 from scipy.spatial import cKDTree
 
+from . import junctions
 from .junctions import stored_values
 
 __all__ = ["INTERFACE_FIT", "interface_corrections", "polylines", "refine", "resample"]
@@ -49,6 +66,9 @@ INTERFACE_FIT = True
 
 #: Weight of the curvature-change prior against the margins (lengths in units of h).
 BETA = 3000.0
+#: Weight of the curvature prior on the interfaces from a junction fitted with them (and
+#: no held end), lengths in h.
+BEND = 10000.0
 #: Width of the margins' soft minimum, in h.
 TAU = 0.1
 #: The sites within this many h of an interface are the ones it parts.
@@ -61,6 +81,11 @@ END_RAMP = 2.0
 #: An end on the domain's border slides with the fit, unless it would move farther than
 #: this (in h): then it is held.
 LOOSE_MAX = 1.0
+#: A junction fitted with its interfaces is held where it would move farther (in h).
+JUNCTION_MAX = 0.5
+#: The sites within this many h of such a junction constrain all its interfaces between
+#: their region and another, beyond their ends too (each sector is convex).
+JUNCTION_SITES = 3.0
 
 
 def polylines(points, segments):
@@ -152,40 +177,8 @@ def refine(
     >>> bool(np.abs(radius - 5.0).max() < 0.05)
     True
     """
+    normal, foot, signed, side, H0, g0, j0, w = _line_terms(points, step, sites, side, beta, closed, nearest)
     n = points.shape[0]
-    tangent = (np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)) if closed else np.gradient(points, axis=0)
-    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
-    normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-    if nearest is None:  # each site's nearest vertex, unless the caller found them
-        nearest = cKDTree(points).query(sites)[1]
-    signed = ((sites - points[nearest]) * normal[nearest]).sum(axis=1)
-    if np.mean(np.sign(signed) == -side) < 0.5:
-        normal, signed = -normal, -signed
-    along = np.clip(((sites - points[nearest]) * tangent[nearest]).sum(axis=1) / step, -0.999, 0.999)
-    j0 = np.where(along >= 0, nearest, nearest - 1)
-    w = np.where(along >= 0, along, 1.0 + along)
-    if closed:
-        j0 %= n
-    else:  # sites beyond an open polyline's ends have no foot on it
-        on = (j0 >= 0) & (j0 < n - 1)
-        j0, w, signed, side = j0[on], w[on], signed[on], side[on]
-    m = j0.size
-    ends = (np.tile(np.arange(m), 2), np.r_[j0, (j0 + 1) % n])
-    foot = sp.csr_matrix((np.r_[1.0 - w, w], ends), shape=(m, n))
-    if closed:
-        D = _stencil(n, n, (-1.0, 1.0), step, cyclic=True)
-        D2 = (-(D.T @ D)).tocsr()
-        inner_normal = normal
-    else:
-        D2 = _stencil(n - 2, n, (1.0, -2.0, 1.0), step**2)
-        inner_normal = normal[1:-1]
-    kappa = (D2 @ points * -inner_normal).sum(axis=1)
-    rows = np.arange(kappa.size)
-    dkappa = -D2 - sp.csr_matrix((kappa**2, (rows, rows if closed else rows + 1)), shape=(kappa.size, n))
-    if not closed:
-        D = _stencil(kappa.size - 1, kappa.size, (-1.0, 1.0), step)
-    A = D @ dkappa
-    H0, g0 = beta * step * (A.T @ A), beta * step * (A.T @ (D @ kappa))
     first, last = (0, n) if closed else (0 if loose[0] else 1, n if loose[1] else n - 1)
     free = np.arange(first, last)
     H0_free = (H0.tocsr()[free][:, free] + 1e-9 * sp.identity(free.size)).tocsr()
@@ -216,11 +209,115 @@ def refine(
     return delta, normal
 
 
+def _line_terms(points, step, sites, side, beta, closed, nearest, extend=(False, False), alpha=0.0):
+    """The parts of :func:`refine`'s loss on the polyline ``points``: ``(normal, foot,
+    signed, side, H0, g0, j0, w)``, each vertex's normal (away from the +1 sites), the
+    (sites, vertices) matrix interpolating the vertices' moves at each site's foot, the
+    sites' signed distances and sides (those with a foot), the prior's Hessian and
+    gradient at no move, and each foot's first vertex and weight on the second.
+
+    A site beyond an open polyline's end has no foot, unless ``extend`` says so for that
+    end: its foot then lies on the end segment's line, and moves with it. ``alpha``
+    weighs a curvature prior ``alpha * sum(kappa^2) step`` beside the curvature-change one.
+    """
+    n = points.shape[0]
+    tangent = (np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)) if closed else np.gradient(points, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
+    if nearest is None:  # each site's nearest vertex, unless the caller found them
+        nearest = cKDTree(points).query(sites)[1]
+    signed = ((sites - points[nearest]) * normal[nearest]).sum(axis=1)
+    if np.mean(np.sign(signed) == -side) < 0.5:
+        normal, signed = -normal, -signed
+    raw = ((sites - points[nearest]) * tangent[nearest]).sum(axis=1) / step
+    along = np.clip(raw, -0.999, 0.999)
+    j0 = np.where(along >= 0, nearest, nearest - 1)
+    w = np.where(along >= 0, along, 1.0 + along)
+    if closed:
+        j0 %= n
+    else:  # sites beyond an open polyline's ends have no foot on it, unless it is extended
+        if extend[0]:
+            beyond = j0 < 0
+            j0[beyond], w[beyond] = 0, raw[beyond]
+        if extend[1]:
+            beyond = j0 >= n - 1
+            j0[beyond], w[beyond] = n - 2, 1.0 + raw[beyond]
+        on = (j0 >= 0) & (j0 < n - 1)
+        j0, w, signed, side = j0[on], w[on], signed[on], side[on]
+    m = j0.size
+    ends = (np.tile(np.arange(m), 2), np.r_[j0, (j0 + 1) % n])
+    foot = sp.csr_matrix((np.r_[1.0 - w, w], ends), shape=(m, n))
+    if closed:
+        D = _stencil(n, n, (-1.0, 1.0), step, cyclic=True)
+        D2 = (-(D.T @ D)).tocsr()
+        inner_normal = normal
+    else:
+        D2 = _stencil(n - 2, n, (1.0, -2.0, 1.0), step**2)
+        inner_normal = normal[1:-1]
+    kappa = (D2 @ points * -inner_normal).sum(axis=1)
+    rows = np.arange(kappa.size)
+    dkappa = -D2 - sp.csr_matrix((kappa**2, (rows, rows if closed else rows + 1)), shape=(kappa.size, n))
+    if not closed:
+        D = _stencil(kappa.size - 1, kappa.size, (-1.0, 1.0), step)
+    A = D @ dkappa
+    H0, g0 = beta * step * (A.T @ A), beta * step * (A.T @ (D @ kappa))
+    if alpha:
+        H0 = H0 + alpha * step * (dkappa.T @ dkappa)
+        g0 = g0 + alpha * step * (dkappa.T @ kappa)
+    return normal, foot, signed, side, H0.tocsr(), g0, j0, w
+
+
+def fit_network(lines, n_junctions, tau=TAU, iterations=30):
+    """:func:`refine` of several polylines at once, some of whose ends are one point that
+    moves with them (a junction): each line's ``(terms, ends)``, its :func:`_line_terms`
+    and how each end moves (``"held"``, ``"loose"``, or a junction's number), and the
+    number of junctions. Returns each line's moves along its normals and each junction's
+    move, shape (n_junctions, 2).
+
+    A junction's three interfaces are fitted with it: where they meet is where they part
+    their sites best, read along their whole length rather than from the sites around the
+    point alone. Its move ``u`` moves each of its lines' end by ``n . u``, ``n`` that end's
+    normal (the end's move along its interface changes none of the losses to first order).
+    """
+    blocks, width = [], 2 * n_junctions  # the junctions' moves come first
+    for terms, ends in lines:
+        normal = terms[0]
+        n = normal.shape[0]
+        rows, cols, vals = [np.arange(1, n - 1)], [width + np.arange(n - 2)], [np.ones(n - 2)]
+        width += n - 2
+        for i, end in ((0, ends[0]), (n - 1, ends[1])):
+            if end == "loose":
+                rows.append([i]), cols.append([width]), vals.append([1.0])
+                width += 1
+            elif end != "held":
+                rows.append([i, i]), cols.append([2 * end, 2 * end + 1]), vals.append(normal[i])
+        blocks.append((np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), n))
+    places = [sp.csr_matrix((v, (r, c)), shape=(n, width)) for r, c, v, n in blocks]
+    F = sp.vstack([line[0][1] @ P for line, P in zip(lines, places, strict=True)]).tocsr()
+    H0 = sum((P.T @ line[0][4] @ P for line, P in zip(lines, places, strict=True)), sp.csr_matrix((width, width)))
+    g0 = sum(P.T @ line[0][5] for line, P in zip(lines, places, strict=True))
+    signed = np.concatenate([line[0][2] for line in lines])
+    side = np.concatenate([line[0][3] for line in lines])
+    z = np.zeros(width)
+    ridge = 1e-9 * sp.identity(width, format="csr")
+    for _ in range(iterations):
+        e = np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
+        grad = H0 @ z + g0 - F.T @ (side * e / tau)
+        hess = (H0 + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc()
+        move = spla.spsolve(hess, -grad)
+        z += move
+        if not np.isfinite(move).all() or np.abs(move).max() < 1e-6:
+            break
+    return [P @ z for P in places], z[: 2 * n_junctions].reshape(n_junctions, 2)
+
+
 def interface_corrections(domain, codes, on, values, faces, h, skip):
-    """New values of the two region functions near every interface of ``faces`` (an
-    :class:`~ndboundary.partition.Interfaces` of a partition of the plane), fitted as the
-    module describes: a list of ``(vertices, regions, new)``, none at the vertices of
-    ``skip`` (those the junctions' fits wrote) and none sharing a vertex.
+    """New values of the region functions near every interface of ``faces`` (an
+    :class:`~ndboundary.partition.Interfaces` of a partition of the plane), and near the
+    junctions fitted with them, as the module describes: a list of ``(vertices, regions,
+    new)`` and the number of junctions moved, none at the vertices of ``skip`` (those the
+    junctions' fits wrote) but those a moved junction writes anew, and none sharing a
+    vertex.
     """
     # only the vertices whose two largest functions are within reach of each other can lie
     # near an interface (the functions grow by about one per h from it), and only the sites
@@ -235,7 +332,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         site_ids = np.flatnonzero(domain.elements_at(mask))
         sites = domain.element_centroids()[site_ids]
     site_codes, points_near = codes[site_ids], domain.points[vertices_near]
-    lines = []  # (a, b, points, step, closed, loose ends), lengths in h
+    lines = []  # (a, b, points, step, closed, end vertices), lengths in h
     key = faces.pairs[:, 0].astype(np.int64) * (int(faces.pairs.max(initial=0)) + 1) + faces.pairs[:, 1]
     # an interface ends at a junction (three or more pieces meet there) or on the border,
     # where it is the only piece: that end slides along the border with the fit
@@ -249,42 +346,59 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
             if ids.size >= 3:
                 points, step = resample(faces.points[ids] / h, 0.5, closed)
                 if points.shape[0] >= 4:
-                    loose = (False, False) if closed else (bool(degree[ids[0]] == 1), bool(degree[ids[-1]] == 1))
-                    lines.append((int(pair[0]), int(pair[1]), points, step, closed, loose))
+                    lines.append((int(pair[0]), int(pair[1]), points, step, closed, (ids[0], ids[-1])))
     if not lines:
-        return []
+        return [], 0
     # one search for all the polylines: each site and vertex goes with the nearest
     starts = np.cumsum([0] + [line[2].shape[0] for line in lines])
     tree = cKDTree(np.concatenate([line[2] for line in lines]))
     site_line, site_at = _nearest_line(tree, starts, sites / h, SITE_REACH)
     vertex_line, vertex_at = _nearest_line(tree, starts, points_near / h, BLEND)
-    skipped = np.zeros(domain.n_vertices, dtype=bool)
-    skipped[skip] = True
-    out = []
-    for k, (a, b, points, step, closed, loose) in enumerate(lines):
+    junction_of, special = _single_junctions(faces, degree, lines, h)
+    site_tree = cKDTree(sites / h)
+    fitted = {}  # line -> (terms, ends)
+    for k, (a, b, points, step, closed, end_ids) in enumerate(lines):
         near = np.flatnonzero(site_line == k)
         near = near[(site_codes[near] == a) | (site_codes[near] == b)]
         if near.size < 3:
             continue
+        ends = ("loose", "loose") if closed else tuple(
+            junction_of.get(v, "loose" if degree[v] == 1 else "held") for v in end_ids
+        )  # fmt: skip
+        at = site_at[near]
+        extend = tuple(not isinstance(e, str) for e in ends)
+        for v, e in zip(end_ids, ends, strict=True):
+            if not isinstance(e, str):  # a junction's sites part its three interfaces
+                extra = np.setdiff1d(site_tree.query_ball_point(faces.points[v] / h, JUNCTION_SITES), near)
+                extra = extra[(site_codes[extra] == a) | (site_codes[extra] == b)]
+                near = np.r_[near, extra]
+                at = np.r_[at, cKDTree(points).query(sites[extra] / h)[1]]
         side = np.where(site_codes[near] == a, 1.0, -1.0)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", spla.MatrixRankWarning)
-                delta, normal = refine(
-                    points, step, sites[near] / h, side, closed=closed, nearest=site_at[near], loose=loose
-                )
-                if any(loose) and np.abs(delta[[0, -1]]).max() > LOOSE_MAX:
-                    # the sites near the border hold that end too loosely (a short
-                    # interface swings about its held end): it stays where it was
-                    loose = (False, False)
-                    delta, normal = refine(points, step, sites[near] / h, side, closed=closed, nearest=site_at[near])
-        except LinAlgError:
+        # an interface from a junction fitted with it is held straight, unless its other end
+        # is held (it is not pulled straight towards that)
+        bend = BEND if any(not isinstance(e, str) for e in ends) and "held" not in ends else 0.0
+        terms = _line_terms(points, step, sites[near] / h, side, BETA, closed, at, extend, bend)
+        if not (np.isfinite(terms[0]).all() and terms[2].size >= 3):
             continue
-        if not (np.isfinite(delta).all() and np.isfinite(normal).all()):
-            continue  # a degenerate polyline (a singular system) stays as relaxed
+        fitted[k] = (terms, ends)
+    closed_lines = {k for k in fitted if lines[k][4]}
+    moves, ends_of, shifts = _fit_all(fitted, closed_lines, len(special))
+    out, kept = _moved_junctions(
+        domain, values, faces, special, shifts, lines, moves, ends_of, fitted, vertices_near, h
+    )  # fmt: skip
+    skipped = np.zeros(domain.n_vertices, dtype=bool)
+    skipped[skip] = True
+    for vertices, _, _ in out:
+        skipped[vertices] = True
+    moved = len(out)
+    for k, delta in moves.items():
+        a, b, points, step, closed, _ = lines[k]
+        normal = fitted[k][0][0]
+        # a junction left where it was holds its ends, as the junctions' fits do
+        ends = tuple("held" if e in kept else e for e in ends_of[k])
         if not closed:  # the move grows from a held end
             j = np.arange(points.shape[0], dtype=np.float64)
-            ramp = np.minimum(np.inf if loose[0] else j, np.inf if loose[1] else j[::-1])
+            ramp = np.minimum(j if ends[0] == "held" else np.inf, j[::-1] if ends[1] == "held" else np.inf)
             delta = delta * np.clip(ramp * step / END_RAMP, 0.0, 1.0)
         mine = np.flatnonzero((vertex_line == k) & ~skipped[vertices_near])
         if mine.size == 0:
@@ -308,7 +422,123 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         weight = np.clip((BLEND - d) / (BLEND - CORE), 0.0, 1.0)
         shift = 0.5 * slope * weight * move  # the tie moves by move (in h) along the normal
         out.append((vertices, regions, now + np.stack([shift, -shift], axis=1)))
-    return out
+    return out, moved
+
+
+def _single_junctions(faces, degree, lines, h):
+    """The junctions fitted with their interfaces: each vertex of ``faces`` where exactly
+    three of the ``lines`` end, with no other junction or border end within
+    ``junctions.MIN_SPACING`` h (pairs of junctions and crossings keep their own fits).
+    Returns ``{vertex: number}`` and the vertices in that order.
+    """
+    ends = defaultdict(int)
+    for line in lines:
+        if not line[4]:
+            for v in line[5]:
+                ends[v] += 1
+    marks = np.flatnonzero(degree != 2)
+    if marks.size < 1:
+        return {}, []
+    tree = cKDTree(faces.points[marks])
+    special = []
+    for v in np.flatnonzero(degree >= 3):
+        if ends.get(v, 0) == 3 and degree[v] == 3:
+            if len(tree.query_ball_point(faces.points[v], junctions.MIN_SPACING * h)) == 1:
+                special.append(int(v))
+    return {v: i for i, v in enumerate(special)}, special
+
+
+def _fit_all(fitted, closed, n_junctions):
+    """:func:`fit_network` of the ``fitted`` lines (``{line: (terms, ends)}``), again with
+    the ends held that it moved too far: a border end farther than :data:`LOOSE_MAX` h (a
+    short interface, which its sites hold loosely, swinging about its other end) or a
+    junction farther than :data:`JUNCTION_MAX` h. Returns each line's moves and ends as
+    fitted, and each junction's move (NaN where held).
+    """
+    keys = [k for k in fitted]
+    held_junctions, held_ends = set(), set()
+    for _ in range(3):
+        ends = {
+            k: tuple("held" if e in held_junctions or (k, i) in held_ends else e for i, e in enumerate(fitted[k][1]))
+            for k in keys
+        }
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", spla.MatrixRankWarning)
+                moves, shifts = fit_network([(fitted[k][0], ends[k]) for k in keys], n_junctions)
+        except (LinAlgError, RuntimeError, ValueError):
+            return {}, {}, np.full((n_junctions, 2), np.nan)
+        far_junctions = {
+            j for j in range(n_junctions) if j not in held_junctions and not np.linalg.norm(shifts[j]) <= JUNCTION_MAX
+        }
+        far_ends = {
+            (k, i)
+            for k, delta in zip(keys, moves, strict=True)
+            for i, e in enumerate(ends[k])
+            if e == "loose" and k not in closed and not abs(delta[-i]) <= LOOSE_MAX
+        }
+        if not far_junctions and not far_ends:
+            break
+        held_junctions |= far_junctions
+        held_ends |= far_ends
+    else:
+        return {}, {}, np.full((n_junctions, 2), np.nan)
+    shifts = shifts.copy()
+    shifts[list(held_junctions)] = np.nan
+    good = {k: delta for k, delta in zip(keys, moves, strict=True) if np.isfinite(delta).all()}
+    return good, ends, shifts
+
+
+def _moved_junctions(domain, values, faces, special, shifts, lines, moves, ends, fitted, vertices_near, h):
+    """Each junction of ``special`` (vertices of ``faces``) that its fit moved by
+    ``shifts`` (in h) imposed there on the region functions, as
+    :mod:`~ndboundary.pipeline.junctions` imposes a fitted one: three linear functions
+    whose ties run from the moved point towards its fitted interfaces 1-4 h away, blended
+    back by ``junctions.BLEND`` h. Returns the fixes, and the junctions of ``special`` not
+    moved.
+    """
+    out, kept = [], set(range(len(special)))
+    if not len(special):
+        return out, kept
+    rays = defaultdict(list)  # junction -> (pair, its interface's fitted points 1-4 h away)
+    for k, delta in moves.items():
+        a, b, points, step, _, _ = lines[k]
+        curve = points + delta[:, None] * fitted[k][0][0]
+        for i, e in enumerate(ends[k]):
+            if not isinstance(e, str):
+                along = curve if i == 0 else curve[::-1]
+                reach = along[int(round(1.0 / step)) : int(round(4.0 / step)) + 1]
+                if len(reach):
+                    rays[e].append(((a, b), reach.mean(axis=0) * h))
+    degree = np.bincount(faces.simplices.ravel(), minlength=faces.points.shape[0])
+    marks = faces.points[degree != 2]
+    spacing = np.full(len(special), np.inf)
+    if len(marks) > 1:  # to the nearest other junction or border end
+        spacing = cKDTree(marks).query(faces.points[special], k=2)[0][:, 1]
+    tree = cKDTree(domain.points[vertices_near])
+    for j, v in enumerate(special):
+        if not np.isfinite(shifts[j]).all() or len(rays[j]) != 3:
+            continue
+        centre = faces.points[v] + shifts[j] * h
+        angles = np.array([np.arctan2(*(point - centre)[::-1]) % (2 * np.pi) for _, point in rays[j]])
+        order = np.argsort(angles)
+        pairs = [set(rays[j][o][0]) for o in order]
+        owners = [pairs[q] & pairs[(q + 1) % 3] for q in range(3)]
+        if any(len(o) != 1 for o in owners) or len({min(o) for o in owners}) != 3:
+            continue
+        grads = junctions.y_gradients(angles[order])
+        blend = min(junctions.BLEND * h, 0.5 * spacing[j] - np.linalg.norm(shifts[j]) * h)
+        if grads is None or blend < 2.0 * h:
+            continue
+        near = vertices_near[tree.query_ball_point(centre, blend)]
+        fix = junctions._imposed_linear(
+            domain, centre, np.eye(2), np.array([min(o) for o in owners]), np.column_stack([grads, np.zeros(3)]),
+            near, min(junctions.CORE * h, 0.6 * blend), blend, values, h, h, angles[order],
+        )  # fmt: skip
+        if fix is not None:
+            out.append(fix)
+            kept.discard(j)
+    return out, kept
 
 
 def _nearest_line(tree, starts, x, radius):

@@ -601,10 +601,11 @@ class RegionsResult(_RegionMethods):
         written = [v for v, _, _ in self._junction_values]
         skip = np.concatenate(written) if written else np.zeros(0, dtype=np.int64)
         on = self.params.get("on", "elements")
-        self._interface_values = interface_fit.interface_corrections(
+        self._interface_values, moved = interface_fit.interface_corrections(
             self.domain, self._codes, on, values, faces, h, skip
         )
-        self.params["fitted_interfaces"] = len(self._interface_values)
+        self.params["fitted_interfaces"] = len(self._interface_values) - moved
+        self.params["refitted_junctions"] = moved
         self.timings["interfaces"] = time.perf_counter() - tick
         return bool(self._interface_values)
 
