@@ -292,10 +292,19 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30):
             elif end != "held":
                 rows.append([i, i]), cols.append([2 * end, 2 * end + 1]), vals.append(normal[i])
         blocks.append((np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), n))
-    places = [sp.csr_matrix((v, (r, c)), shape=(n, width)) for r, c, v, n in blocks]
-    F = sp.vstack([line[0][1] @ P for line, P in zip(lines, places, strict=True)]).tocsr()
-    H0 = sum((P.T @ line[0][4] @ P for line, P in zip(lines, places, strict=True)), sp.csr_matrix((width, width)))
-    g0 = sum(P.T @ line[0][5] for line, P in zip(lines, places, strict=True))
+    # every line's vertices stacked: their moves are ``place @ z``, z the unknowns
+    offsets = np.cumsum([0] + [n for _, _, _, n in blocks])
+    place = sp.csr_matrix(
+        (
+            np.concatenate([v for _, _, v, _ in blocks]),
+            (np.concatenate([r + o for (r, _, _, _), o in zip(blocks, offsets, strict=False)]),
+             np.concatenate([c for _, c, _, _ in blocks])),
+        ),
+        shape=(offsets[-1], width),
+    )  # fmt: skip
+    F = (sp.block_diag([terms[1] for terms, _ in lines], format="csr") @ place).tocsr()
+    H0 = (place.T @ sp.block_diag([terms[4] for terms, _ in lines], format="csr") @ place).tocsr()
+    g0 = place.T @ np.concatenate([terms[5] for terms, _ in lines])
     signed = np.concatenate([line[0][2] for line in lines])
     side = np.concatenate([line[0][3] for line in lines])
     z = np.zeros(width)
@@ -308,7 +317,10 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30):
         z += move
         if not np.isfinite(move).all() or np.abs(move).max() < 1e-6:
             break
-    return [P @ z for P in places], z[: 2 * n_junctions].reshape(n_junctions, 2)
+    moves = place @ z
+    return [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)], z[: 2 * n_junctions].reshape(
+        n_junctions, 2
+    )
 
 
 def interface_corrections(domain, codes, on, values, faces, h, skip):
