@@ -74,7 +74,11 @@ errors are not); ``t>f`` the largest distance from a true junction to the found 
 ``f>t`` from a found junction to the true ones; ``jag t>f`` the same ``t>f`` for the
 jagged labels' junctions (the vertices where three labels meet); ``meas%`` the largest relative error of
 a region's measure; ``jag%`` the same for the labelled regions (their elements' measures
-summed: the relaxation keeps them, so that they bound what it can reach) and ``cell/h``
+summed: the relaxation keeps them, so that they bound what it can reach); ``mid%`` (plane
+Voronoi cases) the same for an oracle that is given the true interfaces' lines and ends and
+moves each along its normal to the middle of the gap its labelled sites leave (those within
+2 h): the best estimate of an interface's place from the labels under a flat prior, which
+no fit to the same labels beats on average (``VoronoiTruth.gap_midpoint_measures``); and ``cell/h``
 the square root of the mean element's measure, in h (plane cases); ``s`` the seconds of
 the relax call.
 
@@ -114,6 +118,7 @@ COLUMNS = [("L", 3, "d", "n_regions"), ("h", 7, ".4f", "h"), ("mean/h", 7, ".3f"
            ("f>t/h", 7, ".3f", "found_to_true_h"), ("jag t>f", 7, ".3f", "jagged_true_to_found_h"),
            ("jcurve/h", 8, ".3f", "junction_curve_mean_h"),
            ("meas%", 7, ".3f", "measure_err_pct"), ("jag%", 6, ".3f", "jagged_measure_err_pct"),
+           ("mid%", 6, ".3f", "gap_midpoint_measure_err_pct"),
            ("cell/h", 6, ".2f", "cell_h"), ("gap%", 6, ".3f", "naive_gap_pct"),
            ("over%", 6, ".3f", "naive_overlap_pct"), ("seam/h", 6, ".2f", "naive_seam_max_h"),
            ("argmax", 8, ".1e", "argmax_gap_rel"), ("s", 6, ".2f", "seconds")]  # fmt: skip
@@ -247,6 +252,8 @@ def measure_plane(name, mesh, sites):
     exact = truth.exact_measures(mesh)[res.classes]
     err = 100 * np.abs(res.region_measures() / exact - 1)
     labelled = np.bincount(np.searchsorted(res.classes, labels), weights=mesh.A, minlength=res.classes.size)
+    midpoint = truth.gap_midpoint_measures(mesh.element_centroids(), labels, 2 * h)[res.classes] / exact
+    row["gap_midpoint_measure_err_pct"] = float(100 * np.abs(midpoint).max())
     row.update(jagged_measure_err_pct=float(100 * np.abs(labelled / exact - 1).max()),
                cell_h=float(np.sqrt(mesh.A.mean()) / h))  # fmt: skip
     row.update(junctions=f"{len(true)}/{len(found)}", true_to_found_h=t2f, found_to_true_h=f2t,

@@ -160,6 +160,28 @@ class VoronoiTruth:
         keep = (near[:, 2] - near[:, 0] < 1e-9 * (1 + near[:, 0])) & (near[:, 3] - near[:, 2] > 1e-9)
         return v[keep], np.sort(np.argsort(d, axis=1)[keep, :3], axis=1)
 
+    def gap_midpoint_measures(self, sites, labels, reach):
+        """2-D: the relative error of each region's area (a fraction, shape (n_sites,))
+        when each true interface is kept along its true line and moved to the middle of
+        the gap its labelled ``sites`` leave (those of its pair within ``reach`` of it):
+        given the truth's directions and junctions, the best estimate of each interface's
+        place under a flat prior. It bounds what any fit to the same labels reaches.
+        """
+        s, moved = self.sites, np.zeros(len(self.sites))
+        for a, b in combinations(range(len(s)), 2):
+            if self.face((a, b)) is None:
+                continue
+            ends = self.face_points((a, b))
+            n = (s[b] - s[a]) / np.linalg.norm(s[b] - s[a])
+            near = self.face_distance(sites, (a, b)) < reach
+            on_a, on_b = sites[near & (labels == a)] @ n, sites[near & (labels == b)] @ n
+            if on_a.size and on_b.size:
+                shift = 0.5 * (on_a.max() + on_b.min()) - n @ (s[a] + s[b]) / 2  # towards b
+                length = np.linalg.norm(ends[1] - ends[0])
+                moved[a] += shift * length
+                moved[b] -= shift * length
+        return moved
+
     def junction_distance(self, x, regions):
         """Distance from ``x`` to the true junction (edge / vertex) of any triple in
         ``regions``; None where no such triple has one (the caller falls back)."""
