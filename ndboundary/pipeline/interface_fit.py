@@ -25,8 +25,9 @@ along their whole length, not from the sites around the point alone, which the l
 margin of a Y of straight rays misplaces (its rays turn to widen the margins: the truth
 runs nearer some sites than the widest parting does). Those interfaces also pay
 ``BEND * sum(kappa^2) step``, which holds them straight where the sites do not bend them.
-An interface's end on the domain's border slides along it; the other ends (pairs of
-junctions, crossings fitted by the junctions' fits) are held. An end or a junction the
+An interface's end on the domain's border slides along it, and where the junctions' fits
+placed it (a crossing fitted to the sites around it) this fit, read along the whole
+interface, places it anew; the ends at pairs of junctions are held. An end or a junction the
 fit would move farther than :data:`LOOSE_MAX` or :data:`JUNCTION_MAX` h is held, and the
 lines fitted again. A moved junction is imposed as the junctions' fits impose theirs:
 three linear functions whose ties run from it towards its fitted interfaces.
@@ -328,7 +329,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     :class:`~ndboundary.partition.Interfaces` of a partition of the plane), and near the
     junctions fitted with them, as the module describes: a list of ``(vertices, regions,
     new)`` and the number of junctions moved, none at the vertices of ``skip`` (those the
-    junctions' fits wrote) but those a moved junction writes anew, and none sharing a
+    junctions' fits hold) but those a moved junction writes anew, and none sharing a
     vertex.
     """
     # only the vertices whose two largest functions are within reach of each other can lie
