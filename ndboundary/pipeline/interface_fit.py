@@ -441,7 +441,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
 def _single_junctions(faces, degree, lines, h):
     """The junctions fitted with their interfaces: each vertex of ``faces`` where exactly
     three of the ``lines`` end, with no other junction or border end within
-    ``junctions.MIN_SPACING`` h (pairs of junctions and crossings keep their own fits).
+    ``junctions.MIN_SPACING`` h (pairs of junctions keep the junctions' fits).
     Returns ``{vertex: number}`` and the vertices in that order.
     """
     ends = defaultdict(int)
@@ -466,11 +466,12 @@ def _fit_all(fitted, closed, n_junctions):
     the ends held that it moved too far: a border end farther than :data:`LOOSE_MAX` h (a
     short interface, which its sites hold loosely, swinging about its other end) or a
     junction farther than :data:`JUNCTION_MAX` h. Returns each line's moves and ends as
-    fitted, and each junction's move (NaN where held).
+    fitted, and each junction's move (NaN where held); a line whose end still moves too far
+    after a few rounds is left out, as relaxed.
     """
     keys = [k for k in fitted]
     held_junctions, held_ends = set(), set()
-    for _ in range(3):
+    for _ in range(4):
         ends = {
             k: tuple("held" if e in held_junctions or (k, i) in held_ends else e for i, e in enumerate(fitted[k][1]))
             for k in keys
@@ -494,11 +495,12 @@ def _fit_all(fitted, closed, n_junctions):
             break
         held_junctions |= far_junctions
         held_ends |= far_ends
-    else:
-        return {}, {}, np.full((n_junctions, 2), np.nan)
     shifts = shifts.copy()
-    shifts[list(held_junctions)] = np.nan
-    good = {k: delta for k, delta in zip(keys, moves, strict=True) if np.isfinite(delta).all()}
+    shifts[list(held_junctions | far_junctions)] = np.nan
+    drop = {k for k, _ in far_ends} | {
+        k for k in keys for e in ends[k] if not isinstance(e, str) and e in far_junctions
+    }
+    good = {k: delta for k, delta in zip(keys, moves, strict=True) if np.isfinite(delta).all() and k not in drop}
     return good, ends, shifts
 
 
