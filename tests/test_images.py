@@ -691,3 +691,31 @@ def test_voxel_centroids_and_corner_maxima_are_the_means_and_maxima_of_their_cor
     codes = rng.integers(0, 5, band.n_vertices).astype(np.int32)  # labels keep their type
     assert band.element_max(codes).dtype == np.int32
     np.testing.assert_array_equal(band.element_max(codes), codes[corners].max(axis=1))
+
+
+def test_a_y_of_rays_on_pixels_is_fitted_with_its_junction(monkeypatch):
+    """Three regions of a 96² label image parted by straight rays from an off-grid point:
+    the interfaces, fitted with their junction, lie within a tenth of a pixel of the rays
+    and the junction within a tenth of a pixel of the point, several times nearer than
+    with the junction fitted to the pixels around it alone."""
+    from ndboundary.pipeline import interface_fit
+
+    n, centre, angles = 96, np.array([47.3, 48.6]), np.radians([95.0, 212.0, 331.0])
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), axis=-1).reshape(-1, 2).astype(float)
+    labels = (np.searchsorted(angles, np.arctan2(*(g - centre).T[::-1]) % (2 * np.pi)) % 3).reshape(n, n)
+    errors = {}
+    for fit in (True, False):
+        monkeypatch.setattr(interface_fit, "INTERFACE_FIT", fit)
+        faces = relax_image(labels).interfaces()
+        x = faces.points[faces.simplices].mean(axis=1)
+        to_rays = np.full(len(x), np.inf)
+        for angle in angles:
+            u = np.array([np.cos(angle), np.sin(angle)])
+            along = np.clip((x - centre) @ u, 0.0, None)
+            to_rays = np.minimum(to_rays, np.linalg.norm(x - centre - along[:, None] * u, axis=1))
+        inner = np.abs(x - n / 2).max(axis=1) < n / 2 - 2  # away from the image's border
+        j = faces.junctions()
+        junction = np.linalg.norm(j.points[j.simplices[:, 0]] - centre, axis=1).min()
+        errors[fit] = (to_rays[inner].mean(), to_rays[inner].max(), junction)
+    assert max(errors[True]) < 0.1 and errors[True][1] < 0.5 * errors[False][1], errors
+    assert errors[True][2] < 0.5 * errors[False][2], errors

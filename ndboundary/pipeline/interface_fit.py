@@ -396,14 +396,23 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         fitted[k] = (terms, ends)
     closed_lines = {k for k in fitted if lines[k][4]}
     moves, ends_of, shifts = _fit_all(fitted, closed_lines, len(special))
-    out, kept = _moved_junctions(
+    placed, kept = _moved_junctions(
         domain, values, faces, special, shifts, lines, moves, ends_of, fitted, vertices_near, h
     )  # fmt: skip
+    # the junctions' fits' neighbourhoods stay, but for those of the junctions moved here,
+    # whose new ones blend into the interfaces' fit (below)
     skipped = np.zeros(domain.n_vertices, dtype=bool)
-    skipped[skip] = True
-    for vertices, _, _ in out:
-        skipped[vertices] = True
-    moved = len(out)
+    replaced = _replaced(domain, skip, [centre for _, centre, _, _ in placed])
+    for k, zone in enumerate(skip):
+        skipped[zone] = k not in replaced
+    zone_of = np.full(domain.n_vertices, -1)
+    for z, ((vertices, _, _), _, _, _) in enumerate(placed):
+        zone_of[vertices] = z
+    out, moved = [], len(placed)
+    placed = [
+        ((vertices, regions, new.copy()), centre, core, blend)
+        for (vertices, regions, new), centre, core, blend in placed
+    ]
     for k, delta in moves.items():
         a, b, points, step, closed, _ = lines[k]
         normal = fitted[k][0][0]
@@ -434,8 +443,47 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
             continue
         weight = np.clip((BLEND - d) / (BLEND - CORE), 0.0, 1.0)
         shift = 0.5 * slope * weight * move  # the tie moves by move (in h) along the normal
-        out.append((vertices, regions, now + np.stack([shift, -shift], axis=1)))
-    return out, moved
+        inside = zone_of[vertices] >= 0
+        out.append((vertices[~inside], regions, (now + np.stack([shift, -shift], axis=1))[~inside]))
+        for z in np.unique(zone_of[vertices[inside]]):
+            _blend_into(placed[z], vertices[inside], zone_of[vertices[inside]] == z, regions, shift[inside], domain, h)
+    return [fix for fix, _, _, _ in placed] + [fix for fix in out if fix[0].size], moved
+
+
+def _replaced(domain, zones, centres):
+    """The indices of the ``zones`` (vertex arrays) that hold the domain's vertex nearest
+    to one of the ``centres``.
+    """
+    if not len(zones) or not len(centres):
+        return set()
+    nearest = cKDTree(domain.points).query(np.asarray(centres))[1]
+    return {k for k, zone in enumerate(zones) if np.isin(nearest, zone).any()}
+
+
+def _blend_into(placed, vertices, mine, regions, shift, domain, h=1.0):
+    """Add an interface's fitted shift (``+shift`` to ``regions[0]``, ``-shift`` to
+    ``regions[1]`` at ``vertices[mine]``) to a moved junction's values, weighted by what
+    its imposition keeps of the values it blends into: the junction's functions then blend
+    into the fitted interfaces, not the relaxed ones. A junction with less than ``h`` to
+    blend over (one near another, or near the border) keeps its own values: over so short
+    a step the two would kink the interface.
+    """
+    (zone, owners, new), centre, core, blend = placed
+    columns = [np.flatnonzero(owners == r) for r in regions]
+    if any(c.size == 0 for c in columns) or blend - core < h:
+        return
+    rows = np.searchsorted(zone, vertices[mine], sorter=np.argsort(zone))
+    rows = np.argsort(zone)[rows]
+    # only where the interface's two regions lead: a vertex nearer to it than to the tie
+    # of its own two leading regions (next to the junction) keeps the junction's values
+    top = np.argsort(new[rows], axis=1)[:, -2:]
+    leads = np.sort(top, axis=1) == np.sort([columns[0][0], columns[1][0]])
+    rows, mine = rows[leads.all(axis=1)], np.flatnonzero(mine)[leads.all(axis=1)]
+    keep = 1.0 - np.clip(
+        (blend - np.linalg.norm(domain.points[vertices[mine]] - centre, axis=1)) / (blend - core), 0.0, 1.0
+    )
+    new[rows, columns[0][0]] += keep * shift[mine]
+    new[rows, columns[1][0]] -= keep * shift[mine]
 
 
 def _single_junctions(faces, degree, lines, h):
@@ -546,12 +594,13 @@ def _moved_junctions(domain, values, faces, special, shifts, lines, moves, ends,
         if grads is None or blend < 2.0 * h:
             continue
         near = vertices_near[tree.query_ball_point(centre, blend)]
+        core = min(junctions.CORE * h, 0.6 * blend)
         fix = junctions._imposed_linear(
             domain, centre, np.eye(2), np.array([min(o) for o in owners]), np.column_stack([grads, np.zeros(3)]),
-            near, min(junctions.CORE * h, 0.6 * blend), blend, values, h, h, angles[order],
+            near, core, blend, values, h, h, angles[order],
         )  # fmt: skip
         if fix is not None:
-            out.append(fix)
+            out.append((fix, centre, core, blend))
             kept.discard(j)
     return out, kept
 

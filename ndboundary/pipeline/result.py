@@ -600,8 +600,7 @@ class RegionsResult(_RegionMethods):
         faces = partition(*complex_).interfaces()
         # the junctions' fits hold their points; a crossing of the border the interface's
         # fit places anew, from its whole length
-        written = [v for v, r, _ in self._junction_values if len(r) >= 3]
-        skip = np.concatenate(written) if written else np.zeros(0, dtype=np.int64)
+        skip = [v for v, r, _ in self._junction_values if len(r) >= 3]
         on = self.params.get("on", "elements")
         self._interface_values, moved = interface_fit.interface_corrections(
             self.domain, self._codes, on, values, faces, h, skip
