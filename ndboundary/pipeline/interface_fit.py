@@ -24,13 +24,15 @@ h of it part all three, beyond their ends too. Where the interfaces meet is then
 along their whole length, not from the sites around the point alone, which the largest
 margin of a Y of straight rays misplaces (its rays turn to widen the margins: the truth
 runs nearer some sites than the widest parting does). Those interfaces also pay
-``BEND * sum(kappa^2) step``, which holds them straight where the sites do not bend them.
+``BEND * sum(kappa^2) step``, which holds them straight where the sites do not bend them,
+unless their other end is held (towards which it would pull them).
 An interface's end on the domain's border slides along it, and where the junctions' fits
 placed it (a crossing fitted to the sites around it) this fit, read along the whole
 interface, places it anew; the ends at pairs of junctions are held. An end or a junction the
 fit would move farther than :data:`LOOSE_MAX` or :data:`JUNCTION_MAX` h is held, and the
 lines fitted again. A moved junction is imposed as the junctions' fits impose theirs:
-three linear functions whose ties run from it towards its fitted interfaces.
+three linear functions whose ties run from it towards its fitted interfaces, blended into
+the values with those interfaces' fit imposed.
 
 The displacement of each interface is then imposed on its two regions' functions: their
 difference, which the partition's interface is the zero of, is shifted by the
