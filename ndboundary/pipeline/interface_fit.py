@@ -384,7 +384,8 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         extend = tuple(not isinstance(e, str) for e in ends)
         for v, e in zip(end_ids, ends, strict=True):
             if not isinstance(e, str):  # a junction's sites part its three interfaces
-                extra = np.setdiff1d(site_tree.query_ball_point(faces.points[v] / h, JUNCTION_SITES), near)
+                around = np.asarray(site_tree.query_ball_point(faces.points[v] / h, JUNCTION_SITES), dtype=np.intp)
+                extra = np.setdiff1d(around, near)
                 extra = extra[(site_codes[extra] == a) | (site_codes[extra] == b)]
                 near = np.r_[near, extra]
                 at = np.r_[at, cKDTree(points).query(sites[extra] / h)[1]]
