@@ -61,7 +61,7 @@ from scipy.spatial import cKDTree
 from . import junctions
 from .junctions import stored_values
 
-__all__ = ["INTERFACE_FIT", "interface_corrections", "polylines", "refine", "resample"]
+__all__ = ["INTERFACE_FIT", "fit_network", "interface_corrections", "polylines", "refine", "resample"]
 
 #: Whether a relaxation of three or more regions in the plane fits its interfaces to the
 #: labels (read when the partition is first built).
