@@ -405,7 +405,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     # the junctions' fits' neighbourhoods stay, but for those of the junctions moved here,
     # whose new ones blend into the interfaces' fit (below)
     skipped = np.zeros(domain.n_vertices, dtype=bool)
-    replaced = _replaced(domain, skip, [centre for _, centre, _, _ in placed])
+    replaced = _replaced(domain, skip, [centre for _, centre, _, _ in placed], h)
     for k, zone in enumerate(skip):
         skipped[zone] = k not in replaced
     zone_of = np.full(domain.n_vertices, -1)
@@ -453,14 +453,16 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     return [fix for fix, _, _, _ in placed] + [fix for fix in out if fix[0].size], moved
 
 
-def _replaced(domain, zones, centres):
-    """The indices of the ``zones`` (vertex arrays) that hold the domain's vertex nearest
-    to one of the ``centres``.
+def _replaced(domain, zones, centres, h):
+    """The indices of the ``zones`` (vertex arrays) that hold a vertex within ``h`` of one
+    of the ``centres``: the neighbourhoods of the junctions moved there. Only the zones'
+    vertices are searched.
     """
     if not len(zones) or not len(centres):
         return set()
-    nearest = cKDTree(domain.points).query(np.asarray(centres))[1]
-    return {k for k, zone in enumerate(zones) if np.isin(nearest, zone).any()}
+    owner = np.repeat(np.arange(len(zones)), [len(zone) for zone in zones])
+    d, at = cKDTree(domain.points[np.concatenate(zones)]).query(np.asarray(centres), distance_upper_bound=h)
+    return {int(owner[i]) for i in at[np.isfinite(d)]}
 
 
 def _blend_into(placed, vertices, mine, regions, shift, domain, h=1.0):
