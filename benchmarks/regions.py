@@ -64,7 +64,10 @@ as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline 
 smoothing within sectors is measured against. ``--no-junction-fit`` keeps the point
 junctions (in the plane, on the sphere) where the relaxed functions put them
 (``ndboundary.pipeline.junctions.JUNCTION_FIT = False``): the baseline that fitting them
-to the labels is measured against. ``--vertex-pins`` holds phi at the jagged boundary's
+to the labels is measured against; the junctions that lie alone are still fitted with
+their interfaces then, unless ``--no-interface-fit`` too, which keeps the interfaces of
+plane partitions as relaxed, and their junctions where the junctions' fit put them
+(``ndboundary.pipeline.interface_fit.INTERFACE_FIT = False``). ``--vertex-pins`` holds phi at the jagged boundary's
 vertices on triangles and tetrahedra, as the paper does, instead of at its facets'
 centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
 
@@ -553,7 +556,8 @@ def main():
     parser.add_argument(
         "--no-interface-fit",
         action="store_true",
-        help="keep the interfaces of plane partitions as relaxed (not fitted to the labels' sites)",
+        help="keep the interfaces of plane partitions as relaxed, and their junctions where the junctions' fit put "
+        "them (not fitted with the interfaces to the labels' sites)",
     )
     parser.add_argument(
         "--vertex-pins",
