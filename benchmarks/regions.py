@@ -67,9 +67,9 @@ junctions (in the plane, on the sphere) where the relaxed functions put them
 to the labels is measured against; the junctions that lie alone are still fitted with
 their interfaces then, unless ``--no-interface-fit`` too, which keeps the interfaces of
 plane partitions as relaxed, and their junctions where the junctions' fit put them
-(``ndboundary.pipeline.interface_fit.INTERFACE_FIT = False``). ``--vertex-pins`` holds phi at the jagged boundary's
-vertices on triangles and tetrahedra, as the paper does, instead of at its facets'
-centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
+(``ndboundary.pipeline.interface_fit.INTERFACE_FIT = False``). ``--vertex-pins`` holds phi
+at the jagged boundary's vertices on triangles and tetrahedra, as the paper does, instead
+of at its facets' centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
 
 Columns: ``mean/h``, ``max/h`` over the interface points; ``away``, ``away max`` over
 those farther than 2 h from every true junction and from the border (where the largest
