@@ -55,7 +55,7 @@ from collections import defaultdict
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg import LinAlgError, solveh_banded
+from scipy.linalg import LinAlgError
 from scipy.spatial import cKDTree
 
 from . import junctions
@@ -180,44 +180,17 @@ def refine(
     >>> bool(np.abs(radius - 5.0).max() < 0.05)
     True
     """
-    normal, foot, signed, side, H0, g0, j0, w = _line_terms(points, step, sites, side, beta, closed, nearest)
-    n = points.shape[0]
-    first, last = (0, n) if closed else (0 if loose[0] else 1, n if loose[1] else n - 1)
-    free = np.arange(first, last)
-    H0_free = (H0.tocsr()[free][:, free] + 1e-9 * sp.identity(free.size)).tocsr()
-    # on a chain the Hessian is banded (the prior couples 3 vertices on either side, a
-    # site's foot 2): LAPACK's banded Cholesky solves each step in a pass over it
-    banded = not closed and free.size > 3
-    bands = np.stack([np.r_[np.zeros(k), H0_free.diagonal(k)] for k in (3, 2, 1, 0)]) if banded else None
-    lo, hi = j0 - first, j0 + 1 - first  # the foot's two vertices among the free ones
-    delta = np.zeros(n)
-    for _ in range(iterations):
-        e = np.exp(np.clip(-side * (foot @ delta - signed) / tau, -50.0, 50.0))
-        grad = H0 @ delta + g0 - foot.T @ (side * e / tau)
-        weight = e / tau**2
-        if bands is None:
-            hess = H0_free + (foot.T @ sp.diags(weight) @ foot).tocsr()[free][:, free]
-            move = spla.spsolve(hess.tocsc(), -grad[free])
-        else:
-            hess, size = bands.copy(), free.size
-            for at, value in ((lo, weight * (1.0 - w) ** 2), (hi, weight * w**2)):
-                keep = (at >= 0) & (at < size)  # not a held end
-                hess[3] += np.bincount(at[keep], value[keep], minlength=size)
-            keep = (lo >= 0) & (hi < size)
-            hess[2, 1:] += np.bincount(lo[keep], (weight * w * (1.0 - w))[keep], minlength=size)[:-1]
-            move = solveh_banded(hess, -grad[free], check_finite=False)
-        delta[free] += move
-        if np.abs(move).max() < 1e-6:
-            break
-    return delta, normal
+    terms = _line_terms(points, step, sites, side, beta, closed, nearest)
+    ends = ("loose", "loose") if closed else tuple("loose" if free else "held" for free in loose)
+    return fit_network([(terms, ends)], 0, tau, iterations)[0][0], terms[0]
 
 
 def _line_terms(points, step, sites, side, beta, closed, nearest, extend=(False, False), alpha=0.0):
     """The parts of :func:`refine`'s loss on the polyline ``points``: ``(normal, foot,
-    signed, side, H0, g0, j0, w)``, each vertex's normal (away from the +1 sites), the
-    (sites, vertices) matrix interpolating the vertices' moves at each site's foot, the
-    sites' signed distances and sides (those with a foot), the prior's Hessian and
-    gradient at no move, and each foot's first vertex and weight on the second.
+    signed, side, H0, g0)``, each vertex's normal (away from the +1 sites), the (sites,
+    vertices) matrix interpolating the vertices' moves at each site's foot, the sites'
+    signed distances and sides (those with a foot), and the prior's Hessian and gradient
+    at no move.
 
     A site beyond an open polyline's end has no foot, unless ``extend`` says so for that
     end: its foot then lies on the end segment's line, and moves with it. ``alpha``
@@ -267,7 +240,7 @@ def _line_terms(points, step, sites, side, beta, closed, nearest, extend=(False,
     if alpha:
         H0 = H0 + alpha * step * (dkappa.T @ dkappa)
         g0 = g0 + alpha * step * (dkappa.T @ kappa)
-    return normal, foot, signed, side, H0.tocsr(), g0, j0, w
+    return normal, foot, signed, side, H0.tocsr(), g0
 
 
 def fit_network(lines, n_junctions, tau=TAU, iterations=30):
@@ -412,10 +385,6 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     for z, ((vertices, _, _), _, _, _) in enumerate(placed):
         zone_of[vertices] = z
     out, moved = [], len(placed)
-    placed = [
-        ((vertices, regions, new.copy()), centre, core, blend)
-        for (vertices, regions, new), centre, core, blend in placed
-    ]
     for k, delta in moves.items():
         a, b, points, step, closed, _ = lines[k]
         normal = fitted[k][0][0]
@@ -465,7 +434,7 @@ def _replaced(domain, zones, centres, h):
     return {int(owner[i]) for i in at[np.isfinite(d)]}
 
 
-def _blend_into(placed, vertices, mine, regions, shift, domain, h=1.0):
+def _blend_into(placed, vertices, mine, regions, shift, domain, h):
     """Add an interface's fitted shift (``+shift`` to ``regions[0]``, ``-shift`` to
     ``regions[1]`` at ``vertices[mine]``) to a moved junction's values, weighted by what
     its imposition keeps of the values it blends into: the junction's functions then blend
