@@ -51,6 +51,10 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   from each true junction to the nearest found one, fitted to the labels (the default)
   and relaxed (``JUNCTION_FIT = False``); and the Voronoi image's ``relax_image`` and
   first ``interfaces()`` seconds, each way, medians of 3 cold processes, alternated.
+- ``image-many`` (not by default): the Voronoi partition of 200 random sites on 800 x 800
+  pixels, ``relax_image`` and the first ``interfaces()`` with the interfaces' fit and
+  without (``--no-interface-fit``), medians of 3 cold processes, alternated: the fit's cost
+  with many regions.
 - ``speed`` (or ``--speed``): ``kuhn_grid(500, 2, jitter=0.25)`` (251 001 vertices), 8
   Voronoi regions against 2 (the first two of the 8 sites), relax alone and relax plus
   ``interfaces().junctions()``, medians of 3 cold runs: each the first ``relax`` of a
@@ -504,6 +508,43 @@ def image_one(seed):
     res.interfaces()
     print(t1 - t0, time.perf_counter() - t1)
 
+def image_many(seed, n=800, count=200, repeats=3):
+    """The cost of the interfaces' fit on a label image of many regions: the Voronoi
+    partition of ``count`` random sites on ``n x n`` pixels, its ``relax_image`` and first
+    ``interfaces()`` each the first of a fresh process, with the interfaces' fit and
+    without (``--no-interface-fit``) alternated, medians of ``repeats``."""
+    times = {True: [], False: []}
+    for _ in range(repeats):
+        for fit in (True, False):
+            flags = [] if fit else ["--no-interface-fit"]
+            out = subprocess.run([sys.executable, __file__, "--image-many-one", "--seed", str(seed), *flags],
+                                 check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
+            times[fit].append([float(t) for t in out])
+    row = {"bench": "regions", "case": f"image Voronoi {n}^2 x{count}"}
+    for fit, name in ((True, "fitted"), (False, "as relaxed")):
+        relax_s, partition_s = np.median(times[fit], axis=0)
+        row.update({f"{name.replace(' ', '_')}_relax_s": relax_s, f"{name.replace(' ', '_')}_partition_s": partition_s})
+        print(f"image Voronoi {n}^2 x{count}, interfaces {name}: relax_image {relax_s:.2f} s, then interfaces() "
+              f"{partition_s:.2f} s (medians of {repeats} fresh processes)", flush=True)  # fmt: skip
+    return targets(row, None)
+
+
+def image_many_one(seed, n=800, count=200):
+    """One cold relax_image of :func:`image_many`'s image and its first interfaces():
+    prints both seconds."""
+    from scipy.spatial import cKDTree
+
+    from ndboundary import relax_image
+
+    sites = np.random.default_rng(seed).uniform(0, n, (count, 2))
+    image = cKDTree(sites).query(np.indices((n, n)).reshape(2, -1).T)[1].reshape(n, n)
+    t0 = time.perf_counter()
+    res = relax_image(image)
+    t1 = time.perf_counter()
+    res.interfaces()
+    print(t1 - t0, time.perf_counter() - t1)
+
+
 def cases(args):
     rng = np.random.default_rng(args.seed)
     sites2, sites3 = rng.uniform(-0.8, 0.8, (args.sites, 2)), rng.uniform(-0.8, 0.8, (6, 3))
@@ -522,6 +563,7 @@ def cases(args):
         "volume-hex24": lambda: measure_volume("volume hex 24^3", hex_grid(24, jitter=0.25, random_state=0), sites3),
         "speed": lambda: speed(args.seed, fit=not args.no_junction_fit, vertex_pins=args.vertex_pins),
         "image-y": lambda: image_y(args.seed),
+        "image-many": lambda: image_many(args.seed),
     }
 
 
@@ -542,6 +584,7 @@ def main():
     )
     parser.add_argument("--speed-one", type=int, help=argparse.SUPPRESS)  # one cold relax of the speed case
     parser.add_argument("--image-one", action="store_true", help=argparse.SUPPRESS)  # one cold image of image-y
+    parser.add_argument("--image-many-one", action="store_true", help=argparse.SUPPRESS)  # one of image-many
     parser.add_argument("--cases", default=None, help="comma-separated case names (default: every fidelity case)")
     parser.add_argument(
         "--independent",
@@ -583,6 +626,9 @@ def main():
     if args.image_one:
         image_one(args.seed)
         return
+    if args.image_many_one:
+        image_many_one(args.seed)
+        return
     if args.speed_warm:
         print_verdicts([speed_warm(args.seed, args.speed_warm)], 22, 58, "6.2f")
         return
@@ -591,19 +637,19 @@ def main():
 
         sectors.SECTOR_SMOOTHING = False
     table = cases(args)
-    names = args.cases.split(",") if args.cases else [n for n in table if n not in ("speed", "image-y")]
+    names = args.cases.split(",") if args.cases else [n for n in table if n not in ("speed", "image-y", "image-many")]
     if args.speed and "speed" not in names:
         names.append("speed")
     unknown = [n for n in names if n not in table]
     if unknown:
         parser.error(f"unknown cases {unknown}; choose from {', '.join(table)}")
-    if any(n not in ("speed", "image-y") for n in names):
+    if any(n not in ("speed", "image-y", "image-many") for n in names):
         print(f"{'case':22s} " + " ".join(f"{c:>{w}s}" for c, w, _, _ in COLUMNS), flush=True)
     rows = []
     for n in names:
         row = table[n]()
         rows.append(row)
-        if n not in ("speed", "image-y"):
+        if n not in ("speed", "image-y", "image-many"):
             print(f"{row['case']:22s} " + " ".join(cell(row, k, w, f) for _, w, f, k in COLUMNS), flush=True)
     print_verdicts(rows, 22, 58, "6.2f")
 
