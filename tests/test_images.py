@@ -719,3 +719,27 @@ def test_a_y_of_rays_on_pixels_is_fitted_with_its_junction(monkeypatch):
         errors[fit] = (to_rays[inner].mean(), to_rays[inner].max(), junction)
     assert max(errors[True]) < 0.1 and errors[True][1] < 0.5 * errors[False][1], errors
     assert errors[True][2] < 0.5 * errors[False][2], errors
+
+
+def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatch):
+    """Two nested circles parting three regions on 96² pixels: fitted with the stiffest
+    prior on the change of curvature that parts their pixels, the interfaces lie several
+    times nearer the circles than with the softest alone, which bends them into the gaps
+    between the pixels."""
+    from ndboundary.pipeline import interface_fit
+
+    n, centre, radii = 96, np.array([47.3, 44.8]), (14.3, 31.6)
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), axis=-1).reshape(-1, 2).astype(float)
+    r = np.linalg.norm(g - centre, axis=1)
+    labels = np.searchsorted(radii, r).reshape(n, n)
+
+    def errors():
+        faces = relax_image(labels).interfaces()
+        x = faces.points[faces.simplices].mean(axis=1)
+        d = np.abs(np.linalg.norm(x - centre, axis=1) - np.take(radii, faces.pairs.min(axis=1)))
+        return d.mean(), d.max()
+
+    stiff = errors()
+    monkeypatch.setattr(interface_fit, "STIFFNESS", (interface_fit.BETA,))
+    soft = errors()
+    assert stiff[0] < 0.5 * soft[0] and stiff[1] < 0.5 * soft[1], (stiff, soft)
