@@ -52,9 +52,10 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   and relaxed (``JUNCTION_FIT = False``); and the Voronoi image's ``relax_image`` and
   first ``interfaces()`` seconds, each way, medians of 3 cold processes, alternated.
 - ``image-many`` (not by default): the Voronoi partition of 200 random sites on 800 x 800
-  pixels, ``relax_image`` and the first ``interfaces()`` with the interfaces' fit and
-  without (``--no-interface-fit``), medians of 3 cold processes, alternated: the fit's cost
-  with many regions.
+  pixels, ``relax_image`` and the first ``interfaces()`` with the interfaces' fit, with it
+  and the softest prior alone (``--soft-interfaces``), and without it
+  (``--no-interface-fit``), medians of 3 cold processes, in turn: the fit's cost with many
+  regions.
 - ``speed`` (or ``--speed``): ``kuhn_grid(500, 2, jitter=0.25)`` (251 001 vertices), 8
   Voronoi regions against 2 (the first two of the 8 sites), relax alone and relax plus
   ``interfaces().junctions()``, medians of 3 cold runs: each the first ``relax`` of a
@@ -71,7 +72,9 @@ junctions (in the plane, on the sphere) where the relaxed functions put them
 to the labels is measured against; the junctions that lie alone are still fitted with
 their interfaces then, unless ``--no-interface-fit`` too, which keeps the interfaces of
 plane partitions as relaxed, and their junctions where the junctions' fit put them
-(``ndboundary.pipeline.interface_fit.INTERFACE_FIT = False``). ``--vertex-pins`` holds phi
+(``ndboundary.pipeline.interface_fit.INTERFACE_FIT = False``). ``--soft-interfaces`` fits
+every interface with the softest curvature-change prior alone, not the stiffest that parts
+its sites (``interface_fit.STIFFNESS = (interface_fit.BETA,)``). ``--vertex-pins`` holds phi
 at the jagged boundary's vertices on triangles and tetrahedra, as the paper does, instead
 of at its facets' centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
 
@@ -400,11 +403,12 @@ def speed_warm(seed, pairs):
 
 
 def _interface_fit_flag():
-    """The command-line flag that keeps a subprocess's interfaces as relaxed when this
-    process's are (``--no-interface-fit``)."""
+    """The command-line flags that fit a subprocess's interfaces as this process's are
+    (``--no-interface-fit``, ``--soft-interfaces``)."""
     from ndboundary.pipeline import interface_fit
 
-    return [] if interface_fit.INTERFACE_FIT else ["--no-interface-fit"]
+    flags = [] if interface_fit.INTERFACE_FIT else ["--no-interface-fit"]
+    return flags + ([] if len(interface_fit.STIFFNESS) > 1 else ["--soft-interfaces"])
 
 
 def speed(seed, repeats=3, fit=True, vertex_pins=False):
@@ -511,18 +515,19 @@ def image_one(seed):
 def image_many(seed, n=800, count=200, repeats=3):
     """The cost of the interfaces' fit on a label image of many regions: the Voronoi
     partition of ``count`` random sites on ``n x n`` pixels, its ``relax_image`` and first
-    ``interfaces()`` each the first of a fresh process, with the interfaces' fit and
-    without (``--no-interface-fit``) alternated, medians of ``repeats``."""
-    times = {True: [], False: []}
+    ``interfaces()`` each the first of a fresh process, with the interfaces' fit, with it
+    and the softest prior alone (``--soft-interfaces``), and without it
+    (``--no-interface-fit``), in turn, medians of ``repeats``."""
+    variants = {"fitted": [], "fitted softest": ["--soft-interfaces"], "as relaxed": ["--no-interface-fit"]}
+    times = {name: [] for name in variants}
     for _ in range(repeats):
-        for fit in (True, False):
-            flags = [] if fit else ["--no-interface-fit"]
+        for name, flags in variants.items():
             out = subprocess.run([sys.executable, __file__, "--image-many-one", "--seed", str(seed), *flags],
                                  check=True, capture_output=True, text=True).stdout.split()  # fmt: skip
-            times[fit].append([float(t) for t in out])
+            times[name].append([float(t) for t in out])
     row = {"bench": "regions", "case": f"image Voronoi {n}^2 x{count}"}
-    for fit, name in ((True, "fitted"), (False, "as relaxed")):
-        relax_s, partition_s = np.median(times[fit], axis=0)
+    for name in variants:
+        relax_s, partition_s = np.median(times[name], axis=0)
         row.update({f"{name.replace(' ', '_')}_relax_s": relax_s, f"{name.replace(' ', '_')}_partition_s": partition_s})
         print(f"image Voronoi {n}^2 x{count}, interfaces {name}: relax_image {relax_s:.2f} s, then interfaces() "
               f"{partition_s:.2f} s (medians of {repeats} fresh processes)", flush=True)  # fmt: skip
@@ -603,6 +608,11 @@ def main():
         "them (not fitted with the interfaces to the labels' sites)",
     )
     parser.add_argument(
+        "--soft-interfaces",
+        action="store_true",
+        help="fit every interface with the softest curvature-change prior alone, not the stiffest that parts its sites",
+    )
+    parser.add_argument(
         "--vertex-pins",
         action="store_true",
         help="hold phi at the jagged boundary's vertices on simplices, not at its facets' centres",
@@ -616,6 +626,10 @@ def main():
         from ndboundary.pipeline import interface_fit
 
         interface_fit.INTERFACE_FIT = False
+    if args.soft_interfaces:
+        from ndboundary.pipeline import interface_fit
+
+        interface_fit.STIFFNESS = (interface_fit.BETA,)
     if args.vertex_pins:
         from ndboundary.pipeline import boundary
 
