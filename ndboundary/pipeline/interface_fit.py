@@ -82,7 +82,7 @@ BETA = 3000.0
 #: stiffest first: a line is fitted with the stiffest that leaves none of its sites more
 #: than :data:`SLACK` h on the wrong side of it. A stiffer first weight (1e8) makes the fit
 #: carry differences of 1e-7 in the relaxed values into the measures at 1e-8.
-STIFFNESS = (1e7, 1e6, 3e4, BETA)
+STIFFNESS = (1e7, BETA)
 #: How far (h) a site may lie on the wrong side of its fitted interface: the margins' soft
 #: minimum leaves a few hundredths.
 SLACK = 0.02
@@ -271,6 +271,13 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None):
     point alone. Its move ``u`` moves each of its lines' end by ``n . u``, ``n`` that end's
     normal (the end's move along its interface changes none of the losses to first order).
     """
+    return _solve_network(lines, n_junctions, tau, iterations, stiffness)[:2]
+
+
+def _solve_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, start=None):
+    """:func:`fit_network`, its Newton steps from the unknowns ``start`` (none moved when
+    not given), which it returns too.
+    """
     blocks, width = [], 2 * n_junctions  # the junctions' moves come first
     for terms, ends in lines:
         normal = terms[0]
@@ -301,7 +308,7 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None):
     g0 = place.T @ np.concatenate([c * t[5] + t[7] for c, t in parts])
     signed = np.concatenate([line[0][2] for line in lines])
     side = np.concatenate([line[0][3] for line in lines])
-    z = np.zeros(width)
+    z = np.zeros(width) if start is None else start.copy()
     ridge = 1e-9 * sp.identity(width, format="csr")
     for _ in range(iterations):
         e = np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
@@ -312,9 +319,8 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None):
         if not np.isfinite(move).all() or np.abs(move).max() < 1e-6:
             break
     moves = place @ z
-    return [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)], z[: 2 * n_junctions].reshape(
-        n_junctions, 2
-    )
+    lines_moves = [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+    return lines_moves, z[: 2 * n_junctions].reshape(n_junctions, 2), z
 
 
 def interface_corrections(domain, codes, on, values, faces, h, skip):
@@ -513,6 +519,7 @@ def _fit_all(fitted, closed, n_junctions):
     keys = [k for k in fitted]
     held_junctions, held_ends = set(), set()
     rung = dict.fromkeys(keys, 0)  # each line's place on STIFFNESS
+    z, crossed = None, []
     for _ in range(4 + len(STIFFNESS)):
         ends = {
             k: tuple("held" if e in held_junctions or (k, i) in held_ends else e for i, e in enumerate(fitted[k][1]))
@@ -522,8 +529,10 @@ def _fit_all(fitted, closed, n_junctions):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", spla.MatrixRankWarning)
-                moves, shifts = fit_network(
-                    [(fitted[k][0], ends[k]) for k in keys], n_junctions, stiffness=stiffness
+                # after a softening alone the unknowns are the same: Newton goes on from them
+                moves, shifts, z = _solve_network(
+                    [(fitted[k][0], ends[k]) for k in keys], n_junctions, stiffness=stiffness,
+                    start=z if crossed else None,
                 )  # fmt: skip
         except (LinAlgError, RuntimeError, ValueError):
             return {}, {}, np.full((n_junctions, 2), np.nan)
