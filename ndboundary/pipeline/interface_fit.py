@@ -86,6 +86,11 @@ STIFFNESS = (1e7, BETA)
 #: How far (h) a site may lie on the wrong side of its fitted interface: the margins' soft
 #: minimum leaves a few hundredths.
 SLACK = 0.02
+#: How far (h) a site may lie on the wrong side of an interface fitted with the softest
+#: curvature-change prior: farther, the interface is fitted again without its curvature
+#: prior (which holds it straight where the sites do not bend it, not across them), and
+#: if it still crosses a site that far, it is left as relaxed.
+CROSS_MAX = 0.5
 #: Weight of the curvature prior on the interfaces from a junction fitted with them (and
 #: no held end), lengths in h.
 BEND = 10000.0
@@ -258,23 +263,23 @@ def _line_terms(points, step, sites, side, beta, closed, nearest, extend=(False,
     return normal, foot, signed, side, H0.tocsr(), g0, Hb.tocsr(), gb
 
 
-def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None):
+def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, bends=None):
     """:func:`refine` of several polylines at once, some of whose ends are one point that
     moves with them (a junction): each line's ``(terms, ends)``, its :func:`_line_terms`
     and how each end moves (``"held"``, ``"loose"``, or a junction's number), and the
-    number of junctions; ``stiffness``, each line's factor on its curvature-change prior
-    (1 when not given). Returns each line's moves along its normals and each junction's
-    move, shape (n_junctions, 2).
+    number of junctions; ``stiffness`` and ``bends``, each line's factors on its
+    curvature-change and curvature priors (1 when not given). Returns each line's moves
+    along its normals and each junction's move, shape (n_junctions, 2).
 
     A junction's three interfaces are fitted with it: where they meet is where they part
     their sites best, read along their whole length rather than from the sites around the
     point alone. Its move ``u`` moves each of its lines' end by ``n . u``, ``n`` that end's
     normal (the end's move along its interface changes none of the losses to first order).
     """
-    return _solve_network(lines, n_junctions, tau, iterations, stiffness)[:2]
+    return _solve_network(lines, n_junctions, tau, iterations, stiffness, bends)[:2]
 
 
-def _solve_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, start=None):
+def _solve_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, bends=None, start=None):
     """:func:`fit_network`, its Newton steps from the unknowns ``start`` (none moved when
     not given), which it returns too.
     """
@@ -303,9 +308,10 @@ def _solve_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, s
     )  # fmt: skip
     F = (sp.block_diag([terms[1] for terms, _ in lines], format="csr") @ place).tocsr()
     scale = np.ones(len(lines)) if stiffness is None else stiffness
-    parts = list(zip(scale, [terms for terms, _ in lines], strict=True))
-    H0 = (place.T @ sp.block_diag([c * t[4] + t[6] for c, t in parts], format="csr") @ place).tocsr()
-    g0 = place.T @ np.concatenate([c * t[5] + t[7] for c, t in parts])
+    bend = np.ones(len(lines)) if bends is None else bends
+    parts = list(zip(scale, bend, [terms for terms, _ in lines], strict=True))
+    H0 = (place.T @ sp.block_diag([c * t[4] + b * t[6] for c, b, t in parts], format="csr") @ place).tocsr()
+    g0 = place.T @ np.concatenate([c * t[5] + b * t[7] for c, b, t in parts])
     signed = np.concatenate([line[0][2] for line in lines])
     side = np.concatenate([line[0][3] for line in lines])
     z = np.zeros(width) if start is None else start.copy()
@@ -514,33 +520,31 @@ def _fit_all(fitted, closed, n_junctions):
     farther than :data:`LOOSE_MAX` h (a short interface, which its sites hold loosely,
     swinging about its other end) or a junction farther than :data:`JUNCTION_MAX` h.
     Returns each line's moves and ends as fitted, and each junction's move (NaN where
-    held); a line whose end still moves too far after a few rounds is left out, as relaxed.
+    held); a line whose end still moves too far after a few rounds, or which still holds a
+    site farther than :data:`CROSS_MAX` h on its wrong side, is left out, as relaxed.
     """
     keys = [k for k in fitted]
     held_junctions, held_ends = set(), set()
     rung = dict.fromkeys(keys, 0)  # each line's place on STIFFNESS
     z, crossed = None, []
-    for _ in range(4 + len(STIFFNESS)):
+    for _ in range(5 + len(STIFFNESS)):
         ends = {
             k: tuple("held" if e in held_junctions or (k, i) in held_ends else e for i, e in enumerate(fitted[k][1]))
             for k in keys
         }
-        stiffness = np.array([STIFFNESS[rung[k]] / BETA for k in keys])
+        stiffness = np.array([STIFFNESS[min(rung[k], len(STIFFNESS) - 1)] / BETA for k in keys])
+        bends = np.array([float(rung[k] < len(STIFFNESS)) for k in keys])
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", spla.MatrixRankWarning)
                 # after a softening alone the unknowns are the same: Newton goes on from them
                 moves, shifts, z = _solve_network(
-                    [(fitted[k][0], ends[k]) for k in keys], n_junctions, stiffness=stiffness,
+                    [(fitted[k][0], ends[k]) for k in keys], n_junctions, stiffness=stiffness, bends=bends,
                     start=z if crossed else None,
                 )  # fmt: skip
         except (LinAlgError, RuntimeError, ValueError):
             return {}, {}, np.full((n_junctions, 2), np.nan)
-        crossed = [
-            k
-            for k, delta in zip(keys, moves, strict=True)
-            if rung[k] < len(STIFFNESS) - 1 and _least_margin(fitted[k][0], delta) < -SLACK
-        ]
+        crossed = [k for k, delta in zip(keys, moves, strict=True) if _too_stiff(fitted[k][0], delta, rung[k])]
         for k in crossed:  # too stiff to part those lines' sites: bend them more easily
             rung[k] += 1
         far_junctions = {
@@ -563,8 +567,23 @@ def _fit_all(fitted, closed, n_junctions):
     drop = {k for k, _ in far_ends} | {
         k for k in keys for e in ends[k] if not isinstance(e, str) and e in far_junctions
     }
+    drop |= {k for k, delta in zip(keys, moves, strict=True) if _least_margin(fitted[k][0], delta) < -CROSS_MAX}
     good = {k: delta for k, delta in zip(keys, moves, strict=True) if np.isfinite(delta).all() and k not in drop}
     return good, ends, shifts
+
+
+def _too_stiff(terms, delta, rung):
+    """Whether a line fitted (moved by ``delta``) with the priors of ``rung`` (its place on
+    :data:`STIFFNESS`, then past it without its curvature prior) holds one of its sites on
+    the wrong side of it, farther than a softer rung would.
+    """
+    if rung < len(STIFFNESS) - 1:
+        slack = SLACK
+    elif rung == len(STIFFNESS) - 1 and terms[6].nnz:
+        slack = CROSS_MAX
+    else:
+        return False
+    return _least_margin(terms, delta) < -slack
 
 
 def _least_margin(terms, delta):
