@@ -87,9 +87,10 @@ STIFFNESS = (1e7, BETA)
 #: minimum leaves a few hundredths.
 SLACK = 0.02
 #: How far (h) a site may lie on the wrong side of an interface fitted with the softest
-#: curvature-change prior: farther, the interface is fitted again without its curvature
-#: prior (which holds it straight where the sites do not bend it, not across them), and
-#: if it still crosses a site that far, it is left as relaxed.
+#: curvature-change prior, but for one between two junctions fitted with it (:data:`SLACK`
+#: then): farther, the interface is fitted again without its curvature prior (which holds
+#: it straight where the sites do not bend it, not across them), and if it still crosses a
+#: site that far, it is left as relaxed.
 CROSS_MAX = 0.5
 #: Weight of the curvature prior on the interfaces from a junction fitted with them (and
 #: no held end), lengths in h.
@@ -544,7 +545,7 @@ def _fit_all(fitted, closed, n_junctions):
                 )  # fmt: skip
         except (LinAlgError, RuntimeError, ValueError):
             return {}, {}, np.full((n_junctions, 2), np.nan)
-        crossed = [k for k, delta in zip(keys, moves, strict=True) if _too_stiff(fitted[k][0], delta, rung[k])]
+        crossed = [k for k, delta in zip(keys, moves, strict=True) if _too_stiff(fitted[k][0], delta, rung[k], ends[k])]
         for k in crossed:  # too stiff to part those lines' sites: bend them more easily
             rung[k] += 1
         far_junctions = {
@@ -572,15 +573,16 @@ def _fit_all(fitted, closed, n_junctions):
     return good, ends, shifts
 
 
-def _too_stiff(terms, delta, rung):
+def _too_stiff(terms, delta, rung, ends):
     """Whether a line fitted (moved by ``delta``) with the priors of ``rung`` (its place on
-    :data:`STIFFNESS`, then past it without its curvature prior) holds one of its sites on
-    the wrong side of it, farther than a softer rung would.
+    :data:`STIFFNESS`, then past it without its curvature prior) and ``ends`` holds one of
+    its sites on the wrong side of it, farther than a softer rung is tried for: an arc
+    between two junctions (a disc cut by a line) is not held straight across its sites.
     """
     if rung < len(STIFFNESS) - 1:
         slack = SLACK
     elif rung == len(STIFFNESS) - 1 and terms[6].nnz:
-        slack = CROSS_MAX
+        slack = SLACK if all(not isinstance(e, str) for e in ends) else CROSS_MAX
     else:
         return False
     return _least_margin(terms, delta) < -slack
