@@ -723,9 +723,9 @@ def test_a_y_of_rays_on_pixels_is_fitted_with_its_junction(monkeypatch):
 
 def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatch):
     """Two nested circles parting three regions on 96² pixels: fitted with the stiffest
-    prior on the change of curvature that parts their pixels, the interfaces lie several
-    times nearer the circles than with the softest alone, which bends them into the gaps
-    between the pixels."""
+    prior on the change of curvature that parts their pixels, the interfaces lie at least
+    twice as near the circles, on average and at most, as with the softest alone, which
+    bends them into the gaps between the pixels."""
     from ndboundary.pipeline import interface_fit
 
     n, centre, radii = 96, np.array([47.3, 44.8]), (14.3, 31.6)

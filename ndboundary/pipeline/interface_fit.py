@@ -33,7 +33,8 @@ along their whole length, not from the sites around the point alone, which the l
 margin of a Y of straight rays misplaces (its rays turn to widen the margins: the truth
 runs nearer some sites than the widest parting does). Those interfaces also pay
 ``BEND * sum(kappa^2) step``, which holds them straight where the sites do not bend them,
-unless their other end is held (towards which it would pull them).
+unless their other end is held (towards which it would pull them); one it holds across its
+sites (:data:`CROSS_MAX`) is fitted without it.
 An interface's end on the domain's border slides along it, and where the junctions' fits
 placed it (a crossing fitted to the sites around it) this fit, read along the whole
 interface, places it anew; the ends at pairs of junctions are held. An end or a junction the
@@ -210,7 +211,7 @@ def refine(
 
 def _line_terms(points, step, sites, side, beta, closed, nearest, extend=(False, False), alpha=0.0):
     """The parts of :func:`refine`'s loss on the polyline ``points``: ``(normal, foot,
-    signed, side, H0, g0)``, each vertex's normal (away from the +1 sites), the (sites,
+    signed, side, H0, g0, Hb, gb)``, each vertex's normal (away from the +1 sites), the (sites,
     vertices) matrix interpolating the vertices' moves at each site's foot, the sites'
     signed distances and sides (those with a foot), and the Hessians and gradients at no
     move of the curvature-change prior and of the curvature prior.
