@@ -805,3 +805,30 @@ def test_an_arc_between_two_junctions_is_fitted_as_an_arc(monkeypatch):
     monkeypatch.setattr(interface_fit, "INTERFACE_FIT", False)
     relaxed = errors()
     assert fitted[1] < 0.15 and fitted[0] < 0.7 * relaxed[0], (fitted, relaxed)
+
+
+def test_the_field_is_smoothed_alike_along_every_axis_of_anisotropic_voxels(monkeypatch):
+    """A ball on voxels three times as thick as they are wide: with every face neighbour
+    weighing alike, a sweep smooths the field three times as far along the thick axis, and
+    the surface bulges at the poles; weighed by the inverse square of their distance, the
+    neighbours smooth it alike in every direction, and the surface lies at least twice as
+    near the sphere at most."""
+    from ndboundary.domains import image as image_module
+    from ndboundary.metrics import sample_points
+
+    n = 32
+    shape, spacing = (n, n, n // 3 + 1), (1.0, 1.0, 3.0)
+    centre, radius = np.array([0.085, -0.115, 0.155]), 0.32 * n
+    origin = tuple(-(s - 1) / 2 * h for s, h in zip(shape, spacing, strict=True))
+    x = np.indices(shape).reshape(3, -1).T * spacing + origin
+    ball = (np.linalg.norm(x - centre, axis=1) < radius).reshape(shape)
+
+    def errors():
+        points = sample_points(relax_image(ball, spacing=spacing, origin=origin).level_set())
+        d = np.abs(np.linalg.norm(points - centre, axis=1) - radius)
+        return d.mean(), d.max()
+
+    alike = errors()
+    monkeypatch.setattr(image_module, "anisotropic_smoothing", lambda domain, adjacency, passes: (adjacency, passes))
+    uniform = errors()
+    assert alike[1] < 0.5 * uniform[1] and alike[0] < 0.7 * uniform[0], (alike, uniform)

@@ -311,7 +311,14 @@ class Domain(IncidenceQueries):
             adjacency = within_groups(adjacency, groups)
         if (cap < 1.0).any():
             adjacency = (adjacency @ sp.diags(cap)).tocsr()
+        adjacency, passes = self._smoothing(adjacency, passes)
         return smooth_rows(adjacency, X, passes, plus_identity=True)
+
+    def _smoothing(self, adjacency, passes):
+        """The weights and number of :meth:`smooth_field`'s sweeps: as given, on domains
+        whose elements are alike in every direction.
+        """
+        return adjacency, passes
 
     def lam_reference(self):
         """The field term's stiffness ``diag(K M^{-1} K)`` (lengths in units of ``h``) that the

@@ -20,6 +20,7 @@ import numbers
 from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 from scipy import ndimage
 
 from .._arrays import ragged_next, unique_values, used_vertices
@@ -239,6 +240,46 @@ class ImageGrid:
         (:func:`grid_usual_degree`) rather than from the pixels' adjacency.
         """
         return grid_usual_degree(self.shape)
+
+    def _smoothing(self, adjacency, passes):
+        return anisotropic_smoothing(self, adjacency, passes)
+
+
+def anisotropic_smoothing(domain, adjacency, passes):
+    """:meth:`~ndboundary.Domain.smooth_field`'s weights and sweeps on a grid of pixels
+    (``domain``, an :class:`ImageGrid` or a :class:`GridBand`) whose spacing differs between
+    axes: each neighbour weighs ``(min(spacing) / d)^2``, ``d`` the distance to it, so that
+    a sweep spreads the field by as much along every axis (a diffusion by ``min(spacing)``),
+    not by each axis's spacing; the sweeps stay as many.
+
+    With uniform weights, a ball on voxels of spacing (1, 1, 3) bulged at its poles, where
+    the field was smoothed 3 times as far along the coarse axis as across it (0.90 voxel
+    from the truth at most, 0.65 with these weights). Sweeps spreading the field as far as
+    on a grid of the coarsest spacing (9 times as many there) brought it to 0.49, but the
+    smallest region of the prostate of ``benchmarks/images.py --prostate`` (spacing 0.6,
+    0.6, 4 mm) then lost 1.3 % of its volume, and 3 times as many split another's boundary
+    in two.
+
+    Examples
+    --------
+    >>> from ndboundary import ImageGrid
+    >>> from ndboundary.domains.image import anisotropic_smoothing
+    >>> grid = ImageGrid((3, 3), spacing=(1.0, 2.0))
+    >>> W, passes = anisotropic_smoothing(grid, grid.adjacency, 10)
+    >>> sorted(set(W.data.tolist())), passes
+    ([0.25, 1.0], 10)
+    >>> square = ImageGrid((3, 3))
+    >>> anisotropic_smoothing(square, square.adjacency, 10)[0] is square.adjacency
+    True
+    """
+    spacing = np.asarray(domain.spacing, dtype=np.float64)
+    if spacing.max() <= spacing.min() * (1.0 + 1e-9):
+        return adjacency, passes
+    pairs = adjacency.tocoo()
+    centres = domain.element_centroids()
+    squared = ((centres[pairs.row] - centres[pairs.col]) ** 2).sum(axis=1)
+    weights = pairs.data * spacing.min() ** 2 / squared
+    return sp.csr_matrix((weights, (pairs.row, pairs.col)), shape=adjacency.shape), passes
 
 
 def grid_usual_degree(shape):
@@ -561,6 +602,9 @@ class GridBand:
     def measures_outside(self, classes):
         """The area (volume) of each of ``classes`` among the pixels left out, shape ``(len(classes),)``."""
         return np.array([self.outside.get(c, 0.0) for c in np.asarray(classes).tolist()], dtype=np.float64)
+
+    def _smoothing(self, adjacency, passes):
+        return anisotropic_smoothing(self, adjacency, passes)
 
     def __repr__(self):
         return f"{type(self).__name__}(shape={self.shape}, n_pixels={self.pixels.size}, spacing={self.spacing})"
