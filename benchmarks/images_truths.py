@@ -39,11 +39,15 @@ class Ball:
         self.c, self.R = np.asarray(centre, dtype=np.float64), float(R)
         self.volume, self.area = 4 / 3 * np.pi * self.R**3, 4 * np.pi * self.R**2
 
+    def F(self, x):
+        """The signed distance, negative inside."""
+        return np.linalg.norm(x - self.c, axis=1) - self.R
+
     def inside(self, x):
-        return np.linalg.norm(x - self.c, axis=1) < self.R
+        return self.F(x) < 0
 
     def distance(self, x):
-        return np.abs(np.linalg.norm(x - self.c, axis=1) - self.R)
+        return np.abs(self.F(x))
 
 
 class Torus:
