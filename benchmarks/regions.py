@@ -56,6 +56,9 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   and the softest prior alone (``--soft-interfaces``), and without it
   (``--no-interface-fit``), medians of 3 cold processes, in turn: the fit's cost with many
   regions.
+- ``image-arcs`` (not by default): curved interfaces of label images, with the fit, with
+  its softer prior alone and as relaxed: two nested circles, a disc cut by a line (and its
+  two T-junctions), and a five-lobed flower cut by a line; distances in pixels.
 - ``speed`` (or ``--speed``): ``kuhn_grid(500, 2, jitter=0.25)`` (251 001 vertices), 8
   Voronoi regions against 2 (the first two of the 8 sites), relax alone and relax plus
   ``interfaces().junctions()``, medians of 3 cold runs: each the first ``relax`` of a
@@ -534,6 +537,68 @@ def image_many(seed, n=800, count=200, repeats=3):
     return targets(row, None)
 
 
+def image_arcs():
+    """Curved interfaces of label images, fitted (the default), fitted with the softer
+    curvature-change prior alone (``STIFFNESS = (BETA,)``) and as relaxed: two nested
+    circles parting three regions on 96^2 pixels; a disc cut by a line through it (two
+    T-junctions joined by arcs), and the distance of its junctions to the truth; a
+    five-lobed flower cut by a line on 128^2 pixels (curved interfaces between junctions).
+    Distances in pixels, mean / max."""
+    from scipy.spatial import cKDTree
+
+    from ndboundary import relax_image
+    from ndboundary.pipeline import interface_fit
+
+    def grid(n):
+        return np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), axis=-1).reshape(-1, 2).astype(float)
+
+    centre, radii, g96 = np.array([47.3, 44.8]), (14.3, 31.6), grid(96)
+    nested = np.searchsorted(radii, np.linalg.norm(g96 - centre, axis=1)).reshape(96, 96)
+    u = np.array([np.cos(np.radians(70.0)), np.sin(np.radians(70.0))])
+    normal, radius = np.array([-u[1], u[0]]), 27.6
+    cut = np.where(np.linalg.norm(g96 - centre, axis=1) > radius, 1 + ((g96 - centre) @ normal > 0), 0)
+    tees = np.array([centre + radius * u, centre - radius * u])
+    flower_centre, g128 = np.array([63.3, 62.8]), grid(128)
+    v = g128 - flower_centre
+    petals = lambda t: 30.0 * (1.0 + 0.2 * np.cos(5.0 * t))  # noqa: E731
+    inside = np.linalg.norm(v, axis=1) < petals(np.arctan2(v[:, 1], v[:, 0]))
+    flower = np.where(inside, 0, np.where(v[:, 0] > 0.3 * v[:, 1], 1, 2)).reshape(128, 128)
+    t = np.linspace(0.0, 2.0 * np.pi, 20000)
+    outline = cKDTree(flower_centre + petals(t)[:, None] * np.stack([np.cos(t), np.sin(t)], axis=1))
+
+    def faces_of(labels):
+        faces = relax_image(labels).interfaces()
+        return faces, faces.points[faces.simplices].mean(axis=1)
+
+    def measure():
+        faces, x = faces_of(nested)
+        d_nested = np.abs(np.linalg.norm(x - centre, axis=1) - np.take(radii, faces.pairs.min(axis=1)))
+        faces, x = faces_of(cut.reshape(96, 96))
+        to_circle = np.abs(np.linalg.norm(x - centre, axis=1) - radius)
+        d_cut = np.where(faces.pairs.min(axis=1) == 0, to_circle, np.abs((x - centre) @ normal))
+        d_cut = d_cut[np.abs(x - 48).max(axis=1) < 46]  # away from the image's border
+        j = faces.junctions()
+        tee = np.linalg.norm(tees[:, None] - j.points[j.simplices[:, 0]][None], axis=2).min(axis=1)
+        faces, x = faces_of(flower)
+        d_flower = outline.query(x[faces.pairs.min(axis=1) == 0])[0]
+        return {"nested": d_nested, "cut": d_cut, "tees": tee, "flower": d_flower}
+
+    stiffness, rows = interface_fit.STIFFNESS, {}
+    try:
+        for name, fit, stiff in (("fitted", True, stiffness), ("softer prior", True, (interface_fit.BETA,)),
+                                 ("as relaxed", False, stiffness)):  # fmt: skip
+            interface_fit.INTERFACE_FIT, interface_fit.STIFFNESS = fit, stiff
+            m = measure()
+            rows[name] = {k: [float(d.mean()), float(d.max())] for k, d in m.items()}
+            print(f"image arcs, {name}: nested circles {m['nested'].mean():.3f} / {m['nested'].max():.3f} px; disc "
+                  f"cut by a line {m['cut'].mean():.3f} / {m['cut'].max():.3f}, its junctions "
+                  f"{np.round(m['tees'], 3).tolist()}; flower cut by a line {m['flower'].mean():.3f} / "
+                  f"{m['flower'].max():.3f}", flush=True)  # fmt: skip
+    finally:
+        interface_fit.INTERFACE_FIT, interface_fit.STIFFNESS = True, stiffness
+    return targets({"bench": "regions", "case": "image arcs", **rows}, None)
+
+
 def image_many_one(seed, n=800, count=200):
     """One cold relax_image of :func:`image_many`'s image and its first interfaces():
     prints both seconds."""
@@ -569,6 +634,7 @@ def cases(args):
         "speed": lambda: speed(args.seed, fit=not args.no_junction_fit, vertex_pins=args.vertex_pins),
         "image-y": lambda: image_y(args.seed),
         "image-many": lambda: image_many(args.seed),
+        "image-arcs": image_arcs,
     }
 
 
@@ -651,19 +717,20 @@ def main():
 
         sectors.SECTOR_SMOOTHING = False
     table = cases(args)
-    names = args.cases.split(",") if args.cases else [n for n in table if n not in ("speed", "image-y", "image-many")]
+    apart = ("speed", "image-y", "image-many", "image-arcs")  # not by default, and not in the table
+    names = args.cases.split(",") if args.cases else [n for n in table if n not in apart]
     if args.speed and "speed" not in names:
         names.append("speed")
     unknown = [n for n in names if n not in table]
     if unknown:
         parser.error(f"unknown cases {unknown}; choose from {', '.join(table)}")
-    if any(n not in ("speed", "image-y", "image-many") for n in names):
+    if any(n not in apart for n in names):
         print(f"{'case':22s} " + " ".join(f"{c:>{w}s}" for c, w, _, _ in COLUMNS), flush=True)
     rows = []
     for n in names:
         row = table[n]()
         rows.append(row)
-        if n not in ("speed", "image-y", "image-many"):
+        if n not in apart:
             print(f"{row['case']:22s} " + " ".join(cell(row, k, w, f) for _, w, f, k in COLUMNS), flush=True)
     print_verdicts(rows, 22, 58, "6.2f")
 
