@@ -275,10 +275,23 @@ def anisotropic_smoothing(domain, adjacency, passes):
     spacing = np.asarray(domain.spacing, dtype=np.float64)
     if spacing.max() <= spacing.min() * (1.0 + 1e-9):
         return adjacency, passes
+    # a face neighbour's axis is read off the step between the two pixels' indices in the
+    # whole grid (C order): no coordinates per pair, a band of many millions included
+    shape = np.asarray(domain.shape, dtype=np.int64)
+    strides = np.append(np.cumprod(shape[::-1])[::-1][1:], 1)
+    axes = zip(strides, spacing, shape, strict=True)
+    by_stride = {int(stride): (spacing.min() / h) ** 2 for stride, h, n in axes if n > 1}
+    index = getattr(domain, "pixels", None)
     pairs = adjacency.tocoo()
-    centres = domain.element_centroids()
-    squared = ((centres[pairs.row] - centres[pairs.col]) ** 2).sum(axis=1)
-    weights = pairs.data * spacing.min() ** 2 / squared
+    if index is None:
+        step = np.abs(pairs.col.astype(np.int64) - pairs.row)
+    else:
+        step = np.abs(index[pairs.col].astype(np.int64) - index[pairs.row])
+    known = np.array(sorted(by_stride))
+    at = np.searchsorted(known, step)
+    if not np.array_equal(known[np.minimum(at, known.size - 1)], step):
+        raise ValueError("the smoothing's neighbours are not face neighbours of the grid")
+    weights = pairs.data * np.array([by_stride[k] for k in known])[at]
     return sp.csr_matrix((weights, (pairs.row, pairs.col)), shape=adjacency.shape), passes
 
 
