@@ -33,14 +33,15 @@ error lies in where the staircase puts the pins: each pixel pair says only that 
 boundary crosses the segment between their centres. An estimator of those crossings
 that reads more of the labels than one pair is what the target needs; ``refined`` is one.
 
-``--aniso`` runs the first four modes on the ball of ``images.py --cases aniso`` instead
-(64 x 64 x 22 voxels of spacing (1, 1, 3)), distances in units of the smallest spacing.
+``--volume NAME`` runs the first four modes on a volume of ``images.py`` instead:
+``aniso`` (its ball of 64 x 64 x 22 voxels of spacing (1, 1, 3); distances in units of the
+smallest spacing), ``ball128`` or ``blob64``.
 
 Usage::
 
     python benchmarks/images_limits.py
     python benchmarks/images_limits.py --modes labels,refined --beta 3000
-    python benchmarks/images_limits.py --aniso
+    python benchmarks/images_limits.py --volume aniso
 
 Prints a table (mean / max distance per case and mode), then one JSON line.
 """
@@ -52,7 +53,7 @@ import json
 
 import numpy as np
 import scipy.sparse as sp
-from images_truths import Ball, StarShape
+from images_truths import Ball, StarShape, blob_terms
 from scipy.spatial import cKDTree
 
 import ndboundary.pipeline.padding as padding
@@ -143,11 +144,16 @@ def refined_points(result, centres, inside, beta, tau, reach=2.0):
     return np.concatenate(out)
 
 
-def aniso(modes):
-    """The modes on the ball of ``images.py --cases aniso``: ``{mode: {mean, max}}``."""
-    shape, spacing = (64, 64, 22), (1.0, 1.0, 3.0)
-    origin = np.full(3, -31.5)
-    truth = Ball(np.array([0.17, -0.23, 0.31]), 0.32 * 64)
+VOLUMES = ("aniso", "ball128", "blob64")
+
+
+def volume(name, modes):
+    """The modes on the volume ``name`` of ``images.py``: ``{mode: {mean, max}}``."""
+    n = 128 if name == "ball128" else 64
+    off = np.array([0.17, -0.23, 0.31]) * n / 64  # images.py's centre, off the grid's symmetry
+    shape, spacing = ((64, 64, 22), (1.0, 1.0, 3.0)) if name == "aniso" else ((n,) * 3, (1.0,) * 3)
+    origin = np.full(3, -31.5) if name == "aniso" else np.full(3, -(n - 1) / 2)
+    truth = StarShape(off, 0.29 * n, blob_terms()) if name == "blob64" else Ball(off, 0.32 * n)
     centres = np.indices(shape).reshape(3, -1).T * spacing + origin
     labels = truth.inside(centres).reshape(shape)
     out = {}
@@ -167,18 +173,18 @@ def main():
     parser.add_argument("--modes", default=",".join(MODES), help="comma separated, of: " + ", ".join(MODES))
     parser.add_argument("--beta", type=float, default=1000.0)
     parser.add_argument("--tau", type=float, default=0.1)
-    parser.add_argument("--aniso", action="store_true", help="the anisotropic ball of images.py instead, in 3-D")
+    parser.add_argument("--volume", choices=VOLUMES, help="a volume of images.py instead of the 2-D shapes")
     args = parser.parse_args()
     modes = args.modes.split(",")
     unknown = sorted(set(modes) - set(MODES))
     if unknown:
         parser.error(f"unknown modes {unknown}; choose from {', '.join(MODES)}")
-    if args.aniso:
+    if args.volume:
         modes = [m for m in modes if m != "refined"]  # a fit of curves: 2-D only
-        row = aniso(modes)
+        row = volume(args.volume, modes)
         print(f"{'case':12s}" + "".join(f"{m:>20s}" for m in modes))
-        print(f"{'aniso ball':12s}" + "".join(f"{row[m]['mean']:>12.3f} / {row[m]['max']:.3f}" for m in modes))
-        print(json.dumps({"bench": "images_limits", "case": "aniso", "modes": row}))
+        print(f"{args.volume:12s}" + "".join(f"{row[m]['mean']:>12.3f} / {row[m]['max']:.3f}" for m in modes))
+        print(json.dumps({"bench": "images_limits", "case": args.volume, "modes": row}))
         return
     origin = -(N - 1) / 2
     centres = np.indices((N, N)).reshape(2, -1).T + origin
