@@ -374,7 +374,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     tree = cKDTree(np.concatenate([line[2] for line in lines]))
     site_line, site_at = _nearest_line(tree, starts, sites / h, SITE_REACH)
     vertex_line, vertex_at = _nearest_line(tree, starts, points_near / h, BLEND)
-    junction_of, special = _single_junctions(faces, degree, lines, h)
+    junction_of, special, spacing = _single_junctions(faces, degree, lines, h)
     site_tree = cKDTree(sites / h)
     fitted = {}  # line -> (terms, ends)
     for k, (a, b, points, step, closed, end_ids) in enumerate(lines):
@@ -405,7 +405,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
     closed_lines = {k for k in fitted if lines[k][4]}
     moves, ends_of, shifts = _fit_all(fitted, closed_lines, len(special))
     placed, kept = _moved_junctions(
-        domain, values, faces, special, shifts, lines, moves, ends_of, fitted, vertices_near, h
+        domain, values, faces, special, spacing, shifts, lines, moves, ends_of, fitted, vertices_near, h
     )  # fmt: skip
     # the junctions' fits' neighbourhoods stay, but for those of the junctions moved here,
     # whose new ones blend into the interfaces' fit (below)
@@ -496,7 +496,8 @@ def _single_junctions(faces, degree, lines, h):
     """The junctions fitted with their interfaces: each vertex of ``faces`` where exactly
     three of the ``lines`` end, with no other junction or border end within
     ``junctions.MIN_SPACING`` h (pairs of junctions keep the junctions' fits).
-    Returns ``{vertex: number}`` and the vertices in that order.
+    Returns ``{vertex: number}``, the vertices in that order, and each one's distance to
+    the nearest other junction or border end.
     """
     ends = defaultdict(int)
     for line in lines:
@@ -504,15 +505,14 @@ def _single_junctions(faces, degree, lines, h):
             for v in line[5]:
                 ends[v] += 1
     marks = np.flatnonzero(degree != 2)
-    if marks.size < 1:
-        return {}, []
-    tree = cKDTree(faces.points[marks])
-    special = []
-    for v in np.flatnonzero(degree >= 3):
-        if ends.get(v, 0) == 3 and degree[v] == 3:
-            if len(tree.query_ball_point(faces.points[v], junctions.MIN_SPACING * h)) == 1:
-                special.append(int(v))
-    return {v: i for i, v in enumerate(special)}, special
+    candidates = [int(v) for v in np.flatnonzero(degree == 3) if ends.get(v, 0) == 3]
+    if not candidates:
+        return {}, [], np.zeros(0)
+    # to the nearest other junction or border end (the nearest mark is the vertex itself)
+    spacing = cKDTree(faces.points[marks]).query(faces.points[candidates], k=2)[0][:, 1]
+    alone = spacing > junctions.MIN_SPACING * h
+    special = [v for v, keep in zip(candidates, alone, strict=True) if keep]
+    return {v: i for i, v in enumerate(special)}, special, spacing[alone]
 
 
 def _fit_all(fitted, closed, n_junctions):
@@ -525,7 +525,7 @@ def _fit_all(fitted, closed, n_junctions):
     held); a line whose end still moves too far after a few rounds, or which still holds a
     site farther than :data:`CROSS_MAX` h on its wrong side, is left out, as relaxed.
     """
-    keys = [k for k in fitted]
+    keys = list(fitted)
     held_junctions, held_ends = set(), set()
     rung = dict.fromkeys(keys, 0)  # each line's place on STIFFNESS
     z, crossed = None, []
@@ -597,8 +597,9 @@ def _least_margin(terms, delta):
     return float((side * (foot @ delta - signed)).min(initial=np.inf))
 
 
-def _moved_junctions(domain, values, faces, special, shifts, lines, moves, ends, fitted, vertices_near, h):
-    """Each junction of ``special`` (vertices of ``faces``) that its fit moved by
+def _moved_junctions(domain, values, faces, special, spacing, shifts, lines, moves, ends, fitted, vertices_near, h):
+    """Each junction of ``special`` (vertices of ``faces``, ``spacing`` h from the nearest
+    other junction or border end) that its fit moved by
     ``shifts`` (in h) imposed there on the region functions, as
     :mod:`~ndboundary.pipeline.junctions` imposes a fitted one: three linear functions
     whose ties run from the moved point towards its fitted interfaces 1-4 h away, blended
@@ -618,11 +619,6 @@ def _moved_junctions(domain, values, faces, special, shifts, lines, moves, ends,
                 reach = along[int(round(1.0 / step)) : int(round(4.0 / step)) + 1]
                 if len(reach):
                     rays[e].append(((a, b), reach.mean(axis=0) * h))
-    degree = np.bincount(faces.simplices.ravel(), minlength=faces.points.shape[0])
-    marks = faces.points[degree != 2]
-    spacing = np.full(len(special), np.inf)
-    if len(marks) > 1:  # to the nearest other junction or border end
-        spacing = cKDTree(marks).query(faces.points[special], k=2)[0][:, 1]
     tree = cKDTree(domain.points[vertices_near])
     for j, v in enumerate(special):
         if not np.isfinite(shifts[j]).all() or len(rays[j]) != 3:
