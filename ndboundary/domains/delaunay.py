@@ -174,9 +174,11 @@ class SimplexExtension:
             [np.asarray(inc @ complex_.gradient(p)) / wsum[:, None] for p in self.phi.T], axis=1
         )  # (n, r, D)
 
-    def __call__(self, X):
-        """The functions at the points ``X`` (n, dim): shape (n, n_functions)."""
-        X = np.asarray(X, dtype=np.float64)
+    def __call__(self, X, transform=None):
+        """The functions at the points ``X`` (n, dim), or at ``transform(X)``: shape (n,
+        n_functions).
+        """
+        X = np.asarray(X, dtype=np.float64) if transform is None else transform(X)
         return self._evaluate(X, self.complex.triangulation.find_simplex(X), nearest=0)
 
     def leave_one_out(self, rows):

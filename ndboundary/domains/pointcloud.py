@@ -325,12 +325,13 @@ class PointCloud(StencilDomain):
         """
         return self._index.method == "nndescent"
 
-    def query_order(self, X):
+    def query_order(self, X, transform=None):
         """An order of the rows of new points ``X`` (a permutation) in which they are best
         searched: near points one after the other (:func:`~ndboundary.domains.neighbors.locality_order`
-        along the cloud's leading principal axes, found at the first call and kept).
+        along the cloud's leading principal axes, found at the first call and kept), the
+        points being ``transform(X)`` where it is given.
         """
-        return locality_order(np.asarray(X, dtype=np.float64), *self._query_axes())
+        return locality_order(np.asarray(X, dtype=np.float64), *self._query_axes(), transform=transform)
 
     def _query_axes(self):
         """The center and leading axes :meth:`query_order` projects on, found once."""

@@ -34,6 +34,7 @@ Three rules keep degenerate inputs classified as a user expects:
 from __future__ import annotations
 
 import contextlib
+import functools
 import sys
 import time
 
@@ -413,9 +414,15 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
 
     # -- predict ------------------------------------------------------------------------------
     def _validate_predict(self, X):
+        """``X`` validated, and the map of its rows to the scaled coordinates the classifier
+        was fitted in (:func:`~ndboundary.learn.scaling.apply_scaling`), which the extensions
+        apply to each block of rows they read: a scaled copy of the whole of ``X`` would be
+        memory made afresh at every call. A row that would overflow raises the scaling's
+        ``ValueError`` as its block is read.
+        """
         check_is_fitted(self)
         X = validate_data(self, X, reset=False, dtype=np.float64)
-        return apply_scaling(X, self.center_, self.scale_)
+        return X, functools.partial(apply_scaling, center=self.center_, scale=self.scale_)
 
     def decision_function(self, X):
         """Relaxed level-set function minus 1/2 at ``X``.
@@ -433,17 +440,18 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
         """
         if (lazy := lazy_rows(self, "decision_function", X)) is not None:
             return lazy
-        X = self._validate_predict(X)
+        X, transform = self._validate_predict(X)
         if self._constant is not None:
+            transform(X)  # the same error for rows too far as a fitted classifier raises
             n_cls = self.classes_.shape[0]
             if n_cls <= 2:
                 return np.full(X.shape[0], 0.5 if self._constant == 1 else -0.5)
             out = np.full((X.shape[0], n_cls), -0.5)
             out[:, self._constant] = 0.5
             return out
-        phi = self.extension_(X)
+        phi = self.extension_(X, transform)
         if self.kernel_weight_ > 0.0:
-            phi = (1.0 - self.kernel_weight_) * phi + self.kernel_weight_ * self.kernel_extension_(X)
+            phi = (1.0 - self.kernel_weight_) * phi + self.kernel_weight_ * self.kernel_extension_(X, transform)
         phi = phi - 0.5
         return phi[:, 0] if phi.shape[1] == 1 else phi
 

@@ -142,8 +142,9 @@ def _sq_dist(A, B):
 _RUN = 128
 
 
-def _rowwise(X, n_out, landmarks_t, values):
-    """``values(d, out)`` over the rows of ``X``, run by run: ``d`` the squared distances of
+def _rowwise(X, n_out, landmarks_t, values, transform=None):
+    """``values(d, out)`` over the rows of ``X`` (of ``transform(X)`` where it is given,
+    each block of rows transformed on its own), run by run: ``d`` the squared distances of
     a run of rows to the landmarks (given transposed, (n_features, n_landmarks)), which
     ``values`` may overwrite, and ``out`` the run's rows of the result, (n, n_out).
 
@@ -158,11 +159,12 @@ def _rowwise(X, n_out, landmarks_t, values):
 
     def block(c):
         d = np.empty((min(_RUN, c.stop - c.start), landmarks_t.shape[1]))
-        for a in range(c.start, c.stop, _RUN):
-            run = slice(a, min(c.stop, a + _RUN))
+        points = X[c] if transform is None else transform(X[c])
+        for a in range(0, c.stop - c.start, _RUN):
+            run = slice(a, min(c.stop - c.start, a + _RUN))
             dr = d[: run.stop - run.start]
-            squared_distances(np.ascontiguousarray(X[run]), landmarks_t, dr)
-            values(dr, out[run])
+            squared_distances(np.ascontiguousarray(points[run]), landmarks_t, dr)
+            values(dr, out[c][run])
 
     for _ in in_blocks(X.shape[0], _CHUNK, block, first_alone=False):
         pass
@@ -352,14 +354,15 @@ class KernelExtension(_FittedAtSamples):
         fit.fitted = fit.loo = None
         self._fit = fit
 
-    def __call__(self, X):
-        """The fitted functions at the points ``X`` (n, n_features): shape (n, n_functions).
+    def __call__(self, X, transform=None):
+        """The fitted functions at the points ``X`` (n, n_features), or at ``transform(X)``
+        (each block of rows transformed on its own): shape (n, n_functions).
 
         Each row is computed by the same sums whatever rows come with it, so predictions
         made block by block equal those made at once, to the bit; blocks of rows are
         evaluated on several threads (:func:`~ndboundary._threads.in_blocks`).
         """
-        return _rowwise(X, self._fit.weights.shape[1], self._landmarks_t, self._fit.at)
+        return _rowwise(X, self._fit.weights.shape[1], self._landmarks_t, self._fit.at, transform)
 
 
 class PairwiseKernelExtension(_FittedAtSamples):
@@ -434,8 +437,9 @@ class PairwiseKernelExtension(_FittedAtSamples):
         np.minimum(worst[:, i], g, out=worst[:, i])
         np.minimum(worst[:, j], -g, out=worst[:, j])
 
-    def __call__(self, X):
-        """The class functions at the points ``X`` (n, n_features): shape (n, n_classes).
+    def __call__(self, X, transform=None):
+        """The class functions at the points ``X`` (n, n_features), or at ``transform(X)``:
+        shape (n, n_classes).
 
         Each row is computed by the same sums whatever rows come with it, as in
         :class:`KernelExtension`.
@@ -448,7 +452,7 @@ class PairwiseKernelExtension(_FittedAtSamples):
             worst *= 0.5
             worst += 0.5
 
-        return _rowwise(X, self.n_classes, self._landmarks_t, classes)
+        return _rowwise(X, self.n_classes, self._landmarks_t, classes, transform)
 
 
 class _SingleBasis:
