@@ -82,8 +82,9 @@ def fit_scaling(X):
     return np.ldexp(c0, e0), float(np.ldexp(1.0, e))
 
 
-def apply_scaling(X, center, scale):
-    """``(X - center) / scale``, computed without intermediate overflow; a new array.
+def apply_scaling(X, center, scale, out=None):
+    """``(X - center) / scale``, computed without intermediate overflow; a new array, or
+    ``out``.
 
     Parameters
     ----------
@@ -91,6 +92,8 @@ def apply_scaling(X, center, scale):
     center : ndarray of shape (n_features,)
     scale : float
         A power of two, as :func:`fit_scaling` returns it.
+    out : ndarray of shape (n_samples, n_features), optional
+        Where to write the result (``X`` itself allowed).
 
     Returns
     -------
@@ -120,10 +123,12 @@ def apply_scaling(X, center, scale):
         if _MIN_NORMAL_EXP <= -e <= _MAX_EXP:
             # a product by a normal power of two rounds as ldexp does, many times faster
             factor = np.ldexp(1.0, -e)
-            Z = X * factor
+            Z = np.multiply(X, factor, out=out)
             Z -= center * factor
         else:
-            Z = np.ldexp(X, -e) - np.ldexp(center, -e)
-    if not np.all(np.isfinite(Z)):
+            Z = np.subtract(np.ldexp(X, -e), np.ldexp(center, -e), out=out)
+        # a sum of finite values is finite unless it overflows: then each is checked
+        finite = np.isfinite(Z.sum()) or np.isfinite(Z).all()
+    if not finite:
         raise ValueError(f"X lies too far from the training data for its scale (2^{e}): scaled, it overflows float64")
     return Z
