@@ -59,6 +59,10 @@ run every second or two instead of every 20 and 500 ms. Idle, a ``2x1`` cluster'
 processes then take 3 % of a core instead of 16 % (``--idle`` measures it for each
 setting first), which on a machine whose cores the cluster shares with nothing else
 is work taken from the predictions. Prints a table and one JSON line.
+``--after-idle S`` first times ``--calls`` in-memory calls (3 at least) one right after
+another, then as many each after ``S`` seconds in which the process does nothing, with no
+cluster started yet: what a call pays for memory that the system took back while the
+process was idle (on a virtual machine, the host may reclaim the guest's freed pages).
 ``--pool FILE ...`` measures nothing: it reads the output of earlier runs (the JSON line
 each ends with) and prints, for each kind of ratio, the median, 95 % bootstrap interval
 and share at or above 1 over the ratios of every run, pooled.
@@ -70,6 +74,7 @@ Usage::
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
                                       [--calls 1] [--plain 2] [--pairs 0] [--first]
+                                      [--after-idle 0]
     python benchmarks/dask_predict.py --pool run1.txt run2.txt ...
 """
 
@@ -197,6 +202,25 @@ def timed(fn):
     t0 = time.perf_counter()
     out = fn()
     return time.perf_counter() - t0, out
+
+
+def after_idle(clf, Xc, ref, seconds, count):
+    """Seconds of ``count`` in-memory calls one right after another (the first left
+    out), then of ``count`` calls each after ``seconds`` idle: their medians and all."""
+    back = [timed(lambda: clf.predict(Xc)) for _ in range(count + 1)][1:]
+    idle = []
+    for _ in range(count):
+        time.sleep(seconds)
+        idle.append(timed(lambda: clf.predict(Xc)))
+    for _, labels in back + idle:
+        check(labels, ref, "memory")
+    back, idle = [t for t, _ in back], [t for t, _ in idle]
+    return {
+        "memory_back_to_back_s": float(np.median(back)),
+        f"memory_after_{seconds:g}s_idle_s": float(np.median(idle)),
+        "memory_back_to_back_all_s": [round(t, 3) for t in back],
+        f"memory_after_{seconds:g}s_idle_all_s": [round(t, 3) for t in idle],
+    }
 
 
 def check(labels, ref, way):
@@ -473,7 +497,7 @@ def main(argv=None):
         default=f"1x{cores},{cores}x1",
         help="comma-separated cluster layouts WxT: W worker processes of T threads each",
     )
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=3, help="rounds (0: none)")
     ap.add_argument("--no-profiler", action="store_true", help="workers without Dask's statistical profiler")
     ap.add_argument("--no-malloc-trim", action="store_true", help="workers without Dask's MALLOC_TRIM_THRESHOLD_")
     ap.add_argument("--quiet", action="store_true", help="clusters with QUIET's settings")
@@ -485,6 +509,13 @@ def main(argv=None):
     )
     ap.add_argument("--ways", default=",".join(WAYS), help=f"comma-separated, from {', '.join(WAYS)}")
     ap.add_argument("--calls", type=int, default=1, help="calls per way and round, their median kept")
+    ap.add_argument(
+        "--after-idle",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="first time in-memory calls back to back and each after S seconds idle (0: skip)",
+    )
     ap.add_argument(
         "--plain",
         type=int,
@@ -539,9 +570,11 @@ def main(argv=None):
         for name, trim in (("trim", True), ("no_trim", False)):
             faults, seconds = page_faults(clf, Xc[: args.chunk], trim)
             out[f"page_faults_{name}"], out[f"one_thread_s_{name}"] = faults, seconds
+    if args.after_idle > 0:
+        out.update(after_idle(clf, Xc, ref, args.after_idle, max(3, args.calls)))
     if args.pairs > 0:
         out.update(paired_layouts(clf, Xc, ref, layouts, settings, args))
-    else:
+    elif args.repeats > 0:
         out.update(rounds(clf, Xc, ref, layouts, settings, args))
     if args.n > 0:
         with cluster(*layouts[0], settings):

@@ -45,8 +45,7 @@ def test_prediction_independent_of_batch(moons):
 def test_predicting_holds_no_copy_of_the_samples():
     """New points are scaled and put in search order block by block: predicting holds no
     array the size of ``X`` (a copy made afresh at each call is faulted in again wherever
-    the system has taken its memory back, which cost a quarter of a call on a machine
-    idle for seconds)."""
+    the system has taken its memory back)."""
     import tracemalloc
 
     rng = np.random.default_rng(0)

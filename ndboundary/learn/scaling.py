@@ -111,6 +111,9 @@ def apply_scaling(X, center, scale, out=None):
     >>> from ndboundary.learn.scaling import apply_scaling
     >>> apply_scaling(np.array([[3.0, 5.0]]), np.array([1.0, 1.0]), 2.0).tolist()
     [[1.0, 2.0]]
+    >>> A = np.array([[3.0, 5.0]])
+    >>> apply_scaling(A, np.array([1.0, 1.0]), 2.0, out=A) is A, A.tolist()
+    (True, [[1.0, 2.0]])
     >>> apply_scaling(np.array([[1e300, 0.0]]), np.zeros(2), 2.0**-100)
     Traceback (most recent call last):
     ...
