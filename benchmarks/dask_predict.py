@@ -63,6 +63,9 @@ is work taken from the predictions. Prints a table and one JSON line.
 another, then as many each after ``S`` seconds in which the process does nothing, with no
 cluster started yet: what a call pays for memory that the system took back while the
 process was idle (on a virtual machine, the host may reclaim the guest's freed pages).
+``--ship N`` first starts ``N`` fresh clusters of the first layout and on each times
+``shipped_to_workers`` alone, 5 s after the samples were persisted: the part of a user's
+first call that sends the model's lean copy to the workers.
 ``--pool FILE ...`` measures nothing: it reads the output of earlier runs (the JSON line
 each ends with) and prints, for each kind of ratio, the median, 95 % bootstrap interval
 and share at or above 1 over the ratios of every run, pooled.
@@ -74,7 +77,7 @@ Usage::
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
                                       [--calls 1] [--plain 2] [--pairs 0] [--first]
-                                      [--after-idle 0]
+                                      [--after-idle 0] [--ship 0]
     python benchmarks/dask_predict.py --pool run1.txt run2.txt ...
 """
 
@@ -97,7 +100,7 @@ from distributed import Client, LocalCluster, wait
 from scale import make_data
 
 from ndboundary import LevelSetClassifier
-from ndboundary.learn.scaleout import for_prediction
+from ndboundary.learn.scaleout import for_prediction, shipped_to_workers
 
 
 def _block(block_id, chunk, features):
@@ -221,6 +224,18 @@ def after_idle(clf, Xc, ref, seconds, count):
         "memory_back_to_back_all_s": [round(t, 3) for t in back],
         f"memory_after_{seconds:g}s_idle_all_s": [round(t, 3) for t in idle],
     }
+
+
+def ship_times(clf, Xc, workers, threads, settings, args, count):
+    """Seconds of :func:`shipped_to_workers` on ``count`` fresh clusters, each 5 s after
+    the samples were persisted and the workers warmed."""
+    seconds = []
+    for _ in range(count):
+        with cluster(workers, threads, settings) as client:
+            prepared(client, clf, Xc, args)
+            time.sleep(5.0)
+            seconds.append(timed(lambda: shipped_to_workers(clf))[0])
+    return {f"ship_s@{workers}x{threads}": float(np.median(seconds)), "ship_all_s": [round(t, 4) for t in seconds]}
 
 
 def check(labels, ref, way):
@@ -516,6 +531,7 @@ def main(argv=None):
         metavar="S",
         help="first time in-memory calls back to back and each after S seconds idle (0: skip)",
     )
+    ap.add_argument("--ship", type=int, default=0, metavar="N", help="first time the model's shipping on N clusters")
     ap.add_argument(
         "--plain",
         type=int,
@@ -570,6 +586,8 @@ def main(argv=None):
         for name, trim in (("trim", True), ("no_trim", False)):
             faults, seconds = page_faults(clf, Xc[: args.chunk], trim)
             out[f"page_faults_{name}"], out[f"one_thread_s_{name}"] = faults, seconds
+    if args.ship > 0:
+        out.update(ship_times(clf, Xc, *layouts[0], settings, args, args.ship))
     if args.after_idle > 0:
         out.update(after_idle(clf, Xc, ref, args.after_idle, max(3, args.calls)))
     if args.pairs > 0:
