@@ -66,6 +66,10 @@ process was idle (on a virtual machine, the host may reclaim the guest's freed p
 ``--ship N`` first starts ``N`` fresh clusters of the first layout and on each times
 ``shipped_to_workers`` alone, 5 s after the samples were persisted: the part of a user's
 first call that sends the model's lean copy to the workers.
+``--trace N`` first traces a first and a second call on each of ``N`` fresh clusters of
+the first layout (Dask's task stream, 5 s after the samples were persisted): each call's
+seconds, the inputs (blocks, or the model's copy) fetched from another worker before
+their task ran, and the tail between the first and the last worker's end.
 ``--pool FILE ...`` measures nothing: it reads the output of earlier runs (the JSON line
 each ends with) and prints, for each kind of ratio, the median, 95 % bootstrap interval
 and share at or above 1 over the ratios of every run, pooled.
@@ -77,7 +81,7 @@ Usage::
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
                                       [--calls 1] [--plain 2] [--pairs 0] [--first]
-                                      [--after-idle 0] [--ship 0]
+                                      [--after-idle 0] [--ship 0] [--trace 0]
     python benchmarks/dask_predict.py --pool run1.txt run2.txt ...
 """
 
@@ -236,6 +240,34 @@ def ship_times(clf, Xc, workers, threads, settings, args, count):
             time.sleep(5.0)
             seconds.append(timed(lambda: shipped_to_workers(clf))[0])
     return {f"ship_s@{workers}x{threads}": float(np.median(seconds)), "ship_all_s": [round(t, 4) for t in seconds]}
+
+
+def traced_calls(clf, Xc, workers, threads, settings, args, count):
+    """For ``count`` fresh clusters, a first and a second call's seconds, fetches of a
+    prediction task's inputs from another worker, and tail (see ``--trace``)."""
+    from distributed import get_task_stream
+
+    out = {"first": [], "second": []}
+    for _ in range(count):
+        with cluster(workers, threads, settings) as client:
+            Xd = prepared(client, clf, Xc, args)
+            time.sleep(5.0)
+            for name in out:
+                with get_task_stream() as stream:
+                    seconds = timed(lambda: clf.predict(Xd).compute())[0]
+                tasks = [t for t in stream.data if "_apply" in str(t["key"])]
+                fetched = [s for t in tasks for s in t["startstops"] if s["action"] == "transfer"]
+                ends = {}
+                for t in tasks:
+                    stop = max(s["stop"] for s in t["startstops"])
+                    ends[t["worker"]] = max(ends.get(t["worker"], stop), stop)
+                tail = max(ends.values()) - min(ends.values()) if ends else 0.0
+                out[name].append((seconds, len(fetched), sum(s["stop"] - s["start"] for s in fetched), tail))
+    tag = f"@{workers}x{threads}"
+    return {
+        f"trace_{name}{tag}": [[round(s, 3), n, round(f, 3), round(t, 3)] for s, n, f, t in calls]
+        for name, calls in out.items()
+    } | {"trace_columns": ["seconds", "inputs fetched", "fetch seconds", "tail seconds"]}
 
 
 def check(labels, ref, way):
@@ -533,6 +565,9 @@ def main(argv=None):
     )
     ap.add_argument("--ship", type=int, default=0, metavar="N", help="first time the model's shipping on N clusters")
     ap.add_argument(
+        "--trace", type=int, default=0, metavar="N", help="first trace a first and second call on N clusters"
+    )
+    ap.add_argument(
         "--plain",
         type=int,
         default=cores,
@@ -588,6 +623,8 @@ def main(argv=None):
             out[f"page_faults_{name}"], out[f"one_thread_s_{name}"] = faults, seconds
     if args.ship > 0:
         out.update(ship_times(clf, Xc, *layouts[0], settings, args, args.ship))
+    if args.trace > 0:
+        out.update(traced_calls(clf, Xc, *layouts[0], settings, args, args.trace))
     if args.after_idle > 0:
         out.update(after_idle(clf, Xc, ref, args.after_idle, max(3, args.calls)))
     if args.pairs > 0:
