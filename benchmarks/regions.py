@@ -583,7 +583,7 @@ def image_arcs():
         d_flower = outline.query(x[faces.pairs.min(axis=1) == 0])[0]
         return {"nested": d_nested, "cut": d_cut, "tees": tee, "flower": d_flower}
 
-    stiffness, rows = interface_fit.STIFFNESS, {}
+    stiffness, fitting, rows = interface_fit.STIFFNESS, interface_fit.INTERFACE_FIT, {}
     try:
         for name, fit, stiff in (("fitted", True, stiffness), ("softer prior", True, (interface_fit.BETA,)),
                                  ("as relaxed", False, stiffness)):  # fmt: skip
@@ -595,7 +595,7 @@ def image_arcs():
                   f"{np.round(m['tees'], 3).tolist()}; flower cut by a line {m['flower'].mean():.3f} / "
                   f"{m['flower'].max():.3f}", flush=True)  # fmt: skip
     finally:
-        interface_fit.INTERFACE_FIT, interface_fit.STIFFNESS = True, stiffness
+        interface_fit.INTERFACE_FIT, interface_fit.STIFFNESS = fitting, stiffness
     return targets({"bench": "regions", "case": "image arcs", **rows}, None)
 
 

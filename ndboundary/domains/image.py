@@ -253,12 +253,10 @@ def anisotropic_smoothing(domain, adjacency, passes):
     not by each axis's spacing; the sweeps stay as many.
 
     With uniform weights, a ball on voxels of spacing (1, 1, 3) bulged at its poles, where
-    the field was smoothed 3 times as far along the coarse axis as across it (0.90 voxel
-    from the truth at most, 0.65 with these weights). Sweeps spreading the field as far as
-    on a grid of the coarsest spacing (9 times as many there) brought it to 0.49, but the
-    smallest region of the prostate of ``benchmarks/images.py --prostate`` (spacing 0.6,
-    0.6, 4 mm) then lost 1.3 % of its volume, and 3 times as many split another's boundary
-    in two.
+    the field was smoothed 3 times as far along the coarse axis as across it. More sweeps,
+    spreading the field as far as on a grid of the coarsest spacing, took the ball nearer
+    still but cost small regions of thick slices their volume (README, "The field smoothed
+    alike along every axis").
 
     Examples
     --------

@@ -292,7 +292,7 @@ def locality_order(X, center, axes, bits=ORDER_BITS, transform=None):
     coordinates on ``axes`` (:func:`leading_axes`), cut into cells of one width (the
     widest range of the rows in ``2**bits``): rows close in space come close in the order.
     With ``transform`` (a map of an array of rows to the rows the axes are of, called as
-    ``transform(A, out=A)``), the rows are projected through it :data:`TRANSFORM_SLAB` at a
+    ``transform(A, out=B)``), the rows are projected through it :data:`TRANSFORM_SLAB` at a
     time, so that no transformed copy of ``X`` is held.
 
     Searching an index in this order reads the same parts of it one query after the
@@ -319,8 +319,7 @@ def locality_order(X, center, axes, bits=ORDER_BITS, transform=None):
         slab = np.empty((min(TRANSFORM_SLAB, X.shape[0]), X.shape[1]))
         for s in range(0, X.shape[0], TRANSFORM_SLAB):
             rows = slab[: min(TRANSFORM_SLAB, X.shape[0] - s)]
-            rows[...] = X[s : s + TRANSFORM_SLAB]
-            np.matmul(transform(rows, out=rows), axes.T, out=P[s : s + TRANSFORM_SLAB])
+            np.matmul(transform(X[s : s + TRANSFORM_SLAB], out=rows), axes.T, out=P[s : s + TRANSFORM_SLAB])
     P -= center @ axes.T
     lo = P.min(axis=0)
     # cells of one width on every axis, the widest axis cut in 2**bits: an axis along which

@@ -68,10 +68,10 @@ _CHUNK = 8192
 
 def rows_of(X, rows, transform, held):
     """The rows ``rows`` (a slice or indices) of ``X``, mapped by ``transform`` where it is
-    given (called as ``transform(A, out=A)``), in an array that ``held`` (a thread's
-    ``threading.local``) keeps for every block of rows the thread reads, and overwrites at
-    the next: an array made for each block would be faulted in afresh, at a cost of the
-    order of the gather itself.
+    given (called as ``transform(A, out=B)``, ``B`` possibly ``A``), in an array that
+    ``held`` (a thread's ``threading.local``) keeps for every block of rows the thread
+    reads, and overwrites at the next: an array made for each block would be faulted in
+    afresh, at a cost of the order of the gather itself.
     """
     if transform is None and isinstance(rows, slice):
         return X[rows]
@@ -81,9 +81,8 @@ def rows_of(X, rows, transform, held):
         buffer = held.rows = np.empty((max(m, _CHUNK), X.shape[1]))
     out = buffer[:m]
     if isinstance(rows, slice):
-        out[...] = X[rows]
-    else:
-        np.take(X, rows, axis=0, out=out, mode="clip")  # "raise" would gather into a copy first
+        return transform(X[rows], out=out)
+    np.take(X, rows, axis=0, out=out, mode="clip")  # "raise" would gather into a copy first
     return out if transform is None else transform(out, out=out)
 
 

@@ -21,9 +21,9 @@ signed distance to the curve, positive on its region's side, lengths in h.
 sites more than :data:`SLACK` h on the wrong side. With a soft prior, the margins bend a
 line into the local gaps between its sites, which are as wide as the sites are far apart;
 where an arc parts the sites, the stiffest prior reads the arc from all of them instead
-(two nested circles on pixels, ``tests/test_images.py``: 0.022 pixel from the truth on
-average, against 0.060 with the softest prior alone and 0.096 as relaxed). Where no arc
-parts them (the curvature changes along the line), the line bends again.
+(two nested circles on pixels, ``tests/test_images.py``, come out at least twice as near
+the truth as with the softest prior alone). Where no arc parts them (the curvature
+changes along the line), the line bends again.
 
 A point junction that lies alone (no other junction or border end within
 ``junctions.MIN_SPACING`` h) moves with its three interfaces (:func:`fit_network`): its
