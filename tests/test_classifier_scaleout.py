@@ -1,5 +1,8 @@
 """The classifier beyond memory: fitting on landmarks, predicting block-wise on Dask arrays."""
 
+import gc
+import time
+
 import numpy as np
 import pytest
 from sklearn.datasets import make_blobs, make_moons
@@ -160,25 +163,57 @@ def test_a_local_cluster_leaves_the_process_that_started_it_its_threads(client):
     assert available_threads() == THREADS_BEFORE_ANY_CLUSTER
 
 
-def test_the_workers_keep_their_copy_until_a_refit(client, moons, request):
-    from ndboundary.learn.scaleout import _workers_on_loopback, shipped_to_workers
+def _holding(client, name):
+    """The number of the client's workers that hold the classifier's copy ``name``."""
+    return sum(client.run(lambda dask_worker: name in dask_worker.plugins).values())
 
-    assert _workers_on_loopback(client)  # the copy goes to a worker directly, then to the other
-    # the active memory manager drops, every 2 s, the replicas no task waits for: stopped
-    # here, so that the replicas counted are the broadcast's, however slow the machine
-    client.amm.stop()
-    request.addfinalizer(client.amm.start)
+
+def test_the_workers_keep_their_copy_while_a_fit_or_a_prediction_holds_it(client, moons):
+    from ndboundary.learn.scaleout import shipped_to_workers
+
     X, y, Xt, _ = moons
     clf = LevelSetClassifier().fit(X[:600], y[:600])
     Xd = da.from_array(Xt, chunks=(250, 2))
     np.testing.assert_array_equal(clf.predict(Xd).compute(), clf.predict(Xt))
     first = shipped_to_workers(clf)
-    assert len(client.who_has()[first.key]) == 2  # on both workers
-    np.testing.assert_array_equal(clf.predict_proba(Xd).compute(), clf.predict_proba(Xt))
+    assert _holding(client, first.name) == 2  # on both workers
+    older = clf.predict_proba(Xd)
     assert shipped_to_workers(clf) is first  # not sent again
+    expected = clf.predict_proba(Xt)
     clf.fit(X[600:1200], y[600:1200])
     np.testing.assert_array_equal(clf.decision_function(Xd).compute(), clf.decision_function(Xt))
     assert shipped_to_workers(clf) is not first
+    # the prediction built before the refit still holds the first fit's copy, and gives it
+    np.testing.assert_array_equal(older.compute(), expected)
+    name = first.name
+    del older, first
+    gc.collect()
+    deadline = time.monotonic() + 30.0
+    while _holding(client, name) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _holding(client, name) == 0  # released with the last prediction that held it
+
+
+def test_each_block_is_predicted_where_it_is_held(client, moons):
+    """The copy is no input of the tasks, so the scheduler places each with its block:
+    as a dependency every worker holds, it made every worker a candidate, and the
+    scheduler's greedy choice moved blocks between workers."""
+    from distributed import get_task_stream, wait
+
+    X, y, Xt, _ = moons
+    clf = LevelSetClassifier().fit(X[:600], y[:600])
+    Xd = client.persist(da.from_array(np.repeat(Xt, 4, axis=0), chunks=(100, 2)))
+    wait(Xd)
+    clf.predict(Xd[:200]).compute()  # the copy shipped and the tasks' duration known
+    held = {key[1]: set(workers) for key, workers in client.who_has(Xd).items()}
+    with get_task_stream(client) as stream:
+        labels = clf.predict(Xd).compute()
+    np.testing.assert_array_equal(labels, clf.predict(np.repeat(Xt, 4, axis=0)))
+    tasks = [t for t in stream.data if "_apply_held" in str(t["key"])]
+    assert len(tasks) == len(held) > 2 and len({t["worker"] for t in tasks}) == 2
+    moved = [t["key"] for t in tasks if t["worker"] not in held[t["key"][1]]]
+    assert moved == []
+    assert not [t for t in tasks if any(s["action"] == "transfer" for s in t["startstops"])]
 
 
 @pytest.mark.parametrize("n_classes", [2, 4])

@@ -11,9 +11,10 @@ Two pieces serve large data:
   other rows predicted with it, so the blocks agree with the in-memory result exactly.
   Dask is an optional dependency (the ``dask`` extra); nothing here imports it unless a
   Dask array is given. On a ``distributed`` cluster the lean copy of the fitted
-  classifier (:func:`for_prediction`) is sent to every worker once and kept on the
-  cluster while the classifier lives (:func:`shipped_to_workers`), so later predictions
-  do not send it again.
+  classifier (:func:`for_prediction`) is installed on every worker once, as a worker
+  plugin, and kept there while the classifier or a prediction built from it lives
+  (:func:`shipped_to_workers`): later predictions do not send it again, and each block's
+  task, whose only input is its block, runs where the block is held.
 """
 
 from __future__ import annotations
@@ -33,9 +34,10 @@ __all__ = [
     "n_landmarks",
     "shipped_to_workers",
     "transduce_the_rest",
+    "WorkersCopy",
 ]
 
-# fitted classifier -> (its classes_ when shipped, the client, the workers' copy)
+# fitted classifier -> (its classes_ when shipped, a weak reference to the client, the WorkersCopy)
 _SHIPPED = weakref.WeakKeyDictionary()
 
 
@@ -162,52 +164,103 @@ def _current_client():
         return None
 
 
+class WorkersCopy:
+    """A handle on the lean copy of a fitted classifier that a cluster's workers hold.
+
+    It names the worker plugin that holds the copy (:class:`~ndboundary.learn.workercopy.HeldCopy`).
+    The fitted classifier and every lazy prediction built from it hold the handle; when
+    the last of them lets it go, the plugin is unregistered and the workers drop their
+    copy. Pickled, as a prediction task's argument, it is its name alone; in the process
+    that made it, it also holds the copy itself, which a task run there (Dask's threads)
+    uses directly.
+    """
+
+    __slots__ = ("name", "lean", "__weakref__")
+
+    def __init__(self, name, lean=None):
+        self.name = name
+        self.lean = lean
+
+    def __reduce__(self):
+        return (WorkersCopy, (self.name,))
+
+    def __dask_tokenize__(self):
+        return ("ndboundary.WorkersCopy", self.name)
+
+    def __repr__(self):
+        return f"WorkersCopy({self.name!r})"
+
+    def resolve(self):
+        """The lean copy: this process's own, or the one the running worker holds."""
+        if self.lean is not None:
+            return self.lean
+        from .workercopy import held_copy
+
+        return held_copy(self.name)
+
+
+def _apply_held(X, held, method):
+    return getattr(held.resolve(), method)(X)
+
+
+def _unregister(client_ref, name):
+    """Unregister the worker plugin ``name`` without waiting, if its client still runs
+    (a finalizer may run on any thread, the client's event loop's among them).
+    """
+    client = client_ref()
+    if client is None or client.status != "running":
+        return
+
+    async def drop():
+        try:
+            await client._unregister_worker_plugin(name=name, nanny=False)
+        except Exception:  # the cluster closing meanwhile drops it anyway
+            pass
+
+    client.loop.add_callback(drop)
+
+
 def shipped_to_workers(est):
     """The workers' copy of the fitted classifier ``est`` on the current ``distributed``
-    client: a future of :func:`for_prediction` held on every worker, or None without a
-    client.
+    client, as a :class:`WorkersCopy`; None without a client.
 
-    The copy is sent (``scatter(..., broadcast=True)``) on the first call and reused by
-    later ones while ``est`` lives, the client runs and ``est`` is not refitted. Dask's
-    active memory manager, when it runs, drops the replicas that no task waits for; a
-    worker then fetches the copy from another worker when a task needs it. The copy
-    holds the training samples and their neighbour index, which sent with each
-    prediction would cost each call a transfer of that size. When every worker listens
-    on this machine's loopback (a ``LocalCluster``) and the client was not told otherwise
-    (``direct_to_workers``), the copy goes to a worker directly and from it to the
-    others, rather than through the scheduler: half the time on a copy of 79 MB.
+    The lean copy (:func:`for_prediction`) is installed on every worker, and on every
+    worker that joins later, as a worker plugin on the first call, and reused by later
+    ones while ``est`` lives, the client runs and ``est`` is not refitted. The copy holds
+    the training samples and their neighbour index, which sent with each prediction would
+    cost each call a transfer of that size. As a plugin rather than as data each task
+    depends on, it leaves each task's block of rows its only input, so that the
+    scheduler runs the task where that block is held (see
+    :mod:`ndboundary.learn.workercopy`).
     """
     client = _current_client()
     if client is None or client.status != "running":
         return None
     held = _SHIPPED.get(est)
-    if held is not None and held[0] is est.classes_ and held[1] is client and held[2].status == "finished":
+    if held is not None and held[0] is est.classes_ and held[1]() is client:
         return held[2]
-    direct = client.direct_to_workers
-    if direct is None:
-        direct = _workers_on_loopback(client)
-    future = client.scatter(for_prediction(est), broadcast=True, hash=False, direct=direct)
-    _SHIPPED[est] = (est.classes_, client, future)
-    return future
+    import uuid
 
+    from .workercopy import HeldCopy
 
-def _workers_on_loopback(client):
-    """Whether the client's workers all listen on a loopback address (any running)."""
-    from distributed.comm import get_address_host
-
-    workers = client.scheduler_info().get("workers", {})
-    loopback = ("127.0.0.1", "localhost", "::1")
-    return bool(workers) and all(get_address_host(address) in loopback for address in workers)
+    lean = for_prediction(est)
+    name = f"ndboundary-classifier-{uuid.uuid4().hex}"
+    client.register_plugin(HeldCopy(name, lean), name=name)
+    handle = WorkersCopy(name, lean)
+    weakref.finalize(handle, _unregister, weakref.ref(client), name).atexit = False
+    _SHIPPED[est] = (est.classes_, weakref.ref(client), handle)
+    return handle
 
 
 def map_rows(est, method, X, n_outputs, dtype):
     """The method ``method`` of the fitted classifier ``est`` applied to each block of rows
     of the Dask array ``X``, lazily.
 
-    The estimator enters the task graph once, as one object that every block's task
-    depends on, and lean (:func:`for_prediction`): a cluster ships it to each worker
-    once, not with every task. On a ``distributed`` client that object is the copy the
-    workers already hold (:func:`shipped_to_workers`).
+    The estimator enters the task graph once and lean (:func:`for_prediction`): without a
+    ``distributed`` client, as one object that every block's task depends on; on a
+    ``distributed`` client, as the copy its workers already hold
+    (:func:`shipped_to_workers`), named in each task, so that a task's only input is
+    its block.
 
     Parameters
     ----------
@@ -237,15 +290,17 @@ def map_rows(est, method, X, n_outputs, dtype):
         raise ValueError(f"X has shape {X.shape}; the classifier was fitted on {n_features} features")
     if len(X.chunks[1]) > 1:
         X = X.rechunk({1: -1})  # each block holds whole rows
-    shipped = shipped_to_workers(est)
-    if shipped is None:
+    held = shipped_to_workers(est)
+    if held is None:
         # pure=False: a fresh key instead of hashing the whole fitted estimator
-        shipped = dask.delayed(for_prediction(est), pure=False, traverse=False)
+        fn, model = _apply, dask.delayed(for_prediction(est), pure=False, traverse=False)
+    else:
+        fn, model = _apply_held, held
     if n_outputs is None:
-        return X.map_blocks(_apply, shipped, method, drop_axis=1, dtype=dtype, meta=np.empty((0,), dtype=dtype))
+        return X.map_blocks(fn, model, method, drop_axis=1, dtype=dtype, meta=np.empty((0,), dtype=dtype))
     return X.map_blocks(
-        _apply,
-        shipped,
+        fn,
+        model,
         method,
         chunks=(X.chunks[0], (n_outputs,)),
         dtype=dtype,
