@@ -19,6 +19,8 @@ import numbers
 
 import numpy as np
 
+from .._kept import kept_array
+
 __all__ = [
     "EXACT_MAX_SAMPLES",
     "HNSW_MIN_SAMPLES",
@@ -310,15 +312,18 @@ def locality_order(X, center, axes, bits=ORDER_BITS, transform=None):
     >>> sorted(order.tolist()) == list(range(1000)), bool(step < 0.1)  # random order: about 0.52
     (True, True)
     """
-    # in place, without arrays the size of X or of a column per step: a Dask worker's
-    # allocator hands each freed array back to the system and faults the next one in
+    # without arrays the size of X, nor of a column per step: a Dask worker's allocator
+    # hands each freed array back to the system and faults the next one in; the slabs'
+    # arrays are the thread's own (kept_array)
+    n, m = X.shape[0], axes.shape[0]
+    slab_rows = min(TRANSFORM_SLAB, n)
     if transform is None:
         P = X @ axes.T
     else:
-        P = np.empty((X.shape[0], axes.shape[0]))
-        slab = np.empty((min(TRANSFORM_SLAB, X.shape[0]), X.shape[1]))
-        for s in range(0, X.shape[0], TRANSFORM_SLAB):
-            rows = slab[: min(TRANSFORM_SLAB, X.shape[0] - s)]
+        P = np.empty((n, m))
+        slab = kept_array("order_rows", (slab_rows, X.shape[1]))
+        for s in range(0, n, TRANSFORM_SLAB):
+            rows = slab[: min(TRANSFORM_SLAB, n - s)]
             np.matmul(transform(X[s : s + TRANSFORM_SLAB], out=rows), axes.T, out=P[s : s + TRANSFORM_SLAB])
     P -= center @ axes.T
     lo = P.min(axis=0)
@@ -328,17 +333,21 @@ def locality_order(X, center, axes, bits=ORDER_BITS, transform=None):
     width = float((P.max(axis=0) - lo).max()) / cells
     P -= lo
     P /= max(width, np.finfo(np.float64).tiny)
-    q = P.T.astype(np.int64, order="C")  # one row per axis
+    key = np.zeros(n, dtype=np.int64)
+    q_all = kept_array("order_cells", (m, slab_rows), np.int64)  # one row per axis
+    bit_all = kept_array("order_bit", (slab_rows,), np.int64)
+    for s in range(0, n, TRANSFORM_SLAB):
+        k = key[s : s + TRANSFORM_SLAB]
+        q, bit = q_all[:, : k.shape[0]], bit_all[: k.shape[0]]
+        np.copyto(q, P[s : s + TRANSFORM_SLAB].T, casting="unsafe")  # truncated, as astype
+        np.clip(q, 0, cells - 1, out=q)
+        for b in range(bits - 1, -1, -1):  # interleave the axes' bits, most significant first
+            for axis in q:
+                np.left_shift(k, 1, out=k)
+                np.right_shift(axis, b, out=bit)
+                np.bitwise_and(bit, 1, out=bit)
+                np.bitwise_or(k, bit, out=k)
     del P
-    np.clip(q, 0, cells - 1, out=q)
-    key = np.zeros(X.shape[0], dtype=np.int64)
-    bit = np.empty_like(key)
-    for b in range(bits - 1, -1, -1):  # interleave the axes' bits, most significant first
-        for axis in q:
-            np.left_shift(key, 1, out=key)
-            np.right_shift(axis, b, out=bit)
-            np.bitwise_and(bit, 1, out=bit)
-            np.bitwise_or(key, bit, out=key)
     return np.argsort(key, kind="stable")
 
 

@@ -449,10 +449,13 @@ class LevelSetClassifier(ClassifierMixin, BaseEstimator):
             out = np.full((X.shape[0], n_cls), -0.5)
             out[:, self._constant] = 0.5
             return out
-        phi = self.extension_(X, transform)
+        phi = self.extension_(X, transform)  # a fresh array, combined in place
         if self.kernel_weight_ > 0.0:
-            phi = (1.0 - self.kernel_weight_) * phi + self.kernel_weight_ * self.kernel_extension_(X, transform)
-        phi = phi - 0.5
+            kernel = self.kernel_extension_(X, transform)
+            kernel *= self.kernel_weight_
+            phi *= 1.0 - self.kernel_weight_
+            phi += kernel
+        phi -= 0.5
         return phi[:, 0] if phi.shape[1] == 1 else phi
 
     def predict(self, X):
