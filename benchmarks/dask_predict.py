@@ -68,8 +68,8 @@ process was idle (on a virtual machine, the host may reclaim the guest's freed p
 first call that sends the model's lean copy to the workers.
 ``--trace N`` first traces a first and a second call on each of ``N`` fresh clusters of
 the first layout (Dask's task stream, 5 s after the samples were persisted): each call's
-seconds, the inputs (blocks, or the model's copy) fetched from another worker before
-their task ran, and the tail between the first and the last worker's end.
+seconds, the blocks of rows fetched from another worker before their task ran (a task
+whose block another worker held), and the tail between the first and the last worker's end.
 ``--pool FILE ...`` measures nothing: it reads the output of earlier runs (the JSON line
 each ends with) and prints, for each kind of ratio, the median, 95 % bootstrap interval
 and share at or above 1 over the ratios of every run, pooled.

@@ -70,42 +70,6 @@ def test_predicting_holds_no_copy_of_the_samples():
     assert per_row < 0.6, f"{per_row:.2f} of a row's bytes held per row"
 
 
-def test_a_thread_keeps_its_block_arrays_from_one_call_to_the_next(monkeypatch):
-    """On one thread, as in a Dask worker's task, the arrays of the blocks of rows are made
-    at the thread's first call and reused by its next (a Dask worker's allocator hands
-    each freed array back to the system, and the next is faulted in again); the
-    predictions handed out are the caller's own."""
-    import threading
-    import tracemalloc
-
-    import ndboundary._threads
-
-    monkeypatch.setattr(ndboundary._threads, "available_threads", lambda: 1)
-    rng = np.random.default_rng(0)
-    X = rng.normal(size=(1500, 40))
-    y = (X[:, 0] + 0.3 * X[:, 1] > 0).astype(int)
-    clf = LevelSetClassifier(random_state=0).fit(X, y)
-    Xt = rng.normal(size=(40_000, 40))
-    peaks, outputs = [], []
-
-    def calls():  # on a thread of its own, which keeps no arrays yet
-        for part in (Xt, Xt[::-1]):
-            tracemalloc.start()
-            try:
-                outputs.append(clf.decision_function(part))
-                peaks.append(tracemalloc.get_traced_memory()[1])
-            finally:
-                tracemalloc.stop()
-
-    thread = threading.Thread(target=calls)
-    thread.start()
-    thread.join()
-    first, second = peaks
-    assert second < first - 8192 * Xt.shape[1] * 8, (first, second)  # not even the rows' buffer again
-    assert not np.shares_memory(outputs[0], outputs[1])
-    np.testing.assert_array_equal(outputs[1], outputs[0][::-1])
-
-
 def test_accuracy_comparable_to_knn():
     # 5-fold cross-validation on three draws: a single 200-sample test split moves by
     # +-3 points from draw to draw, more than the methods differ

@@ -192,6 +192,11 @@ def test_the_workers_keep_their_copy_while_a_fit_or_a_prediction_holds_it(client
     while _holding(client, name) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert _holding(client, name) == 0  # released with the last prediction that held it
+    # a copy taken away under a prediction: its tasks say so
+    lazy = clf.predict(Xd)
+    client.unregister_worker_plugin(shipped_to_workers(clf).name)
+    with pytest.raises(RuntimeError, match="no longer hold the classifier's copy"):
+        lazy.compute()
 
 
 def test_each_block_is_predicted_where_it_is_held(client, moons):

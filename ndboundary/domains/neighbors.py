@@ -19,8 +19,6 @@ import numbers
 
 import numpy as np
 
-from .._kept import kept_array
-
 __all__ = [
     "EXACT_MAX_SAMPLES",
     "HNSW_MIN_SAMPLES",
@@ -313,15 +311,14 @@ def locality_order(X, center, axes, bits=ORDER_BITS, transform=None):
     (True, True)
     """
     # without arrays the size of X, nor of a column per step: a Dask worker's allocator
-    # hands each freed array back to the system and faults the next one in; the slabs'
-    # arrays are the thread's own (kept_array)
+    # hands each freed array back to the system and faults the next one in
     n, m = X.shape[0], axes.shape[0]
     slab_rows = min(TRANSFORM_SLAB, n)
     if transform is None:
         P = X @ axes.T
     else:
         P = np.empty((n, m))
-        slab = kept_array("order_rows", (slab_rows, X.shape[1]))
+        slab = np.empty((slab_rows, X.shape[1]))
         for s in range(0, n, TRANSFORM_SLAB):
             rows = slab[: min(TRANSFORM_SLAB, n - s)]
             np.matmul(transform(X[s : s + TRANSFORM_SLAB], out=rows), axes.T, out=P[s : s + TRANSFORM_SLAB])
@@ -334,8 +331,8 @@ def locality_order(X, center, axes, bits=ORDER_BITS, transform=None):
     P -= lo
     P /= max(width, np.finfo(np.float64).tiny)
     key = np.zeros(n, dtype=np.int64)
-    q_all = kept_array("order_cells", (m, slab_rows), np.int64)  # one row per axis
-    bit_all = kept_array("order_bit", (slab_rows,), np.int64)
+    q_all = np.empty((m, slab_rows), dtype=np.int64)  # a slab's cells, one row per axis
+    bit_all = np.empty(slab_rows, dtype=np.int64)
     for s in range(0, n, TRANSFORM_SLAB):
         k = key[s : s + TRANSFORM_SLAB]
         q, bit = q_all[:, : k.shape[0]], bit_all[: k.shape[0]]

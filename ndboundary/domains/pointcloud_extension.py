@@ -47,10 +47,11 @@ refit since ``phi`` stays as fitted (:class:`NeighborExtension` gives the rules)
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from .._compiled import ambient_values, neighbour_means
-from .._kept import kept_array
 from .._threads import in_blocks
 
 __all__ = ["EXTENSION_POWERS", "LOCAL_SCALE_RANK", "NeighborExtension", "predicted_codes"]
@@ -65,17 +66,20 @@ LOCAL_SCALE_RANK = 7
 _CHUNK = 8192
 
 
-def rows_of(X, rows, transform):
+def rows_of(X, rows, transform, held):
     """The rows ``rows`` (a slice or indices) of ``X``, mapped by ``transform`` where it is
-    given (called as ``transform(A, out=B)``, ``B`` possibly ``A``), in an array that the
-    calling thread keeps (:func:`~ndboundary._kept.kept_array`) and overwrites at its next
-    block: an array made for each block would be faulted in afresh, at a cost of the order
-    of the gather itself.
+    given (called as ``transform(A, out=B)``, ``B`` possibly ``A``), in an array that
+    ``held`` (a thread's ``threading.local``) keeps for every block of rows the thread
+    reads, and overwrites at the next: an array made for each block would be faulted in
+    afresh, at a cost of the order of the gather itself.
     """
     if transform is None and isinstance(rows, slice):
         return X[rows]
     m = len(range(*rows.indices(X.shape[0]))) if isinstance(rows, slice) else rows.size
-    out = kept_array("rows_of", (max(m, _CHUNK), X.shape[1]))[:m]
+    buffer = getattr(held, "rows", None)
+    if buffer is None or buffer.shape[0] < m:
+        buffer = held.rows = np.empty((max(m, _CHUNK), X.shape[1]))
+    out = buffer[:m]
     if isinstance(rows, slice):
         return transform(X[rows], out=out)
     np.take(X, rows, axis=0, out=out, mode="clip")  # "raise" would gather into a copy first
@@ -181,16 +185,17 @@ class NeighborExtension:
         X = np.asarray(X, dtype=np.float64)
         out = np.empty((X.shape[0], self._phi_u.shape[1]))
         order = self.cloud.query_order(X, transform) if X.shape[0] > _CHUNK else None
-        # the searches and sums of a block written into arrays each thread keeps, where
-        # the index searches into given arrays and the gradients are ambient: one
-        # compiled pass instead of a dozen arrays per block
-        into = self._ambient is not None and self.cloud.searches_into
+        # the searches and sums of a block written into arrays each thread keeps for all
+        # its blocks, where the index searches into given arrays and the gradients are
+        # ambient: one compiled pass instead of a dozen arrays per block
+        scratch = threading.local() if self._ambient is not None and self.cloud.searches_into else None
+        held = threading.local()
 
         def block(c):
             rows = c if order is None else order[c]
-            points = rows_of(X, rows, transform)
-            if into:
-                out[rows] = self._means_into(points)
+            points = rows_of(X, rows, transform, held)
+            if scratch is not None:
+                out[rows] = self._means_into(points, scratch)
                 return
             for _, *terms in self._terms(points):  # one chunk
                 out[rows] = _weighted_mean(*terms, self.power)
@@ -199,18 +204,23 @@ class NeighborExtension:
             pass
         return out
 
-    def _means_into(self, X):
-        """The functions at the points ``X`` (at most ``_CHUNK`` rows), in an array the
-        calling thread keeps (:func:`~ndboundary._kept.kept_array`): the neighbours
-        searched into arrays it keeps too, then weighed and summed by
-        :func:`~ndboundary._compiled.neighbour_means`.
+    def _means_into(self, X, scratch):
+        """The functions at the points ``X`` (at most ``_CHUNK`` rows), in an array of
+        ``scratch`` (a thread's own): the neighbours searched into arrays it keeps, then
+        weighed and summed by :func:`~ndboundary._compiled.neighbour_means`.
         """
         k, nxt = self._sizes(0)
-        n, width, rows = X.shape[0], k + nxt, max(X.shape[0], _CHUNK)
-        x32 = kept_array("means_x32", (rows, X.shape[1]), np.float32)[:n]
-        sq = kept_array("means_sq", (rows, width), np.float32)[:n]
-        ind = kept_array("means_ind", (rows, width), np.int64)[:n]
-        means = kept_array("means", (rows, self._phi_u.shape[1]))[:n]
+        n, width = X.shape[0], k + nxt
+        held = getattr(scratch, "arrays", None)
+        if held is None or held[0].shape[0] < n:
+            rows = max(n, _CHUNK)
+            held = scratch.arrays = (
+                np.empty((rows, X.shape[1]), dtype=np.float32),
+                np.empty((rows, width), dtype=np.float32),
+                np.empty((rows, width), dtype=np.int64),
+                np.empty((rows, self._phi_u.shape[1])),
+            )
+        x32, sq, ind, means = (a[:n] for a in held)
         x32[...] = X
         self.cloud.kneighbors_into(x32, sq, ind)
         c, g = self._ambient

@@ -35,13 +35,13 @@ landmarks: a new point's distances are computed once for every pair.
 
 from __future__ import annotations
 
+import threading
 from itertools import combinations, repeat
 
 import numpy as np
 
 from .._compiled import squared_distances
 from .._threads import available_threads, in_blocks, shared_pool
-from .._kept import kept_array
 from ..domains.pointcloud_extension import rows_of
 from ..solvers.common import blas_threads
 
@@ -158,10 +158,13 @@ def _rowwise(X, n_out, landmarks_t, values, transform=None):
     """
     X = np.asarray(X, dtype=np.float64)
     out = np.empty((X.shape[0], n_out))
+    held = threading.local()
 
     def block(c):
-        d = kept_array("rowwise_distances", (_RUN, landmarks_t.shape[1]))  # the thread's own
-        points = rows_of(X, c, transform)
+        d = getattr(held, "d", None)  # the thread's buffer, for all its blocks
+        if d is None:
+            d = held.d = np.empty((_RUN, landmarks_t.shape[1]))
+        points = rows_of(X, c, transform, held)
         for a in range(0, c.stop - c.start, _RUN):
             run = slice(a, min(c.stop - c.start, a + _RUN))
             dr = d[: run.stop - run.start]
