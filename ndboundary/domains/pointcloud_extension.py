@@ -185,17 +185,17 @@ class NeighborExtension:
         X = np.asarray(X, dtype=np.float64)
         out = np.empty((X.shape[0], self._phi_u.shape[1]))
         order = self.cloud.query_order(X, transform) if X.shape[0] > _CHUNK else None
-        # the searches and sums of a block written into arrays each thread keeps for all
-        # its blocks, where the index searches into given arrays and the gradients are
-        # ambient: one compiled pass instead of a dozen arrays per block
-        scratch = threading.local() if self._ambient is not None and self.cloud.searches_into else None
+        # a block's rows, searches and sums written into arrays each thread keeps for all
+        # its blocks; where the index searches into given arrays and the gradients are
+        # ambient, one compiled pass instead of a dozen arrays per block
+        into = self._ambient is not None and self.cloud.searches_into
         held = threading.local()
 
         def block(c):
             rows = c if order is None else order[c]
             points = rows_of(X, rows, transform, held)
-            if scratch is not None:
-                out[rows] = self._means_into(points, scratch)
+            if into:
+                out[rows] = self._means_into(points, held)
                 return
             for _, *terms in self._terms(points):  # one chunk
                 out[rows] = _weighted_mean(*terms, self.power)
