@@ -47,6 +47,11 @@ ratios of each second call's seconds to its first's (below 1: the first call is 
 slower).
 In every mode the samples are persisted on the workers, and the workers warmed, before
 any call is timed.
+``--chunk-cost`` first times, on one thread in a fresh process started as Dask starts a
+worker, ``--check-n`` samples predicted at once, in blocks of ``--chunk`` rows (as a
+cluster's tasks predict them), and in such blocks of the samples reordered by their whole
+search order (medians of ``--calls`` calls, 3 at least): what a block costs more than its
+share of the whole, and whether that is the search's locality.
 ``--faults`` first counts the minor page faults (and the seconds) of one call predicting
 ``--chunk`` rows on one thread, in a fresh process with and without the
 ``MALLOC_TRIM_THRESHOLD_`` Dask's nanny sets in its workers.
@@ -69,7 +74,9 @@ first call that sends the model's lean copy to the workers.
 ``--trace N`` first traces a first and a second call on each of ``N`` fresh clusters of
 the first layout (Dask's task stream, 5 s after the samples were persisted): each call's
 seconds, the blocks of rows fetched from another worker before their task ran (a task
-whose block another worker held), and the tail between the first and the last worker's end.
+whose block another worker held), and the tail between the first and the last worker's end;
+and how many blocks each worker held when the calls began. With ``--held-by-one`` the samples
+are persisted on one worker only, in every mode (as when one worker loaded them).
 ``--pool FILE ...`` measures nothing: it reads the output of earlier runs (the JSON line
 each ends with) and prints, for each kind of ratio, the median, 95 % bootstrap interval
 and share at or above 1 over the ratios of every run, pooled.
@@ -81,7 +88,8 @@ Usage::
                                       [--repeats 3] [--no-profiler] [--no-malloc-trim]
                                       [--quiet] [--idle] [--faults] [--ways cluster,...]
                                       [--calls 1] [--plain 2] [--pairs 0] [--first]
-                                      [--after-idle 0] [--ship 0] [--trace 0]
+                                      [--after-idle 0] [--ship 0] [--trace 0] [--held-by-one]
+                                      [--chunk-cost]
     python benchmarks/dask_predict.py --pool run1.txt run2.txt ...
 """
 
@@ -198,6 +206,34 @@ def page_faults(clf, X, trim):
         return pool.apply(_faults_of_a_call, (for_prediction(clf), X))
 
 
+def _chunk_costs(est, X, chunk, count):
+    est.predict(X[:1000])
+    order = est.extension_.cloud.query_order(*est._validate_predict(X))
+    Xs = np.ascontiguousarray(X[order])  # the rows in the whole search order
+    ways = {
+        "whole": lambda: est.predict(X),
+        "chunks": lambda: [est.predict(X[a : a + chunk]) for a in range(0, X.shape[0], chunk)],
+        "sorted_chunks": lambda: [est.predict(Xs[a : a + chunk]) for a in range(0, X.shape[0], chunk)],
+    }
+    seconds = {name: [] for name in ways}
+    for _ in range(count):
+        for name, way in ways.items():
+            seconds[name].append(timed(way)[0])
+    return {name: float(np.median(t)) for name, t in seconds.items()}
+
+
+def chunk_costs(clf, X, chunk, count):
+    """Median seconds, on one thread in a fresh process started as Dask starts a worker,
+    of predicting ``X`` at once, in blocks of ``chunk`` rows, and in blocks of ``chunk``
+    rows of ``X`` reordered by its whole search order (each block then covers a compact
+    part of the space, as the whole's search does)."""
+    with environment(OMP_NUM_THREADS="1"):
+        pool = multiprocessing.get_context("spawn").Pool(1)
+    with pool:
+        costs = pool.apply(_chunk_costs, (for_prediction(clf), X, chunk, count))
+    return {f"one_thread_{name}_s": t for name, t in costs.items()}
+
+
 def plain_round(pool, n, chunk, ref, count):
     """Seconds to predict the ``n`` samples in blocks of ``chunk`` rows on the plain
     processes of ``pool`` (the median of ``count`` calls)."""
@@ -247,11 +283,13 @@ def traced_calls(clf, Xc, workers, threads, settings, args, count):
     prediction task's inputs from another worker, and tail (see ``--trace``)."""
     from distributed import get_task_stream
 
-    out = {"first": [], "second": []}
+    out, held = {"first": [], "second": []}, []
     for _ in range(count):
         with cluster(workers, threads, settings) as client:
             Xd = prepared(client, clf, Xc, args)
             time.sleep(5.0)
+            holders = [w for workers in client.who_has(Xd).values() for w in workers]
+            held.append(sorted(holders.count(w) for w in client.nthreads()))
             for name in out:
                 with get_task_stream() as stream:
                     seconds = timed(lambda: clf.predict(Xd).compute())[0]
@@ -267,7 +305,10 @@ def traced_calls(clf, Xc, workers, threads, settings, args, count):
     return {
         f"trace_{name}{tag}": [[round(s, 3), n, round(f, 3), round(t, 3)] for s, n, f, t in calls]
         for name, calls in out.items()
-    } | {"trace_columns": ["seconds", "inputs fetched", "fetch seconds", "tail seconds"]}
+    } | {
+        "trace_columns": ["seconds", "inputs fetched", "fetch seconds", "tail seconds"],
+        f"trace_blocks_held{tag}": held,
+    }
 
 
 def check(labels, ref, way):
@@ -431,9 +472,15 @@ def prepared(client, clf, Xc, args):
     transfer of every sample to the cluster as prediction time.
     """
     shipped = client.scatter(clf, broadcast=True)
-    client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000]).result()
-    del shipped
-    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)))
+    warm = [
+        client.submit(lambda est, Z: est.predict(Z), shipped, Xc[:1000], workers=[w], pure=False)
+        for w in client.nthreads()
+    ]
+    client.gather(warm)
+    del shipped, warm
+    # --held-by-one: every block on one worker, as when one worker loaded the samples
+    held_by = sorted(client.nthreads())[:1] if args.held_by_one else None
+    Xd = client.persist(da.from_array(Xc, chunks=(args.chunk, args.features)), workers=held_by)
     wait(Xd)
     return Xd
 
@@ -565,6 +612,14 @@ def main(argv=None):
     )
     ap.add_argument("--ship", type=int, default=0, metavar="N", help="first time the model's shipping on N clusters")
     ap.add_argument(
+        "--chunk-cost",
+        action="store_true",
+        help="first time the samples predicted on one thread at once, in blocks, and in blocks of the sorted rows",
+    )
+    ap.add_argument(
+        "--held-by-one", action="store_true", help="persist every block of the samples on one worker"
+    )
+    ap.add_argument(
         "--trace", type=int, default=0, metavar="N", help="first trace a first and second call on N clusters"
     )
     ap.add_argument(
@@ -621,6 +676,8 @@ def main(argv=None):
         for name, trim in (("trim", True), ("no_trim", False)):
             faults, seconds = page_faults(clf, Xc[: args.chunk], trim)
             out[f"page_faults_{name}"], out[f"one_thread_s_{name}"] = faults, seconds
+    if args.chunk_cost:
+        out.update(chunk_costs(clf, Xc, args.chunk, max(args.calls, 3)))
     if args.ship > 0:
         out.update(ship_times(clf, Xc, *layouts[0], settings, args, args.ship))
     if args.trace > 0:

@@ -199,26 +199,116 @@ def test_the_workers_keep_their_copy_while_a_fit_or_a_prediction_holds_it(client
         lazy.compute()
 
 
-def test_each_block_is_predicted_where_it_is_held(client, moons):
-    """The copy is no input of the tasks, so the scheduler places each with its block:
-    as a dependency every worker holds, it made every worker a candidate, and the
-    scheduler's greedy choice moved blocks between workers."""
-    from distributed import get_task_stream, wait
+@pytest.mark.parametrize("seed", range(20))
+def test_the_blocks_moved_even_out_the_rows_per_thread(seed):
+    """Whatever the placement, after the moves the busiest worker's rows per thread are
+    within one block of the even share and no more than before, and the placement they
+    leave needs no further move."""
+    from ndboundary.learn.placement import balance_plan
 
-    X, y, Xt, _ = moons
-    clf = LevelSetClassifier().fit(X[:600], y[:600])
-    Xd = client.persist(da.from_array(np.repeat(Xt, 4, axis=0), chunks=(100, 2)))
-    wait(Xd)
-    clf.predict(Xd[:200]).compute()  # the copy shipped and the tasks' duration known
+    rng = np.random.default_rng(seed)
+    threads = {f"w{i}": int(t) for i, t in enumerate(rng.integers(1, 4, rng.integers(2, 5)))}
+    workers = sorted(threads)
+    rows = rng.integers(50, 150, rng.integers(3, 40)).tolist()
+    before = [workers[0]] * len(rows) if seed % 2 else list(rng.choice(workers, len(rows)))
+    moves = balance_plan(rows, [[w] for w in before], threads)
+    assert all(dest in threads and dest != before[i] for i, dest in moves.items())
+    after = [moves.get(i, w) for i, w in enumerate(before)]
+
+    def busiest(place):
+        load = dict.fromkeys(threads, 0.0)
+        for r, w in zip(rows, place, strict=True):
+            load[w] += r / threads[w]
+        return max(load.values())
+
+    share = sum(rows) / sum(threads.values())
+    assert busiest(after) <= min(busiest(before), share + max(rows) / min(threads.values())) + 1e-9
+    if seed % 2:
+        assert busiest(after) < busiest(before)
+    assert balance_plan(rows, [[w] for w in after], threads) == {}
+
+
+def test_a_block_held_by_several_workers_is_not_moved():
+    from ndboundary.learn.placement import balance_plan
+
+    threads = {"a": 1, "b": 1}
+    assert balance_plan([100] * 4, [["a", "b"]] * 4, threads) == {}
+    assert balance_plan([100] * 4, [["a"], ["a"], ["a"], ["a", "b"]], threads) == {2: "b"}
+    assert balance_plan([100] * 4, [["a"], ["gone"], [], ["a"]], threads) == {3: "b"}
+
+
+def _where_predicted(client, clf, Xd, expected):
+    """The workers holding each block of ``Xd``, and the worker each block's prediction
+    ran on; no prediction task may have fetched its input from another worker."""
+    from distributed import get_task_stream
+
     held = {key[1]: set(workers) for key, workers in client.who_has(Xd).items()}
     with get_task_stream(client) as stream:
         labels = clf.predict(Xd).compute()
-    np.testing.assert_array_equal(labels, clf.predict(np.repeat(Xt, 4, axis=0)))
+    np.testing.assert_array_equal(labels, expected)
+    # a moved block's task reads the copy under its block's key: two tasks, one worker
     tasks = [t for t in stream.data if "_apply_held" in str(t["key"])]
-    assert len(tasks) == len(held) > 2 and len({t["worker"] for t in tasks}) == 2
-    moved = [t["key"] for t in tasks if t["worker"] not in held[t["key"][1]]]
-    assert moved == []
-    assert not [t for t in tasks if any(s["action"] == "transfer" for s in t["startstops"])]
+    assert not [t["key"] for t in tasks if any(s["action"] == "transfer" for s in t["startstops"])]
+    ran = {}
+    for t in tasks:
+        ran.setdefault(t["key"][1], set()).add(t["worker"])
+    assert set(ran) == set(held) and all(len(workers) == 1 for workers in ran.values())
+    return held, {i: workers.pop() for i, workers in ran.items()}
+
+
+def test_each_block_is_predicted_where_it_is_held(client, moons):
+    """The copy is no input of the tasks, so the scheduler places each with its block:
+    as a dependency every worker holds, it made every worker a candidate, and the
+    scheduler's greedy choice moved blocks between workers. Only the fewest blocks that
+    even out an uneven placement move, before their tasks run."""
+    from distributed import wait
+
+    X, y, Xt, _ = moons
+    clf = LevelSetClassifier().fit(X[:600], y[:600])
+    Xt = np.repeat(Xt, 4, axis=0)
+    Xd = client.persist(da.from_array(Xt, chunks=(100, 2)))
+    wait(Xd)
+    clf.predict(Xd[:200]).compute()  # the copy shipped and the tasks' duration known
+    held, ran = _where_predicted(client, clf, Xd, clf.predict(Xt))
+    workers = sorted(client.nthreads())
+    before = [sum(w in held[i] for i in held) for w in workers]
+    after = [sum(ran[i] == w for i in ran) for w in workers]
+    assert len(held) == 40 and abs(after[0] - after[1]) <= 1
+    assert sum(ran[i] not in held[i] for i in ran) == abs(before[0] - before[1]) // 2
+
+
+def test_blocks_held_by_one_worker_are_spread_over_all(client, moons):
+    from distributed import wait
+
+    X, y, Xt, _ = moons
+    clf = LevelSetClassifier().fit(X[:600], y[:600])
+    first = sorted(client.nthreads())[0]
+    Xd = client.persist(da.from_array(Xt, chunks=(125, 2)), workers=[first])
+    wait(Xd)
+    held, ran = _where_predicted(client, clf, Xd, clf.predict(Xt))
+    assert all(workers == {first} for workers in held.values())
+    assert sorted(ran.values()).count(first) == 4 and len(set(ran.values())) == 2
+    assert all(first in workers for workers in client.who_has(Xd).values())  # the user's blocks stay
+    # the copies of the blocks moved are made as the prediction is built, held while it is
+    Xd = client.persist(da.from_array(Xt[:500], chunks=(125, 2)), workers=[first])
+    wait(Xd)
+    lazy = clf.predict_proba(Xd)
+    assert _eventually(lambda: len(_moved_keys(client)) == 2)
+    np.testing.assert_array_equal(lazy.compute(), clf.predict_proba(Xt[:500]))
+    del lazy
+    gc.collect()
+    assert _eventually(lambda: not _moved_keys(client))
+
+
+def _eventually(condition, seconds=30.0):
+    deadline = time.monotonic() + seconds
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return condition()
+
+
+def _moved_keys(client):
+    return [key for key in client.who_has() if str(key).startswith("ndboundary-moved")]
 
 
 @pytest.mark.parametrize("n_classes", [2, 4])

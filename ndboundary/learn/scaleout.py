@@ -14,7 +14,8 @@ Two pieces serve large data:
   classifier (:func:`for_prediction`) is installed on every worker once, as a worker
   plugin, and kept there while the classifier or a prediction built from it lives
   (:func:`shipped_to_workers`): later predictions do not send it again, and each block's
-  task, whose only input is its block, runs where the block is held.
+  task, whose only input is its block, runs where the block is held, the blocks of a
+  persisted array first spread evenly over the workers (:mod:`ndboundary.learn.placement`).
 """
 
 from __future__ import annotations
@@ -260,7 +261,9 @@ def map_rows(est, method, X, n_outputs, dtype):
     ``distributed`` client, as one object that every block's task depends on; on a
     ``distributed`` client, as the copy its workers already hold
     (:func:`shipped_to_workers`), named in each task, so that a task's only input is
-    its block.
+    its block. The blocks of an array already in the cluster's memory are first spread
+    evenly over the workers, the fewest of them copied to another worker
+    (:func:`~ndboundary.learn.placement.balanced_blocks`).
 
     Parameters
     ----------
@@ -295,7 +298,10 @@ def map_rows(est, method, X, n_outputs, dtype):
         # pure=False: a fresh key instead of hashing the whole fitted estimator
         fn, model = _apply, dask.delayed(for_prediction(est), pure=False, traverse=False)
     else:
+        from .placement import balanced_blocks
+
         fn, model = _apply_held, held
+        X = balanced_blocks(_current_client(), X)
     if n_outputs is None:
         return X.map_blocks(fn, model, method, drop_axis=1, dtype=dtype, meta=np.empty((0,), dtype=dtype))
     return X.map_blocks(
