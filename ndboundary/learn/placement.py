@@ -7,9 +7,9 @@ the worker that loaded them. The scheduler's work stealing does not even that ou
 the tasks are long and their blocks large: a worker that runs out of tasks takes one from
 a busy worker only if moving its block costs clearly less than the time it would gain,
 at the bandwidth the scheduler assumes until it has measured one. Predicting a row costs
-far more than moving it (about 9 µs against 0.4 µs for 50 features on one machine), so
-:func:`balanced_blocks` moves the fewest blocks that even out the rows per thread, before
-the prediction is computed.
+far more than sending it to another worker (a neighbour search and its sums against a
+copy of the row's bytes), so :func:`balanced_blocks` moves the fewest blocks that even
+out the rows per thread, before the prediction is computed.
 """
 
 from __future__ import annotations
@@ -94,7 +94,8 @@ def balanced_blocks(client, X):
     Only for an array whose every block is already in the cluster's memory, one block of
     columns wide (a persisted array): the blocks :func:`balance_plan` moves are copied,
     at once, by a task pinned to their new worker, and ``X`` is returned with those
-    copies in their place (held while the returned array is). Any other array is
+    copies in their place (held while the returned array is; a copy whose worker has
+    left is made on another). Any other array is
     returned as it is: its blocks are made by the tasks that need them, which the
     scheduler spreads over the workers as they run.
     """
@@ -116,7 +117,12 @@ def balanced_blocks(client, X):
     blocks = dict(futures)
     for i, worker in moves.items():
         blocks[keys[i]] = client.submit(
-            _copy, futures[keys[i]], key=f"ndboundary-moved-{tag}-{i}", workers=[worker], pure=False
+            _copy,
+            futures[keys[i]],
+            key=f"ndboundary-moved-{tag}-{i}",
+            workers=[worker],
+            allow_other_workers=True,
+            pure=False,
         )
     rebuild, args = X.__dask_postpersist__()
     return rebuild(blocks, *args)
