@@ -14,31 +14,34 @@ out the rows per thread, before the prediction is computed.
 
 from __future__ import annotations
 
+import heapq
 import uuid
 
 __all__ = ["balance_plan", "balanced_blocks"]
 
 
 def balance_plan(rows, holders, threads):
-    """Which blocks to move where, so that the rows per thread of the busiest worker fall.
+    """Which blocks to move where, so that each worker runs about its share of the rows.
 
     Parameters
     ----------
     rows : sequence of int
         The rows of each block.
     holders : sequence of sequences
-        The workers holding each block (a block held by several runs on any of them).
+        The workers holding each block (a block held by several runs on any of them, and
+        counts here with the one of them it loads least).
     threads : dict
         Threads of each worker that may run tasks, the workers holding no block included.
 
     Returns
     -------
     dict
-        Block index -> the worker to move it to. A block moves from the most loaded worker
-        (rows per thread) to the worker whose load it raises least, while that keeps it
-        below the busiest's; the block moved is the last one of the busiest worker that
-        does, since a worker runs its tasks about in order and the move has the longest
-        to land.
+        Block index -> the worker to move it to. A worker's share is the rows in
+        proportion to its threads. A worker above its share by more than half its last
+        block gives that block away (the last, since a worker runs its tasks about in
+        order and the move then has the longest to land) to the worker below its share
+        that it loads least per thread, as long as that worker's rows per thread stay
+        below the giver's and it ends above its share by at most half the block.
 
     Examples
     --------
@@ -46,41 +49,41 @@ def balance_plan(rows, holders, threads):
     {5: 'b'}
     >>> balance_plan([100] * 4, [["a"]] * 4, {"a": 1, "b": 1, "c": 2})
     {3: 'c', 2: 'b', 1: 'c'}
-    >>> balance_plan([100] * 10, [["a"]] * 5 + [["b"]] * 5, {"a": 1, "b": 1})
+    >>> balance_plan([100] * 9, [["a"]] * 5 + [["b"]] * 4, {"a": 1, "b": 1})
     {}
     """
     threads = {w: t for w, t in threads.items() if t > 0}
-    load = dict.fromkeys(threads, 0.0)
-    owner = []
-    for r, held in zip(rows, holders, strict=True):
+    placed = dict.fromkeys(threads, 0)
+    runs = {w: [] for w in threads}  # the blocks each worker runs, in order
+    for i, (r, held) in enumerate(zip(rows, holders, strict=True)):
         held = [w for w in held if w in threads]
-        if not held:  # held by no worker that runs tasks: left where it is
-            owner.append(None)
-            continue
-        w = min(held, key=lambda h: (load[h] + r / threads[h], h))
-        load[w] += r / threads[w]
-        owner.append(w)
+        if held:  # else held by no worker that runs tasks: left where it is
+            w = min(held, key=lambda h: ((placed[h] + r) / threads[h], h))
+            placed[w] += r
+            runs[w].append(i)
+    total, count = sum(placed.values()), sum(map(len, runs.values()))
+    if count == 0:
+        return {}
+    share = {w: total * t / sum(threads.values()) for w, t in threads.items()}
+    mean = total / count
+    short = [((placed[w] + mean) / threads[w], w) for w in threads if placed[w] < share[w]]
+    heapq.heapify(short)
     moves = {}
-    for _ in range(len(owner)):
-        busy = max(load, key=lambda w: (load[w], w))
-        pick = None
-        for i in range(len(owner) - 1, -1, -1):
-            if owner[i] != busy:
+    for w in sorted(threads, key=lambda w: ((share[w] - placed[w]) / threads[w], w)):
+        while runs[w] and short:
+            i = runs[w][-1]
+            to = short[0][1]
+            if placed[to] + rows[i] - share[to] > rows[i] / 2:  # full
+                heapq.heappop(short)
                 continue
-            after = {w: load[w] + rows[i] / threads[w] for w in load if w != busy}
-            idle = min(after, key=lambda w: (after[w], w), default=None)
-            if idle is not None and after[idle] < load[busy]:
-                pick = i
+            if placed[w] - share[w] <= rows[i] / 2 or (placed[to] + rows[i]) / threads[to] >= placed[w] / threads[w]:
                 break
-        if pick is None:
-            break
-        load[busy] -= rows[pick] / threads[busy]
-        load[idle] += rows[pick] / threads[idle]
-        owner[pick] = idle
-        if idle in holders[pick]:  # back where it is held
-            moves.pop(pick, None)
-        else:
-            moves[pick] = idle
+            runs[w].pop()
+            placed[w] -= rows[i]
+            placed[to] += rows[i]
+            heapq.heapreplace(short, ((placed[to] + mean) / threads[to], to))
+            if to not in holders[i]:
+                moves[i] = to
     return moves
 
 
