@@ -135,8 +135,14 @@ def test_fit_on_a_dask_array_computes_the_landmarks_only(moons):
 
 @pytest.fixture(scope="module")
 def client():
+    """Two worker processes of one thread. Without work stealing, which moves queued tasks
+    of blocks as small as these to whichever worker runs short, so that the tests see
+    where the tasks were placed."""
+    import dask
+
     distributed = pytest.importorskip("distributed")
     with (
+        dask.config.set({"distributed.scheduler.work-stealing": False}),
         distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
         distributed.Client(cluster) as c,
     ):
