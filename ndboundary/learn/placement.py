@@ -98,9 +98,9 @@ def balanced_blocks(client, X):
     columns wide (a persisted array): the blocks :func:`balance_plan` moves are copied,
     at once, by a task pinned to their new worker, and ``X`` is returned with those
     copies in their place (held while the returned array is; a copy whose worker has
-    left is made on another). Any other array is
-    returned as it is: its blocks are made by the tasks that need them, which the
-    scheduler spreads over the workers as they run.
+    left is made on another). Any other array is returned as it is: its blocks are made
+    by the tasks that need them, which the scheduler spreads over the workers as they
+    run.
     """
     from dask.core import flatten
     from distributed import futures_of
