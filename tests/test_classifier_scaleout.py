@@ -169,6 +169,14 @@ def test_a_local_cluster_leaves_the_process_that_started_it_its_threads(client):
     assert available_threads() == THREADS_BEFORE_ANY_CLUSTER
 
 
+def _eventually(condition, seconds=30.0):
+    """Whether ``condition()`` holds within ``seconds`` (the cluster acts on its own time)."""
+    deadline = time.monotonic() + seconds
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return condition()
+
+
 def _holding(client, name):
     """The number of the client's workers that hold the classifier's copy ``name``."""
     return sum(client.run(lambda dask_worker: name in dask_worker.plugins).values())
@@ -194,10 +202,7 @@ def test_the_workers_keep_their_copy_while_a_fit_or_a_prediction_holds_it(client
     name = first.name
     del older, first
     gc.collect()
-    deadline = time.monotonic() + 30.0
-    while _holding(client, name) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert _holding(client, name) == 0  # released with the last prediction that held it
+    assert _eventually(lambda: _holding(client, name) == 0)  # released with the last prediction that held it
     # a copy taken away under a prediction: its tasks say so
     lazy = clf.predict(Xd)
     client.unregister_worker_plugin(shipped_to_workers(clf).name)
@@ -314,13 +319,6 @@ def test_blocks_held_by_one_worker_are_spread_over_all(client, moons):
     del lazy
     gc.collect()
     assert _eventually(lambda: not _moved_keys(client))
-
-
-def _eventually(condition, seconds=30.0):
-    deadline = time.monotonic() + seconds
-    while not condition() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    return condition()
 
 
 def _moved_keys(client):
