@@ -19,7 +19,7 @@ from .pipeline.grid_band import corners_of, grid_mean_edge_length, image_band, r
 from .pipeline.integration import grid_scale_hint
 from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
 from .pipeline.relaxer import Relaxer, relax_in_turn
-from .pipeline.result import RegionsResult, keep_band, summed_timings
+from .pipeline.result import RegionsResult, fit_two_regions, keep_band, summed_timings
 from .solvers import FactorCache
 
 __all__ = ["REACH_SCALE", "relax_image"]
@@ -136,6 +136,8 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         result = relaxer.relax(flat[pixels], on="elements", pad=pad, **{**params, "band": None})
         result.params.update(band=width, band_vertices=int(domain.n_vertices))
         result.timings = {"image band": locate, **result.timings, "total": result.timings["total"] + locate}
+    if classes.size == 2 and labels.ndim == 2 and fit_two_regions(result, codes if pixels is None else codes[pixels]):
+        result.timings["total"] += result.timings["interfaces"]
     if background is not None:
         where = np.flatnonzero(result.classes == background)
         if where.size != 1:

@@ -98,6 +98,18 @@ CROSS_MAX = 0.5
 BEND = 10000.0
 #: Width of the margins' soft minimum, in h.
 TAU = 0.1
+#: The two-region curves' fit (:func:`~ndboundary.pipeline.result.fit_two_regions`): its
+#: curvature-change weights, stiffest first (as :data:`STIFFNESS`), and the widths of the
+#: margins' soft minimum it narrows through, each fit starting from the one before. With
+#: no junction to place, the narrower minimum reads the sites nearest the curve, and the
+#: softer prior follows a curvature that changes along it (a flower's petals).
+CURVE_STIFFNESS = (1e7, 1000.0)
+CURVE_TAUS = (TAU, 0.03)
+#: A two-region curve that turns sharper than this (1 / h, its curvature as relaxed,
+#: averaged over 2 h) somewhere has a corner, which a curve of slowly changing curvature
+#: cannot follow: it is left as relaxed (a rectangle's sides, pulled by its rounded
+#: corners, would bow by a third of h). Smooth shapes relax to at most about 0.25.
+CURVE_CORNER = 1.0 / 3.0
 #: The sites within this many h of an interface are the ones it parts.
 SITE_REACH = 2.0
 #: The displacement is imposed fully within ``CORE`` h of the interface and blended out by
@@ -278,12 +290,13 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, bend
     point alone. Its move ``u`` moves each of its lines' end by ``n . u``, ``n`` that end's
     normal (the end's move along its interface changes none of the losses to first order).
     """
-    return _solve_network(lines, n_junctions, tau, iterations, stiffness, bends)[:2]
+    return _solve_network(lines, n_junctions, (tau,), iterations, stiffness, bends)[:2]
 
 
-def _solve_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, bends=None, start=None):
+def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=None, bends=None, start=None):
     """:func:`fit_network`, its Newton steps from the unknowns ``start`` (none moved when
-    not given), which it returns too.
+    not given), which it returns too; the margins' soft minimum narrows through the widths
+    ``taus``, each solve starting from the one before.
     """
     blocks, width = [], 2 * n_junctions  # the junctions' moves come first
     for terms, ends in lines:
@@ -318,26 +331,42 @@ def _solve_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, b
     side = np.concatenate([line[0][3] for line in lines])
     z = np.zeros(width) if start is None else start.copy()
     ridge = 1e-9 * sp.identity(width, format="csr")
-    for _ in range(iterations):
-        e = np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
-        grad = H0 @ z + g0 - F.T @ (side * e / tau)
-        hess = (H0 + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc()
-        move = spla.spsolve(hess, -grad)
-        z += move
-        if not np.isfinite(move).all() or np.abs(move).max() < 1e-6:
-            break
+
+    def loss(z, tau):
+        return 0.5 * z @ (H0 @ z) + g0 @ z + np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0)).sum()
+
+    for tau in taus:
+        for _ in range(iterations):
+            e = np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
+            grad = H0 @ z + g0 - F.T @ (side * e / tau)
+            hess = (H0 + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc()
+            move = spla.spsolve(hess, -grad)
+            if not np.isfinite(move).all():
+                break
+            step, now, slope = 1.0, loss(z, tau), float(grad @ move)
+            # the margins' exponentials are far from quadratic: a backtracking search, but for
+            # a step whose change of the loss is below its rounding (Newton converges there)
+            while -slope > 1e-12 * abs(now) and step > 1e-4:
+                if loss(z + step * move, tau) <= now + 1e-4 * step * slope:
+                    break
+                step *= 0.5
+            z += step * move
+            if np.abs(step * move).max() < 1e-6:
+                break
     moves = place @ z
     lines_moves = [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
     return lines_moves, z[: 2 * n_junctions].reshape(n_junctions, 2), z
 
 
-def interface_corrections(domain, codes, on, values, faces, h, skip):
+def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None, taus=None, corner=np.inf):
     """New values of the region functions near every interface of ``faces`` (an
     :class:`~ndboundary.partition.Interfaces` of a partition of the plane), and near the
     junctions fitted with them, as the module describes: a list of ``(vertices, regions,
     new)`` and the number of junctions moved, none at the vertices of ``skip`` (those the
     junctions' fits hold) but those a moved junction writes anew, and none sharing a
-    vertex.
+    vertex. ``ladder`` and ``taus``: the curvature-change weights tried (:data:`STIFFNESS`
+    when not given) and the widths of the margins' soft minimum (:data:`TAU`); a line
+    whose curvature exceeds ``corner`` (1 / h) is not fitted.
     """
     # only the vertices whose two largest functions are within reach of each other can lie
     # near an interface (the functions grow by about one per h from it), and only the sites
@@ -364,8 +393,9 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
         mine = faces.simplices[order[first:last]]
         for ids, closed in polylines(faces.points, mine):
             if ids.size >= 3:
+                ids = _canonical(faces.points, ids, closed)
                 points, step = resample(faces.points[ids] / h, 0.5, closed)
-                if points.shape[0] >= 4:
+                if points.shape[0] >= 4 and (corner == np.inf or _sharpest(points, step, closed) <= corner):
                     lines.append((int(pair[0]), int(pair[1]), points, step, closed, (ids[0], ids[-1])))
     if not lines:
         return [], 0
@@ -403,7 +433,9 @@ def interface_corrections(domain, codes, on, values, faces, h, skip):
             continue
         fitted[k] = (terms, ends)
     closed_lines = {k for k in fitted if lines[k][4]}
-    moves, ends_of, shifts = _fit_all(fitted, closed_lines, len(special))
+    moves, ends_of, shifts = _fit_all(
+        fitted, closed_lines, len(special), STIFFNESS if ladder is None else ladder, (TAU,) if taus is None else taus
+    )  # fmt: skip
     placed, kept = _moved_junctions(
         domain, values, faces, special, spacing, shifts, lines, moves, ends_of, fitted, vertices_near, h
     )  # fmt: skip
@@ -515,9 +547,40 @@ def _single_junctions(faces, degree, lines, h):
     return {v: i for i, v in enumerate(special)}, special, spacing[alone]
 
 
-def _fit_all(fitted, closed, n_junctions):
+def _canonical(points, ids, closed):
+    """The polyline ``ids`` (of ``points``) walked from where a walk along the same curve
+    starts whichever way it was found: a closed one counter-clockwise from its point
+    farthest from its centroid (which a rotation of the image keeps), an open one from its
+    lesser end (by coordinates). Its resampling, and so its fit, is then the same when the
+    labels of its two regions are swapped.
+    """
+    x = points[ids]
+    if not closed:
+        return ids[::-1] if tuple(x[-1]) < tuple(x[0]) else ids
+    area = float((x[:, 0] * np.roll(x[:, 1], -1) - np.roll(x[:, 0], -1) * x[:, 1]).sum())
+    if area < 0:
+        ids, x = ids[::-1], x[::-1]
+    return np.roll(ids, -int(np.argmax(((x - x.mean(axis=0)) ** 2).sum(axis=1))))
+
+
+def _sharpest(points, step, closed, reach=2.0):
+    """The largest curvature of the polyline ``points`` (equal steps ``step``), averaged
+    over ``reach`` along it; 0 when it is too short to tell.
+    """
+    if points.shape[0] < 5:
+        return 0.0
+    d1 = (points[2:] - points[:-2]) / (2.0 * step)
+    d2 = (points[2:] - 2.0 * points[1:-1] + points[:-2]) / step**2
+    kappa = np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / np.linalg.norm(d1, axis=1) ** 3
+    if closed:
+        kappa = np.r_[kappa, kappa[:2]]  # the ends' turns too, wrapped round
+    width = max(1, min(kappa.size, int(round(reach / step))))
+    return float(np.convolve(kappa, np.ones(width) / width, mode="valid").max())
+
+
+def _fit_all(fitted, closed, n_junctions, ladder=STIFFNESS, taus=(TAU,)):
     """:func:`fit_network` of the ``fitted`` lines (``{line: (terms, ends)}``), each with
-    the stiffest prior of :data:`STIFFNESS` that parts its sites (fitted again, softer,
+    the stiffest prior of ``ladder`` (:data:`STIFFNESS`) that parts its sites (fitted again, softer,
     while one does not), then again with the ends held that it moved too far: a border end
     farther than :data:`LOOSE_MAX` h (a short interface, which its sites hold loosely,
     swinging about its other end) or a junction farther than :data:`JUNCTION_MAX` h.
@@ -527,26 +590,28 @@ def _fit_all(fitted, closed, n_junctions):
     """
     keys = list(fitted)
     held_junctions, held_ends = set(), set()
-    rung = dict.fromkeys(keys, 0)  # each line's place on STIFFNESS
+    rung = dict.fromkeys(keys, 0)  # each line's place on the ladder
     z, crossed = None, []
-    for _ in range(5 + len(STIFFNESS)):
+    for _ in range(5 + len(ladder)):
         ends = {
             k: tuple("held" if e in held_junctions or (k, i) in held_ends else e for i, e in enumerate(fitted[k][1]))
             for k in keys
         }
-        stiffness = np.array([STIFFNESS[min(rung[k], len(STIFFNESS) - 1)] / BETA for k in keys])
-        bends = np.array([float(rung[k] < len(STIFFNESS)) for k in keys])
+        stiffness = np.array([ladder[min(rung[k], len(ladder) - 1)] / BETA for k in keys])
+        bends = np.array([float(rung[k] < len(ladder)) for k in keys])
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", spla.MatrixRankWarning)
                 # after a softening alone the unknowns are the same: Newton goes on from them
                 moves, shifts, z = _solve_network(
-                    [(fitted[k][0], ends[k]) for k in keys], n_junctions, stiffness=stiffness, bends=bends,
+                    [(fitted[k][0], ends[k]) for k in keys], n_junctions, taus, stiffness=stiffness, bends=bends,
                     start=z if crossed else None,
                 )  # fmt: skip
         except (LinAlgError, RuntimeError, ValueError):
             return {}, {}, np.full((n_junctions, 2), np.nan)
-        crossed = [k for k, delta in zip(keys, moves, strict=True) if _too_stiff(fitted[k][0], delta, rung[k], ends[k])]
+        crossed = [
+            k for k, delta in zip(keys, moves, strict=True) if _too_stiff(fitted[k][0], delta, rung[k], ends[k], ladder)
+        ]
         for k in crossed:  # too stiff to part those lines' sites: bend them more easily
             rung[k] += 1
         far_junctions = {
@@ -574,15 +639,15 @@ def _fit_all(fitted, closed, n_junctions):
     return good, ends, shifts
 
 
-def _too_stiff(terms, delta, rung, ends):
+def _too_stiff(terms, delta, rung, ends, ladder=STIFFNESS):
     """Whether a line fitted (moved by ``delta``) with the priors of ``rung`` (its place on
-    :data:`STIFFNESS`, then past it without its curvature prior) and ``ends`` holds one of
+    ``ladder``, then past it without its curvature prior) and ``ends`` holds one of
     its sites on the wrong side of it, farther than a softer rung is tried for: an arc
     between two junctions (a disc cut by a line) is not held straight across its sites.
     """
-    if rung < len(STIFFNESS) - 1:
+    if rung < len(ladder) - 1:
         slack = SLACK
-    elif rung == len(STIFFNESS) - 1 and terms[6].nnz:
+    elif rung == len(ladder) - 1 and terms[6].nnz:
         slack = SLACK if all(not isinstance(e, str) for e in ends) else CROSS_MAX
     else:
         return False

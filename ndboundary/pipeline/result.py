@@ -31,6 +31,7 @@ __all__ = [
     "DeferredFill",
     "RegionsResult",
     "RelaxResult",
+    "fit_two_regions",
     "keep_band",
     "summed_timings",
 ]
@@ -609,6 +610,44 @@ class RegionsResult(_RegionMethods):
         self.params["refitted_junctions"] = moved
         self.timings["interfaces"] = time.perf_counter() - tick
         return bool(self._interface_values)
+
+
+def fit_two_regions(result, codes):
+    """Fit the relaxed boundary of ``result``, a relaxation of two regions in the plane, to
+    its labelled sites (``codes``: each element's region, 0 or 1), as the interfaces of a
+    partition in the plane are fitted (:mod:`~ndboundary.pipeline.interface_fit`, with
+    :data:`~ndboundary.pipeline.interface_fit.CURVE_STIFFNESS` and ``CURVE_TAUS``), and
+    write the fit into ``result.phi`` (a new array) near the boundary; whether any part of
+    it was fitted. Only the elements the boundary crosses are cut.
+
+    Each pair of pixels across the staircase says only that the boundary crosses the
+    segment between their centres, and the relaxation pins it at the segment's middle
+    (weighted towards the staircase's risers). The fit reads the whole curve instead: the
+    smoothest curve that parts the sites with the largest margins.
+    """
+    domain = result.domain
+    if not interface_fit.INTERFACE_FIT or domain.points.shape[1] != 2 or not can_cut(domain):
+        return False
+    tick = time.perf_counter()
+    values = result.region_values()
+    complex_ = _mixed_of(domain, values)[0]
+    if complex_ is None:
+        return False
+    h = result.params.get("h") or domain.mean_edge_length()
+    faces = partition(*complex_).interfaces()
+    fixes, _ = interface_fit.interface_corrections(
+        domain, codes, "elements", values, faces, h, [], interface_fit.CURVE_STIFFNESS, interface_fit.CURVE_TAUS,
+        interface_fit.CURVE_CORNER,
+    )  # fmt: skip
+    phi = np.array(result.phi, dtype=np.float64)
+    for vertices, regions, new in fixes:
+        ones = new[:, 1] if regions[1] == 1 else new[:, 0]  # phi - 1/2 = (v1 - v0) / 2
+        zeros = new[:, 0] if regions[1] == 1 else new[:, 1]
+        phi[vertices] = 0.5 * (ones - zeros + 1.0)
+    result.phi = phi
+    result.params["fitted_interfaces"] = len(fixes)
+    result.timings["interfaces"] = time.perf_counter() - tick
+    return bool(fixes)
 
 
 def _near_junctions(points, simplices, values, lead, radius):
