@@ -104,7 +104,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     >>> result = relax_image(disc, spacing=0.5)
     >>> curve = result.level_set()
     >>> curve.n_components(), round(curve.measure() / (2 * np.pi * 3.0), 2)
-    (1, 0.99)
+    (1, 0.98)
     """
     labels = np.asarray(labels)
     if labels.ndim not in (2, 3):
