@@ -52,8 +52,9 @@ measures) follows.
 Against the interfaces as relaxed (``benchmarks/regions.py --no-interface-fit``), on the
 Voronoi partitions of that benchmark, this takes the interface mean on Voronoi polygons
 from 0.16 h to 0.09 h, on triangles from 0.05 h to 0.03 h, and the junctions of 2-D label
-images nearer to the truth (``--cases image-y``). Surfaces, volumes and two-region results
-are not fitted.
+images nearer to the truth (``--cases image-y``). Surfaces and volumes are not fitted; of
+the two-region results, 2-D images' are (:func:`~ndboundary.pipeline.result.fit_two_regions`,
+with their own :data:`CURVE_STIFFNESS`, :data:`CURVE_TAUS` and :data:`CURVE_CORNER`).
 """
 
 from __future__ import annotations
