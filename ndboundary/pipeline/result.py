@@ -628,7 +628,6 @@ def fit_two_regions(result, codes):
     domain = result.domain
     if not interface_fit.INTERFACE_FIT or domain.points.shape[1] != 2 or not can_cut(domain):
         return False
-    tick = time.perf_counter()
     values = result.region_values()
     complex_ = _mixed_of(domain, values)[0]
     if complex_ is None:
@@ -646,7 +645,6 @@ def fit_two_regions(result, codes):
         phi[vertices] = 0.5 * (ones - zeros + 1.0)
     result.phi = phi
     result.params["fitted_interfaces"] = len(fixes)
-    result.timings["interfaces"] = time.perf_counter() - tick
     return bool(fixes)
 
 
