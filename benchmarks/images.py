@@ -57,6 +57,7 @@ Usage::
     .venv/bin/python benchmarks/images.py                    # default cases
     .venv/bin/python benchmarks/images.py --cases ball128,torus128,blob128
     .venv/bin/python benchmarks/images.py --all --prostate   # everything, ~15 min
+    .venv/bin/python benchmarks/images.py --all --no-fit         # two-region boundaries as relaxed
 
 Needs scikit-image and vtk (and, without ``ndboundary.read_image``, nibabel). Prints a
 table, the targets (PASS / FAIL), then one JSON line per case.
@@ -122,7 +123,7 @@ def binary_case(name, truth, shape, spacing, origin, bounds):
     h = min(spacing)
     mask = truth.inside(centres(shape, spacing, origin)).reshape(shape)
     t0 = time.perf_counter()
-    res = relax_image(mask, spacing=spacing, origin=origin)
+    res = relax_image(mask, spacing=spacing, origin=origin, fit=FIT)
     relax_s = time.perf_counter() - t0
     surf = res.level_set()
     inside = int(np.flatnonzero(res.classes == True)[0])  # noqa: E712
@@ -240,6 +241,7 @@ def voronoi_case(n, bounds, seed=0):
 # --------------------------------------------------------------------------- cases
 
 ISO, ANISO = (0.05, 0.25, 0.3, 0.5), (0.15, 0.6, 0.5, 1.0)
+FIT = "auto"  # relax_image's fit of two-region boundaries (--no-fit: False)
 
 
 def iso(n, dim=3):
@@ -363,7 +365,10 @@ def main():
     parser.add_argument("--cases", default=None, help=f"comma separated, from {', '.join(table)}")
     parser.add_argument("--all", action="store_true", help="every synthetic case")
     parser.add_argument("--prostate", action="store_true", help="add the prostate label volume")
+    parser.add_argument("--no-fit", action="store_true", help="two-region boundaries as relaxed (fit=False)")
     args = parser.parse_args()
+    global FIT
+    FIT = not args.no_fit and "auto"
     names = list(table) if args.all else (args.cases.split(",") if args.cases else ([] if args.prostate else DEFAULT))
     unknown = [n for n in names if n not in table]
     if unknown:

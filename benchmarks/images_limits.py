@@ -32,9 +32,10 @@ error lies in where the staircase puts the pins: each pixel pair says only that 
 boundary crosses the segment between their centres. The fit of ``labels`` reads more of
 the labels than one pair.
 
-``--volume NAME`` runs the first four modes on a volume of ``images.py`` instead:
-``aniso`` (its ball of 64 x 64 x 22 voxels of spacing (1, 1, 3); distances in units of the
-smallest spacing), ``ball128`` or ``blob64``.
+``--volume NAME`` runs the modes on a volume of ``images.py`` instead (``labels``: its
+surface fitted, ``ndboundary.pipeline.surface_fit``): ``aniso`` (its ball of 64 x 64 x 22
+voxels of spacing (1, 1, 3); distances in units of the smallest spacing), ``ball128`` or
+``blob64``.
 
 Usage::
 
@@ -58,7 +59,7 @@ import ndboundary.pipeline.padding as padding
 import ndboundary.pipeline.relaxer as relaxer
 from ndboundary import relax_image
 from ndboundary.metrics import sample_points
-from ndboundary.pipeline import interface_fit
+from ndboundary.pipeline import interface_fit, surface_fit
 
 N = 128
 MODES = ("labels", "relaxed", "exact field", "exact pins", "both")
@@ -82,14 +83,15 @@ def unit_normals(truth, x, eps=1e-4):
 
 class Oracle:
     """Replaces the field and/or the pins of the relaxations run inside it by the truth's,
-    and fits (``fit``) the two-region curves of 2-D images to the pixels or not."""
+    and fits (``fit``) the two-region boundaries of images to the pixels or not."""
 
     def __init__(self, truth, field, pins, fit):
         self.truth, self.field, self.pins, self.fit = truth, field, pins, fit
 
     def __enter__(self):
-        self._smooth, self._pins, self._fit = relaxer.smooth, padding.facet_pins, interface_fit.INTERFACE_FIT
-        interface_fit.INTERFACE_FIT = self.fit
+        self._smooth, self._pins = relaxer.smooth, padding.facet_pins
+        self._fit = interface_fit.INTERFACE_FIT, surface_fit.SURFACE_FIT
+        interface_fit.INTERFACE_FIT = surface_fit.SURFACE_FIT = self.fit
         if self.field:
             relaxer.smooth = self._exact_field
         if self.pins:
@@ -97,7 +99,8 @@ class Oracle:
         return self
 
     def __exit__(self, *exc):
-        relaxer.smooth, padding.facet_pins, interface_fit.INTERFACE_FIT = self._smooth, self._pins, self._fit
+        relaxer.smooth, padding.facet_pins = self._smooth, self._pins
+        interface_fit.INTERFACE_FIT, surface_fit.SURFACE_FIT = self._fit
 
     def _exact_field(self, work, X, passes, groups=None):
         smoothed = self._smooth(work, X, passes, groups)
@@ -164,7 +167,6 @@ def main():
     if unknown:
         parser.error(f"unknown modes {unknown}; choose from {', '.join(MODES)}")
     if args.volume:
-        modes = [m for m in modes if m != "labels"]  # volumes are not fitted: "relaxed" is theirs
         row = volume(args.volume, modes)
         print(f"{'case':12s}" + "".join(f"{m:>20s}" for m in modes))
         print(f"{args.volume:12s}" + "".join(f"{row[m]['mean']:>12.3f} / {row[m]['max']:.3f}" for m in modes))

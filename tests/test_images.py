@@ -887,3 +887,59 @@ def test_the_field_is_smoothed_alike_along_every_axis_of_anisotropic_voxels(monk
     monkeypatch.setattr(image_module, "anisotropic_smoothing", lambda domain, adjacency, passes: (adjacency, passes))
     uniform = errors()
     assert alike[1] < 0.5 * uniform[1] and alike[0] < 0.7 * uniform[0], (alike, uniform)
+
+
+def _ball_volume(n, radius, centre):
+    i, j, k = np.indices((n, n, n))
+    return (i - centre[0]) ** 2 + (j - centre[1]) ** 2 + (k - centre[2]) ** 2 < radius**2
+
+
+def test_a_surface_of_two_regions_is_fitted_to_its_voxels():
+    """A ball of radius 10 on 28³ voxels: the relaxed surface moved to the one of least
+    change of mean curvature that parts the voxel centres lies nearer the sphere than as
+    relaxed (on average and at most), keeps the relaxed volume, and is the same surface
+    when the two labels are swapped."""
+    from ndboundary.metrics import sample_points
+
+    centre, radius = np.array([13.63, 13.21, 13.87]), 10.0
+    ball = _ball_volume(28, radius, centre)
+
+    def errors(result):
+        d = np.abs(np.linalg.norm(sample_points(result.level_set()) - centre, axis=1) - radius)
+        return d.mean(), d.max()
+
+    fitted, relaxed = relax_image(ball), relax_image(ball, fit=False)
+    (mean, top), (mean0, top0) = errors(fitted), errors(relaxed)
+    assert fitted.params["fitted_surface_vertices"] > 1000 and "fitted_surface_vertices" not in relaxed.params
+    assert mean < 0.8 * mean0 and top < 0.7 * top0, (errors(fitted), errors(relaxed))
+    np.testing.assert_allclose(fitted.region_measures(), relaxed.region_measures(), rtol=1e-5)
+    swapped = relax_image(~ball)  # the same to the tolerance of the relaxation's iterative solves
+    assert np.abs((swapped.phi - 0.5) + (fitted.phi - 0.5)).max() < 0.01
+
+
+def test_surface_nets_of_a_sphere_are_closed_and_face_outwards():
+    from ndboundary.pipeline.surface_fit import surface_mesh
+
+    grid = ImageGrid((20, 40, 14), spacing=(1.0, 0.5, 1.5), origin=(2.0, -1.0, 0.5))
+    c = grid.points.mean(axis=0)
+    phi = 0.5 + 6.0 - np.linalg.norm(grid.points - c, axis=1)
+    points, faces, normals, slopes = surface_mesh(grid, phi)
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all() and points.shape[0] - counts.size + faces.shape[0] == 2  # closed, a sphere
+    area = np.cross(points[faces[:, 1]] - points[faces[:, 0]], points[faces[:, 2]] - points[faces[:, 0]])
+    assert ((area * (points[faces].mean(axis=1) - c)).sum(axis=1) > 0).all()
+    assert np.abs(np.linalg.norm(points - c, axis=1) - 6.0).max() < 0.15 and np.allclose(slopes, 1.0, atol=0.2)
+
+
+def test_a_box_of_voxels_is_left_as_relaxed_and_fit_is_checked():
+    """A box's edges turn sharper than a slowly changing curvature follows: its surface is
+    not fitted. ``fit`` takes "auto", True or False only."""
+    labels = np.zeros((20, 20, 20), dtype=bool)
+    labels[5:15, 4:16, 6:13] = True
+    result = relax_image(labels)
+    assert "fitted_surface_vertices" not in result.params
+    np.testing.assert_array_equal(result.phi, relax_image(labels, fit=False).phi)
+    for bad in ("yes", 1, None):
+        with pytest.raises(ValueError, match="fit must be"):
+            relax_image(labels, fit=bad)

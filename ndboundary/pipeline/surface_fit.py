@@ -181,6 +181,9 @@ def fit_surface(result, codes, max_vertices=None):
     domain = result.domain
     if not SURFACE_FIT:
         return False
+    facets = getattr(result.boundary, "facets", None)
+    if max_vertices is not None and facets is not None and len(facets) > 2 * max_vertices:
+        return False  # the mesh has about half as many vertices as the staircase has facets
     phi = np.array(result.phi, dtype=np.float64)
     h = float(np.min(domain.spacing))
     points, faces, normals, slopes = surface_mesh(domain, phi)
