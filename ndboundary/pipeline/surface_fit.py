@@ -49,7 +49,7 @@ SURFACE_FIT = True
 #: Weight of the prior on the change of mean curvature against the margins (lengths in h).
 BETA = 1000.0
 #: Widths (h) of the margins' soft minimum, in turn, each fit starting from the one before.
-TAUS = (0.1, 0.03)
+TAUS = (0.03,)
 #: A connected surface whose largest principal curvature (1 / h, averaged over each
 #: vertex's ring) exceeds this somewhere has an edge or a corner, which a surface of slowly
 #: changing curvature cannot follow: it is left as relaxed.
@@ -66,7 +66,7 @@ BLEND = 5.0
 #: How many of the surface's vertices each vertex of the grid takes its move from.
 SPREAD = 8
 #: Newton steps stop when no vertex moves farther than this (h).
-TOLERANCE = 1e-6
+TOLERANCE = 1e-3
 #: Newton steps per width of the soft minimum, at most.
 ITERATIONS = 30
 
@@ -90,6 +90,13 @@ def surface_mesh(domain, phi, level=0.5):
     >>> r = np.linalg.norm(points - 5.5, axis=1)
     >>> bool(np.abs(r - 4.0).max() < 0.1), bool((np.einsum("ij,ij->i", normals, points - 5.5) > 0).all())
     (True, True)
+    """
+    return _surface_mesh(domain, phi, level)[:4]
+
+
+def _surface_mesh(domain, phi, level):
+    """:func:`surface_mesh`, with each vertex's voxel's corners (vertex ids, shape (n, 8),
+    :data:`CORNER_BITS` order) and their trilinear weights at the vertex.
     """
     corners = domain.cell_vertices[1].reshape(domain.n_elements, 8)
     f = np.asarray(phi, dtype=np.float64)[corners] - level
@@ -118,7 +125,8 @@ def surface_mesh(domain, phi, level=0.5):
     slopes = np.linalg.norm(grad, axis=1)
     normals = -grad / slopes[:, None]
     faces = _quads(voxel, fc, shape, points)
-    return points, faces, normals, slopes
+    weights = np.stack([np.where(b, local, 1.0 - local).prod(axis=1) for b in CORNER_BITS], axis=1)
+    return points, faces, normals, slopes, corners[cells], weights
 
 
 def _trilinear(fc, x):
@@ -186,7 +194,7 @@ def fit_surface(result, codes, max_vertices=None):
         return False  # the mesh has about half as many vertices as the staircase has facets
     phi = np.array(result.phi, dtype=np.float64)
     h = float(np.min(domain.spacing))
-    points, faces, normals, slopes = surface_mesh(domain, phi)
+    points, faces, normals, slopes, corner_ids, corner_weights = _surface_mesh(domain, phi, 0.5)
     if faces.shape[0] < 8 or (max_vertices is not None and points.shape[0] > max_vertices):
         return False
     keep = _smooth_components(points / h, faces, normals)
@@ -221,14 +229,15 @@ def fit_surface(result, codes, max_vertices=None):
     def spread(values):
         return weight * (values[at] * w).sum(axis=1) / w.sum(axis=1)
 
-    before = result.region_measures()[1]
-    phi[close] += spread(z * h * slopes)
-    _write(result, phi)
+    change = np.zeros_like(phi)
+    change[close] = spread(z * h * slopes)
     # the fit moves the surface's shape, not its volume, which the relaxation's pins keep:
-    # the change is undone by a uniform move over the surface's area
-    area = float(_curvatures(points, faces, normals)[1].sum())
-    phi[close] += spread(slopes) * (before - result.region_measures()[1]) / area
-    _write(result, phi)
+    # the change of volume (to first order, the change of phi over its slope, integrated
+    # over the surface; phi trilinear in each voxel) is undone by a uniform move
+    mass = _curvatures(points, faces, normals)[1] * h * h
+    shift = ((change[corner_ids] * corner_weights).sum(axis=1) / slopes * mass).sum() / mass.sum()
+    change[close] -= shift * spread(slopes)
+    _write(result, phi + change)
     result.params["fitted_surface_vertices"] = int(keep.sum())
     return True
 
