@@ -22,12 +22,16 @@ crosses. Its quads are nearly squares of a voxel's side, as the cotangent operat
 curvature came out four times too large on average). ``H`` is linearised about the
 relaxed surface, ``H0 + B z`` with ``B = (M^-1 K - |A|^2) / 2`` (``K`` the cotangent
 stiffness, ``M`` the lumped mass, ``|A|^2 = 4 H^2 - 2 K_gauss``), and the loss minimised by
-Newton steps, each a sparse Cholesky solve, searched along their line, the soft minimum's
-width narrowing through :data:`TAUS`.
+Newton steps from the relaxed surface, each a sparse Cholesky solve, searched along their
+line (the loss is convex: the curves' narrowing of the soft minimum's width from 0.1 ends
+at the same surface, in more steps).
 
 A surface that turns sharper than :data:`CORNER` somewhere (a box's edges) is left as
-relaxed, as a curve is. The moves are written into phi near the surface: within
-:data:`CORE` h of it fully, blended out by :data:`BLEND` h, as ``phi - z (grad phi . n)``.
+relaxed, as a curve is. The moves are written into phi near the surface, ``phi - z (grad
+phi . n)``, fully within :data:`CORE` voxels of it, blended out by :data:`BLEND`. The fit
+moves the surface's shape, not its volume, which the relaxation's pins keep: the change
+of volume that writing makes (to first order, the change of phi at the surface's vertices
+over its slope, integrated over the surface) is undone by a uniform move of the surface.
 """
 
 from __future__ import annotations
@@ -54,8 +58,9 @@ TAUS = (0.03,)
 #: vertex's ring) exceeds this somewhere has an edge or a corner, which a surface of slowly
 #: changing curvature cannot follow: it is left as relaxed.
 CORNER = 1.0 / 3.0
-#: ``relax_image(fit="auto")`` fits a surface of up to this many vertices (a ball of radius
-#: 50 voxels has about 38 000): the fit's Cholesky factors grow faster than the surface.
+#: ``relax_image(fit="auto")`` fits a surface of up to about this many vertices (half as
+#: many as the staircase has facets; the ball of 128³ voxels, of radius 41, has 32 000):
+#: the fit's Cholesky factors grow faster than the surface.
 AUTO_MAX_VERTICES = 60_000
 #: The voxel centres within this many h of the surface are the ones it parts.
 SITE_REACH = 2.0
