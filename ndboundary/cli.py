@@ -134,6 +134,8 @@ def cmd_relax(args):
         raise CLIError("-o OUT.vtu is needed for a mesh: where to write phi and the labels")
     if args.background is not None:
         raise CLIError("--background is for label images: a mesh's regions are all written")
+    if args.fit != "auto":
+        raise CLIError("--fit is for label images: a mesh's boundary is the relaxed one")
     check_input(args.mesh, "mesh")
     check_input(args.labels, "labels")
     wanted = [("-o", args.output, PHI_EXTENSIONS)]
@@ -363,6 +365,13 @@ def build_parser():
         "hexahedra, in every dimension, wider for a weak "
         "boundary term (small --lam) or few smoothing passes, the whole mesh when it is small or the band "
         "would hold most of it); none relaxes the whole mesh",
+    )
+    rel.add_argument(
+        "--fit",
+        choices=("auto", "yes", "no"),
+        default="auto",
+        help="for a label image of two labels: move the relaxed boundary to the smoothest one that parts the "
+        "pixel centres (default auto: every curve, and surfaces of up to 60 000 vertices; yes: any surface)",
     )
     rel.add_argument(
         "--quiet", action="store_true", help="no progress display (shown per region and step on large meshes)"

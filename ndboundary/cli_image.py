@@ -133,7 +133,7 @@ def cmd_relax_image(args):
     with RegionProgress([str(c) for c in classes.tolist()], enabled=show and classes.size > 2):
         res = relax_image(
             labels, spacing=image.spacing, origin=origin, direction=image.direction, background=background,
-            band=args.band, verbose=show, **kwargs,
+            band=args.band, verbose=show, fit={"auto": "auto", "yes": True, "no": False}[args.fit], **kwargs,
         )  # fmt: skip
     boundaries = dict(zip(surfaces, res.region_boundaries(surfaces), strict=True)) if args.region_surfaces else {}
     with atomic_outputs(outputs, folders) as temporary:  # every output written, or none

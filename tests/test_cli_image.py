@@ -126,6 +126,7 @@ def test_phi_of_a_large_image_relaxed_on_its_band_covers_every_pixel(tmp_path, c
         (["seg.npy", "--surfaces", "out", "--background", "7"], "not one of the labels"),
         (["flat.npy", "--surfaces", "out", "--surface-format", "stl"], "STL holds triangles"),
         (["flat.npy", "--boundary", "b.stl"], "STL holds triangles, and these boundaries are curves"),
+        (["m.obj", "labels.txt", "-o", "o.vtu", "--fit", "no"], "--fit is for label images"),
     ],
 )
 def test_image_errors_write_nothing(tmp_path, capsys, monkeypatch, argv, message):
@@ -152,3 +153,20 @@ def test_background_frames_the_image_so_that_surfaces_close(tmp_path, capsys):
     surface = read_mesh(tmp_path / "s" / "region_1.obj")
     assert "boundary closed" in out
     assert labels.sum() < _enclosed_volume(surface) < np.pi * 30 * 8  # the voxels of the cylinder hold 6.6 % less
+
+
+def test_fit_no_writes_the_relaxed_surface_of_two_labels(tmp_path, capsys):
+    """A ball of two labels: by default its surface is fitted to the voxels, nearer the
+    sphere than the relaxed one ``--fit no`` writes; both are closed and hold its volume."""
+    i, j, k = np.indices((24, 24, 24))
+    centre, radius = np.array([11.71, 11.38, 11.56]), 8.0
+    ball = (i - centre[0]) ** 2 + (j - centre[1]) ** 2 + (k - centre[2]) ** 2 < radius**2
+    np.save(tmp_path / "ball.npy", ball.astype(np.uint8))
+    off = {}
+    for fit in ("auto", "no"):
+        code, out, err = _run(capsys, tmp_path / "ball.npy", "--boundary", tmp_path / f"{fit}.obj", "--fit", fit)
+        assert code == 0, err
+        surface = read_mesh(tmp_path / f"{fit}.obj")
+        off[fit] = np.abs(np.linalg.norm(surface.points - centre, axis=1) - radius).max()
+        assert abs(_enclosed_volume(surface)) == pytest.approx(4 / 3 * np.pi * radius**3, rel=0.01)  # closed
+    assert off["auto"] < 0.8 * off["no"], off
