@@ -254,9 +254,10 @@ def test_an_image_band_is_the_whole_grids_band_cut_without_the_grid(labels, spac
     phi as the band the whole grid's relaxation cuts, and the measures of the whole image."""
     from ndboundary import PolygonMesh, PolyhedralMesh, relax
     from ndboundary.domains.image import GridBand
-    from ndboundary.pipeline import interface_fit
+    from ndboundary.pipeline import interface_fit, surface_fit
 
-    monkeypatch.setattr(interface_fit, "INTERFACE_FIT", False)  # relax_image's fit of a curve in the plane
+    monkeypatch.setattr(interface_fit, "INTERFACE_FIT", False)  # relax_image's fits of a curve
+    monkeypatch.setattr(surface_fit, "SURFACE_FIT", False)  # and of a surface, which relax leaves out
 
     if direction == "reflection":  # (a rotation and) a reflection of the last axis
         rotation = _rotation(2) if labels.ndim == 3 else np.eye(2)
@@ -396,18 +397,15 @@ def test_grid_facets_are_the_interface_facets_oriented_out_of_region_1(shape, ba
 
 
 @pytest.mark.parametrize("fit", [False, True])
-def test_a_shallow_staircase_is_straightened_between_its_risers(fit, monkeypatch):
+def test_a_shallow_staircase_is_straightened_between_its_risers(fit):
     """A line of slope 0.13 across the pixels: its treads lie up to half a pixel off it,
     the centres of its risers within 0.07. Pinned at the facets by how much they turn from
     the staircase around them, the relaxed line keeps within 0.06 pixel of the true one on
     average (0.084 with every vertex of the staircase pinned alike); fitted to the pixels,
     within 0.02."""
-    from ndboundary.pipeline import interface_fit
-
-    monkeypatch.setattr(interface_fit, "INTERFACE_FIT", fit)
     n, normal, c = 128, np.array([-0.13, 1.0]) / np.hypot(0.13, 1.0), np.array([0.37, 0.21])
     centres = np.stack(np.indices((n, n)), axis=-1).reshape(-1, 2) - (n - 1) / 2
-    result = relax_image(((centres - c) @ normal < 0).reshape(n, n))
+    result = relax_image(((centres - c) @ normal < 0).reshape(n, n), fit=fit)
     x = result.level_set().points - (n - 1) / 2
     d = np.abs((x[np.all(np.abs(x) < n / 2 - 16, axis=1)] - c) @ normal)
     assert (d.mean() < 0.02 and d.max() < 0.06) if fit else (d.mean() < 0.06 and d.max() < 0.16), (d.mean(), d.max())
@@ -428,14 +426,13 @@ def test_a_disc_on_pixels_three_times_as_long_is_fitted_within_the_anisotropic_t
     assert result.region_measures()[1] == pytest.approx(np.pi * radius**2, rel=0.005)
 
 
-def test_a_curve_of_two_regions_is_fitted_to_its_pixels(monkeypatch):
+def test_a_curve_of_two_regions_is_fitted_to_its_pixels():
     """A five-lobed flower on 96² pixels: the relaxed curve moved to the smoothest one
     parting the pixel centres with the largest margins lies nearer the flower than as
     relaxed (0.06 against 0.10 pixel on average, 0.27 against 0.35 at most), encloses its
     area more nearly,
     and is the same curve when the two labels are swapped."""
     from ndboundary.metrics import sample_points
-    from ndboundary.pipeline import interface_fit
 
     n, centre = 96, np.array([47.3, 46.8])
     g = np.stack(np.indices((n, n)), axis=-1).reshape(-1, 2) - centre
@@ -451,8 +448,7 @@ def test_a_curve_of_two_regions_is_fitted_to_its_pixels(monkeypatch):
 
     fitted = relax_image(labels)
     swapped = relax_image(~labels)
-    monkeypatch.setattr(interface_fit, "INTERFACE_FIT", False)
-    relaxed = relax_image(labels)
+    relaxed = relax_image(labels, fit=False)
     (mean, top, off), (mean0, top0, off0) = errors(fitted), errors(relaxed)
     assert fitted.params["fitted_interfaces"] == 1 and "fitted_interfaces" not in relaxed.params
     assert mean < 0.65 * mean0 and top < 0.85 * top0 and off < off0, (errors(fitted), errors(relaxed))
@@ -879,7 +875,7 @@ def test_the_field_is_smoothed_alike_along_every_axis_of_anisotropic_voxels(monk
     ball = (np.linalg.norm(x - centre, axis=1) < radius).reshape(shape)
 
     def errors():
-        points = sample_points(relax_image(ball, spacing=spacing, origin=origin).level_set())
+        points = sample_points(relax_image(ball, spacing=spacing, origin=origin, fit=False).level_set())
         d = np.abs(np.linalg.norm(points - centre, axis=1) - radius)
         return d.mean(), d.max()
 
