@@ -71,7 +71,7 @@ from scipy.spatial import cKDTree
 from . import junctions
 from .junctions import stored_values
 
-__all__ = ["INTERFACE_FIT", "fit_network", "interface_corrections", "polylines", "refine", "resample"]
+__all__ = ["INTERFACE_FIT", "fit_network", "interface_corrections", "margin_newton", "polylines", "refine", "resample"]
 
 #: Whether a relaxation of three or more regions in the plane fits its interfaces to the
 #: labels (read when the partition is first built).
@@ -331,19 +331,32 @@ def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=Non
     signed = np.concatenate([line[0][2] for line in lines])
     side = np.concatenate([line[0][3] for line in lines])
     z = np.zeros(width) if start is None else start.copy()
-    ridge = 1e-9 * sp.identity(width, format="csr")
+    z = margin_newton(H0, g0, F, signed, side, taus, z, iterations, 1e-6, spla.spsolve)[0]
+    moves = place @ z
+    lines_moves = [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+    return lines_moves, z[: 2 * n_junctions].reshape(n_junctions, 2), z
+
+
+def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve):
+    """Newton steps on ``z @ H @ z / 2 + g @ z + sum(exp(-margin / tau))``, ``margin = side *
+    (F @ z - signed)``, from ``z`` (a new array is returned), for each width ``tau`` of
+    ``taus`` in turn, until no entry moves farther than ``tolerance``; ``solve(A, b)``
+    solves the Newton systems (symmetric positive definite). Returns ``(z, finite)``,
+    ``finite`` False when a step was not (the last finite ``z`` is returned).
+    """
+    z = np.array(z, dtype=np.float64)
+    ridge = 1e-9 * sp.identity(z.size, format="csr")
 
     def loss(z, tau):
-        return 0.5 * z @ (H0 @ z) + g0 @ z + np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0)).sum()
+        return 0.5 * z @ (H @ z) + g @ z + np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0)).sum()
 
     for tau in taus:
         for _ in range(iterations):
             e = np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
-            grad = H0 @ z + g0 - F.T @ (side * e / tau)
-            hess = (H0 + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc()
-            move = spla.spsolve(hess, -grad)
+            grad = H @ z + g - F.T @ (side * e / tau)
+            move = solve((H + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc(), -grad)
             if not np.isfinite(move).all():
-                break
+                return z, False
             step, now, slope = 1.0, loss(z, tau), float(grad @ move)
             # the margins' exponentials are far from quadratic: a backtracking search, but for
             # a step whose change of the loss is below its rounding (Newton converges there)
@@ -352,11 +365,9 @@ def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=Non
                     break
                 step *= 0.5
             z += step * move
-            if np.abs(step * move).max() < 1e-6:
+            if np.abs(step * move).max() < tolerance:
                 break
-    moves = place @ z
-    lines_moves = [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
-    return lines_moves, z[: 2 * n_junctions].reshape(n_junctions, 2), z
+    return z, True
 
 
 def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None, taus=None, corner=np.inf):

@@ -45,6 +45,7 @@ from scipy.spatial import cKDTree
 
 from ..domains.voxels import CORNER_BITS
 from ..solvers.cholesky import factorize_spd
+from .interface_fit import margin_newton
 
 __all__ = ["AUTO_MAX_VERTICES", "BETA", "CORNER", "SURFACE_FIT", "TAUS", "fit_surface", "surface_mesh"]
 
@@ -308,27 +309,12 @@ def _fit(points, faces, normals, sites, near, side, keep):
     column = np.full(n, -1)
     column[free] = np.arange(free.size)
     F = sp.csr_matrix((np.ones(near.size), (np.arange(near.size), column[near])), shape=(near.size, free.size))
-    z = np.zeros(free.size)
-    ridge = 1e-9 * sp.identity(free.size, format="csr")
-
-    def loss(z, tau):
-        return 0.5 * z @ (prior @ z) + prior0 @ z + np.exp(np.clip(-side * (signed - F @ z) / tau, -50.0, 50.0)).sum()
-
-    for tau in TAUS:
-        for _ in range(ITERATIONS):
-            e = np.exp(np.clip(-side * (signed - F @ z) / tau, -50.0, 50.0))
-            grad = prior @ z + prior0 + F.T @ (side * e / tau)
-            move = factorize_spd((prior + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc())(-grad)
-            if not np.isfinite(move).all():
-                return None
-            step, now, slope = 1.0, loss(z, tau), float(grad @ move)
-            while -slope > 1e-12 * abs(now) and step > 1e-4:
-                if loss(z + step * move, tau) <= now + 1e-4 * step * slope:
-                    break
-                step *= 0.5
-            z += step * move
-            if np.abs(step * move).max() < TOLERANCE:
-                break
+    z, finite = margin_newton(
+        prior, prior0, F, signed, -side, TAUS, np.zeros(free.size), ITERATIONS, TOLERANCE,
+        lambda A, b: factorize_spd(A)(b),
+    )  # fmt: skip
+    if not finite:
+        return None
     out = np.zeros(n)
     out[free] = z
     return out
