@@ -205,7 +205,8 @@ def fit_surface(result, codes, max_vertices=None):
     points, faces, normals, slopes, corner_ids, corner_weights = _surface_mesh(domain, phi, 0.5)
     if faces.shape[0] < 8 or (max_vertices is not None and points.shape[0] > max_vertices):
         return False
-    keep = _smooth_components(points / h, faces, normals)
+    curvatures = _curvatures(points / h, faces, normals)  # lengths in h
+    keep = _smooth_components(curvatures)
     if not keep.any():
         return False
     sites = domain.element_centroids()
@@ -215,7 +216,7 @@ def fit_surface(result, codes, max_vertices=None):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            z = _fit(points / h, faces, normals, sites[on] / h, near[on], side, keep)
+            z = _fit(points / h, normals, curvatures, sites[on] / h, near[on], side, keep)
     except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError):
         return False
     if z is None:
@@ -242,7 +243,7 @@ def fit_surface(result, codes, max_vertices=None):
     # the fit moves the surface's shape, not its volume, which the relaxation's pins keep:
     # the change of volume (to first order, the change of phi over its slope, integrated
     # over the surface; phi trilinear in each voxel) is undone by a uniform move
-    mass = _curvatures(points, faces, normals)[1] * h * h
+    mass = curvatures[1]
     shift = ((change[corner_ids] * corner_weights).sum(axis=1) / slopes * mass).sum() / mass.sum()
     change[close] -= shift * spread(slopes)
     _write(result, phi + change)
@@ -257,12 +258,12 @@ def _write(result, phi):
         result.__dict__.pop(key, None)
 
 
-def _smooth_components(points, faces, normals):
+def _smooth_components(curvatures):
     """Whether each vertex lies on a connected surface that turns no sharper than
-    :data:`CORNER` anywhere (lengths in h).
+    :data:`CORNER` anywhere, from its :func:`_curvatures` (lengths in h).
     """
-    n = points.shape[0]
-    K, mass, H0, gauss = _curvatures(points, faces, normals)
+    K, mass, H0, gauss = curvatures
+    n = mass.size
     kmax = np.abs(H0) + np.sqrt(np.maximum(H0**2 - gauss, 0.0))
     adjacency = (K != 0).astype(np.float64)
     near = adjacency + sp.identity(n)
@@ -293,12 +294,13 @@ def _curvatures(points, faces, normals):
     return K, mass, H0, (2.0 * np.pi - angle) / mass
 
 
-def _fit(points, faces, normals, sites, near, side, keep):
-    """Each vertex's move along its normal minimising the module's loss (lengths in h),
-    the vertices not kept held; None when the Newton steps fail.
+def _fit(points, normals, curvatures, sites, near, side, keep):
+    """Each vertex's move along its normal minimising the module's loss (lengths in h;
+    ``curvatures`` the surface's :func:`_curvatures`), the vertices not kept held; None
+    when the Newton steps fail.
     """
     n = points.shape[0]
-    K, mass, H0, gauss = _curvatures(points, faces, normals)
+    K, mass, H0, gauss = curvatures
     A2 = np.maximum(4.0 * H0**2 - 2.0 * gauss, 0.0)
     # H(z) = H0 + B z: moving along n by z changes H by -(Delta z + |A|^2 z) / 2
     B = (0.5 * (sp.diags(1.0 / mass) @ K) - 0.5 * sp.diags(A2)).tocsr()
