@@ -40,6 +40,7 @@ import warnings
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
@@ -75,6 +76,10 @@ BLEND = 5.0
 SPREAD = 8
 #: Newton steps stop when no vertex moves farther than this (h).
 TOLERANCE = 1e-3
+#: Newton systems after the first are solved by conjugate gradients to this relative
+#: residual, preconditioned by the last Cholesky factor, which is made anew past this many steps.
+CG_RTOL = 1e-3
+CG_STEPS = 40
 #: Newton steps per width of the soft minimum, at most.
 ITERATIONS = 30
 
@@ -294,6 +299,25 @@ def _curvatures(points, faces, normals):
     return K, mass, H0, (2.0 * np.pi - angle) / mass
 
 
+class _Preconditioned:
+    """Solves the Newton systems of one fit: the first by a Cholesky factor, the next by
+    conjugate gradients preconditioned by the last factor (the systems differ only in the
+    margins' weights), factorising anew when they take more than :data:`CG_STEPS` steps.
+    """
+
+    def __init__(self):
+        self.factor = None
+
+    def __call__(self, A, b):
+        if self.factor is not None:
+            M = spla.LinearOperator(A.shape, matvec=self.factor, dtype=np.float64)
+            x, info = spla.cg(A, b, rtol=CG_RTOL, maxiter=CG_STEPS, M=M)
+            if info == 0:
+                return x
+        self.factor = factorize_spd(A)
+        return self.factor(b)
+
+
 def _fit(points, normals, curvatures, sites, near, side, keep):
     """Each vertex's move along its normal minimising the module's loss (lengths in h;
     ``curvatures`` the surface's :func:`_curvatures`), the vertices not kept held; None
@@ -312,9 +336,8 @@ def _fit(points, normals, curvatures, sites, near, side, keep):
     column[free] = np.arange(free.size)
     F = sp.csr_matrix((np.ones(near.size), (np.arange(near.size), column[near])), shape=(near.size, free.size))
     z, finite = margin_newton(
-        prior, prior0, F, signed, -side, TAUS, np.zeros(free.size), ITERATIONS, TOLERANCE,
-        lambda A, b: factorize_spd(A)(b),
-    )  # fmt: skip
+        prior, prior0, F, signed, -side, TAUS, np.zeros(free.size), ITERATIONS, TOLERANCE, _Preconditioned()
+    )
     if not finite:
         return None
     out = np.zeros(n)
