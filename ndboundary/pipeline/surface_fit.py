@@ -22,9 +22,10 @@ crosses. Its quads are nearly squares of a voxel's side, as the cotangent operat
 curvature came out four times too large on average). ``H`` is linearised about the
 relaxed surface, ``H0 + B z`` with ``B = (M^-1 K - |A|^2) / 2`` (``K`` the cotangent
 stiffness, ``M`` the lumped mass, ``|A|^2 = 4 H^2 - 2 K_gauss``), and the loss minimised by
-Newton steps from the relaxed surface, each a sparse Cholesky solve, searched along their
-line (the loss is convex: the curves' narrowing of the soft minimum's width from 0.1 ends
-at the same surface, in more steps).
+Newton steps from the relaxed surface, searched along their line (the loss is convex: the
+curves' narrowing of the soft minimum's width from 0.1 ends at the same surface, in more
+steps); the first system is solved by a sparse Cholesky factor, the next by conjugate
+gradients preconditioned by it (:class:`_Preconditioned`).
 
 A surface that turns sharper than :data:`CORNER` somewhere (a box's edges) is left as
 relaxed, as a curve is. The moves are written into phi near the surface, ``phi - z (grad
