@@ -71,10 +71,12 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         :func:`~ndboundary.pipeline.result.fit_two_regions` in 2-D,
         :func:`~ndboundary.pipeline.surface_fit.fit_surface` in 3-D, keeping the
         relaxed volume): nearer the truth where the staircase leaves the boundary a gap
-        to stray in. ``"auto"`` fits every curve, and a surface of up to
+        to stray in. The fit is written into ``phi`` within a few pixels of the boundary,
+        so that its other level sets there are no longer the relaxation's. ``"auto"``
+        fits every curve, and a surface of up to
         :data:`~ndboundary.pipeline.surface_fit.AUTO_MAX_VERTICES` vertices (its
-        Cholesky factors grow faster than it: a 128^3 ball's takes about 4 s, where the
-        relaxation takes 2). A boundary with a corner (a box's) is left as relaxed.
+        Cholesky factors grow faster than it, and on a large surface the fit takes longer
+        than the relaxation). A boundary with a corner (a box's) is left as relaxed.
         Three labels or more: see :func:`~ndboundary.relax` (interfaces in the plane
         are fitted, volumes' are not).
     **params
