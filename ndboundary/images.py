@@ -21,7 +21,6 @@ from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOO
 from .pipeline.relaxer import Relaxer, relax_in_turn
 from .pipeline.result import RegionsResult, fit_two_regions, keep_band, summed_timings
 from .pipeline import surface_fit
-from .pipeline.surface_fit import fit_surface
 from .solvers import FactorCache
 
 __all__ = ["REACH_SCALE", "relax_image"]
@@ -126,7 +125,7 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
     if labels.ndim not in (2, 3):
         raise ValueError(f"labels must be a 2-D image or a 3-D volume, got shape {labels.shape}")
     fit = bool(fit) if isinstance(fit, np.bool_) else fit
-    if fit not in ("auto", True, False) or isinstance(fit, (int, float)) and not isinstance(fit, bool):
+    if not (isinstance(fit, bool) or (isinstance(fit, str) and fit == "auto")):
         raise ValueError(f"fit must be 'auto', True or False, got {fit!r}")
     geometry = grid_geometry(labels.shape, 1.0 if spacing is None else spacing, 0.0 if origin is None else origin)
     direction = grid_direction(direction, labels.ndim)
@@ -175,7 +174,7 @@ def _fit_boundary(result, codes, dim, fit, verbose):
     if dim == 2:
         fitted = fit_two_regions(result, codes)
     else:
-        fitted = fit_surface(result, codes, None if fit is True else surface_fit.AUTO_MAX_VERTICES)
+        fitted = surface_fit.fit_surface(result, codes, None if fit is True else surface_fit.AUTO_MAX_VERTICES)
     if fitted:
         seconds = time.perf_counter() - start
         result.timings["fit"] = seconds

@@ -590,7 +590,7 @@ def _sharpest(points, step, closed, reach=2.0):
     return float(np.convolve(kappa, np.ones(width) / width, mode="valid").max())
 
 
-def _fit_all(fitted, closed, n_junctions, ladder=STIFFNESS, taus=(TAU,)):
+def _fit_all(fitted, closed, n_junctions, ladder, taus):
     """:func:`fit_network` of the ``fitted`` lines (``{line: (terms, ends)}``), each with
     the stiffest prior of ``ladder`` (:data:`STIFFNESS`) that parts its sites (fitted again, softer,
     while one does not), then again with the ends held that it moved too far: a border end
@@ -651,7 +651,7 @@ def _fit_all(fitted, closed, n_junctions, ladder=STIFFNESS, taus=(TAU,)):
     return good, ends, shifts
 
 
-def _too_stiff(terms, delta, rung, ends, ladder=STIFFNESS):
+def _too_stiff(terms, delta, rung, ends, ladder):
     """Whether a line fitted (moved by ``delta``) with the priors of ``rung`` (its place on
     ``ladder``, then past it without its curvature prior) and ``ends`` holds one of
     its sites on the wrong side of it, farther than a softer rung is tried for: an arc

@@ -216,7 +216,8 @@ def fit_surface(result, codes, max_vertices=None):
     if not keep.any():
         return False
     sites = domain.element_centroids()
-    dist, near = cKDTree(points).query(sites, distance_upper_bound=SITE_REACH * h)
+    tree = cKDTree(points)
+    dist, near = tree.query(sites, distance_upper_bound=SITE_REACH * h)
     on = np.isfinite(dist) & keep[np.minimum(near, points.shape[0] - 1)]
     side = np.where(np.asarray(codes)[on] == 1, -1.0, 1.0)  # region 1 lies against the normals
     try:
@@ -233,7 +234,6 @@ def fit_surface(result, codes, max_vertices=None):
     # points, so that what varies from one of the surface's vertices to the next is not aliased
     unit = float(np.max(domain.spacing))
     candidates = np.flatnonzero(np.abs(phi - 0.5) < BLEND * unit * float(slopes.max()))
-    tree = cKDTree(points)
     d, at = tree.query(domain.points[candidates], k=SPREAD, distance_upper_bound=BLEND * unit)
     within = np.isfinite(d[:, 0])
     close, d, at = candidates[within], d[within], at[within]
@@ -252,16 +252,9 @@ def fit_surface(result, codes, max_vertices=None):
     mass = curvatures[1]
     shift = ((change[corner_ids] * corner_weights).sum(axis=1) / slopes * mass).sum() / mass.sum()
     change[close] -= shift * spread(slopes)
-    _write(result, phi + change)
+    result.phi = phi + change
     result.params["fitted_surface_vertices"] = int(keep.sum())
     return True
-
-
-def _write(result, phi):
-    """Give ``result`` the function ``phi``, forgetting what it cut from the one before."""
-    result.phi = phi.copy()
-    for key in ("_partition", "_mixed_cache", "_cut_cache", "_region_cuts"):
-        result.__dict__.pop(key, None)
 
 
 def _smooth_components(curvatures):
