@@ -67,6 +67,17 @@ Cases (``--cases``, comma separated; default every case but ``speed``):
   pairs in one process (2 then 8 regions and 8 then 2 in turn, a fresh mesh each time):
   the ratio without the first call's costs, each pair adjacent in time.
 
+``--draws N`` measures the plane Voronoi cases (``--cases``, default all three) for N
+draws of the sites, seeds ``--seed`` to ``--seed + N - 1``: each target's median, worst and
+passes over the draws, with the oracle's area error (``mid%`` below) beside. One draw's
+area on Voronoi polygons is as much the draw's as the method's: the oracle itself misses
+0.5 % on some draws.
+
+``--wide-margins``, ``--no-straight`` and ``--raw-start`` undo, one each, three parts of the
+interfaces' fit in the plane (``interface_fit.TAUS``, ``STRAIGHT`` and ``START_PASSES``):
+the margins' soft minimum narrowed to a hard one, the straight first rung, and the
+smoothing of the relaxed polylines the fit is linearised about.
+
 ``--independent`` relaxes every region against the rest on its own, its field smoothed
 as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline that
 smoothing within sectors is measured against. ``--no-junction-fit`` keeps the point
@@ -101,6 +112,7 @@ Usage::
     python benchmarks/regions.py --speed             # and the speed case, ~10 s more
     python benchmarks/regions.py --cases plane-tri80,speed
     python benchmarks/regions.py --speed-warm 8
+    python benchmarks/regions.py --draws 16          # the plane cases over 16 draws, ~2 min
 
 Prints a table of measures, a table of targets (value, bound, PASS/FAIL), then one JSON
 line per case.
@@ -638,6 +650,37 @@ def cases(args):
     }
 
 
+def draws(args):
+    """The plane Voronoi cases (``--cases``, default all three) for ``args.draws`` draws of
+    the sites: each target's median and worst value over the draws and how many pass,
+    beside the oracle's area error (``mid%``), which bounds what the labels let a fit reach.
+    """
+    meshes = {
+        "plane-tri80": ("plane tri 80^2", lambda: kuhn_grid(80, 2, jitter=0.25, random_state=0)),
+        "plane-tri160": ("plane tri 160^2", lambda: kuhn_grid(160, 2, jitter=0.25, random_state=0)),
+        "plane-poly80": ("plane voronoi 80^2", lambda: voronoi_polygons(80, random_state=0)),
+    }
+    names = args.cases.split(",") if args.cases else list(meshes)
+    unknown = [n for n in names if n not in meshes]
+    if unknown:
+        raise SystemExit(f"--draws measures {', '.join(meshes)}; not {unknown}")
+    seeds = range(args.seed, args.seed + args.draws)
+    print(f"{'case':22s} {'target':40s} {'median':>7s} {'worst':>7s} {'bound':>6s} {'passes':>7s}")
+    for n in names:
+        name, build = meshes[n]
+        mesh, values = build(), {}
+        for seed in seeds:
+            sites = np.random.default_rng(seed).uniform(-0.8, 0.8, (args.sites, 2))
+            row = measure_plane(name, mesh, sites)
+            for t in row["targets"]:
+                values.setdefault(t["target"], ([], t["bound"]))[0].append(t["value"])
+            values.setdefault("oracle area error % (mid%)", ([], 0.5))[0].append(row["gap_midpoint_measure_err_pct"])
+        for target, (v, bound) in values.items():
+            v = np.asarray(v)
+            print(f"{name:22s} {target:40s} {np.median(v):7.3f} {v.max():7.3f} {bound:6.2f} "
+                  f"{int((v <= bound).sum()):3d}/{v.size}", flush=True)  # fmt: skip
+
+
 def cell(row, key, width, fmt):
     v = row.get(key)
     if v is None:
@@ -679,6 +722,24 @@ def main():
         help="fit every interface with the softest curvature-change prior alone, not the stiffest that parts its sites",
     )
     parser.add_argument(
+        "--wide-margins",
+        action="store_true",
+        help="fit the interfaces of plane partitions with the widest soft minimum of their margins alone",
+    )
+    parser.add_argument(
+        "--no-straight", action="store_true", help="no first rung holding the interfaces of plane partitions straight"
+    )
+    parser.add_argument(
+        "--raw-start", action="store_true", help="fit the interfaces of plane partitions from their relaxed polylines"
+    )
+    parser.add_argument(
+        "--draws",
+        type=int,
+        metavar="N",
+        help="the plane Voronoi cases for N draws of the sites (seeds SEED, SEED + 1, ...): each target's median, "
+        "worst and passes",
+    )
+    parser.add_argument(
         "--vertex-pins",
         action="store_true",
         help="hold phi at the jagged boundary's vertices on simplices, not at its facets' centres",
@@ -696,6 +757,15 @@ def main():
         from ndboundary.pipeline import interface_fit
 
         interface_fit.STIFFNESS = (interface_fit.BETA,)
+    if args.wide_margins or args.no_straight or args.raw_start:
+        from ndboundary.pipeline import interface_fit
+
+        if args.wide_margins:
+            interface_fit.TAUS = (interface_fit.TAU,)
+        if args.no_straight:
+            interface_fit.STRAIGHT = 0.0
+        if args.raw_start:
+            interface_fit.START_PASSES = 0
     if args.vertex_pins:
         from ndboundary.pipeline import boundary
 
@@ -716,6 +786,9 @@ def main():
         from ndboundary.pipeline import sectors
 
         sectors.SECTOR_SMOOTHING = False
+    if args.draws:
+        draws(args)
+        return
     table = cases(args)
     apart = ("speed", "image-y", "image-many", "image-arcs")  # not by default, and not in the table
     names = args.cases.split(",") if args.cases else [n for n in table if n not in apart]

@@ -337,8 +337,10 @@ def test_each_region_of_an_image_relaxes_on_its_own_band(shape, spacing, band):
     assert (band == 10.3) == (corners.size == grid.n_vertices)  # the union band is the whole grid
     np.testing.assert_array_equal(result.classes, whole.classes)
     a, b = result.region_values(), whole.region_values()[corners]
-    # the same, but for the junctions fitted to the labels: iterated to a step of 1e-7
-    assert a.nnz == b.nnz and abs(a - b).max() < 1e-6
+    # the same, but for the junctions and interfaces fitted to the labels: iterated to a
+    # step of 1e-7, then narrowed to a nearly hard minimum of the margins, whose Newton
+    # systems (priors of weight 1e7 beside margins of 1e4) carry differences of 1e-8 to 1e-5
+    assert a.nnz == b.nnz and abs(a - b).max() < 5e-5
     for mine, theirs in zip(result._regions, whole._regions, strict=True):
         assert mine.params["band_vertices"] == theirs.params["band_vertices"] < corners.size
         np.testing.assert_array_equal(corners[mine.boundary.sources], theirs.boundary.sources)
@@ -346,7 +348,7 @@ def test_each_region_of_an_image_relaxes_on_its_own_band(shape, spacing, band):
         a, b = np.sort(corners[mine.boundary.facets], axis=1), np.sort(theirs.boundary.facets, axis=1)
         np.testing.assert_array_equal(a[np.lexsort(a.T)], b[np.lexsort(b.T)])
     assert not {"edges", "adjacency", "_faces"} & set(result.domain.__dict__)
-    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-8)
+    np.testing.assert_allclose(result.region_measures(), whole.region_measures(), rtol=1e-6)  # as above
     # filled beyond its band (along the domain's own edges), phi keeps the labels' sides
     pixels = getattr(result.domain, "pixels", np.arange(labels.size))
     bands = [res.phi.vertices for res in result._regions]
@@ -774,9 +776,10 @@ def test_a_y_of_rays_on_pixels_is_fitted_with_its_junction(monkeypatch):
 
 def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatch):
     """Two nested circles parting three regions on 96² pixels: fitted with the stiffest
-    prior on the change of curvature that parts their pixels, the interfaces lie at least
-    twice as near the circles, on average and at most, as with the softest alone, which
-    bends them into the gaps between the pixels."""
+    prior on the change of curvature that parts their pixels, the interfaces lie within a
+    fiftieth of a pixel of the circles on average, at least twice as near as with the
+    softest prior alone, which bends them into the gaps between the pixels, and nearer at
+    most by a third (the narrowed margins hold the softest fit from the widest gaps)."""
     from ndboundary.pipeline import interface_fit
 
     n, centre, radii = 96, np.array([47.3, 44.8]), (14.3, 31.6)
@@ -793,7 +796,7 @@ def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatc
     stiff = errors()
     monkeypatch.setattr(interface_fit, "STIFFNESS", (interface_fit.BETA,))
     soft = errors()
-    assert stiff[0] < 0.5 * soft[0] and stiff[1] < 0.5 * soft[1], (stiff, soft)
+    assert stiff[0] < 0.02 and stiff[0] < 0.5 * soft[0] and stiff[1] < 0.67 * soft[1], (stiff, soft)
 
 
 def test_a_curved_interface_between_junctions_is_not_fitted_across_its_pixels(monkeypatch):

@@ -368,11 +368,33 @@ def test_an_interface_fit_slides_only_its_loose_ends(loose):
         assert np.abs(y).max() < 0.01, y
 
 
+def test_narrowed_margins_part_crowded_sites_by_their_middle():
+    """Two rows of sites 0.2 apart crowd a line, one row twice as dense as the other: with
+    the widest soft minimum of the margins the line leans away from the dense row by half
+    the width times log 2 (0.035); narrowed through ``TAUS`` it lies within 0.005 of the
+    middle, as the largest margin does."""
+    from ndboundary.pipeline.interface_fit import TAU, TAUS, refine
+
+    x = np.linspace(0.0, 20.0, 41)
+    points = np.column_stack([x, np.full(x.size, 0.05)])
+    dense, sparse = np.arange(0.125, 20.0, 0.25), np.arange(0.25, 20.0, 0.5)
+    sites = np.concatenate([np.column_stack([dense, np.full(dense.size, -0.1)]),
+                            np.column_stack([sparse, np.full(sparse.size, 0.1)])])  # fmt: skip
+    side = np.r_[np.ones(dense.size), -np.ones(sparse.size)]
+    middle = {}
+    for tau in (TAU, TAUS):
+        delta, normal = refine(points, 0.5, sites, side, tau=tau, closed=False, loose=(True, True))
+        middle[len(np.atleast_1d(tau))] = (points + delta[:, None] * normal)[10:31, 1]
+    np.testing.assert_allclose(middle[1], 0.5 * TAU * np.log(2.0), rtol=0.02)
+    assert np.abs(middle[len(TAUS)]).max() < 0.005, middle
+
+
 def test_a_junction_fitted_with_its_interfaces_moves_nearer_the_true_one():
     """Three straight interfaces from a junction, labelled on a jittered lattice of sites,
     drawn from a point up to 0.6 off the true junction to their true far ends (held): the
-    junction fitted with them (its move shared by the three ends) lands nearer."""
-    from ndboundary.pipeline.interface_fit import BEND, BETA, _line_terms, fit_network
+    junction fitted with them (its move shared by the three ends), each held straight as the
+    first rung of the fit holds an open interface, lands nearer."""
+    from ndboundary.pipeline.interface_fit import BETA, STRAIGHT, _line_terms, fit_network
 
     before, after = [], []
     for seed in range(4):
@@ -392,7 +414,7 @@ def test_a_junction_fitted_with_its_interfaces_moves_nearer_the_true_one():
             nearest = np.argmin(((sites[mine][:, None] - points[None]) ** 2).sum(axis=2), axis=1)
             side = np.where(region[mine] == q, 1.0, -1.0)
             step = float(np.linalg.norm(points[1] - points[0]))
-            terms = _line_terms(points, step, sites[mine], side, BETA, False, nearest, (True, False), BEND)
+            terms = _line_terms(points, step, sites[mine], side, BETA, False, nearest, (True, False), STRAIGHT)
             lines.append((terms, (0, "held")))
         moves, shifts = fit_network(lines, 1)
         assert len(moves) == 3 and all(m[-1] == 0.0 for m in moves)  # the far ends held

@@ -8,14 +8,18 @@ polygons: a cell is 1.5 mean edges across), that average wavers by a tenth of an
 more. The sites themselves say more: the true interface parts the two regions' sites, and
 is smooth. So each interface of the relaxed partition (after its junctions are fitted,
 :mod:`~ndboundary.pipeline.junctions`) is cut into its polylines between junctions and the
-domain's border (or closed), resampled every h / 2, and moved along its normals to the
-curve that minimises
+domain's border (or closed), resampled every h / 2, smoothed (:data:`START_PASSES`: the
+priors below are linearised about it, and the relaxed polyline kinks at every element it
+crosses), and moved along its normals to the curve that minimises
 
-    BETA * sum(kappa'^2) step + sum(exp(-margin / TAU))
+    BETA * sum(kappa'^2) step + sum(exp(-margin / tau))
 
 over the sites of its two regions within :data:`SITE_REACH` h: ``kappa'`` the change of
 its curvature from vertex to vertex (circles and lines cost nothing), ``margin`` a site's
-signed distance to the curve, positive on its region's side, lengths in h.
+signed distance to the curve, positive on its region's side, lengths in h. The width
+``tau`` of the margins' soft minimum narrows through :data:`TAUS`: where sites crowd the
+line, the nearest ones then part it by their middle, unswayed by how many lie about as
+near.
 
 ``BETA`` is chosen per line, from :data:`STIFFNESS`: the largest that leaves none of its
 sites more than :data:`SLACK` h on the wrong side. With a soft prior, the margins bend a
@@ -23,7 +27,9 @@ line into the local gaps between its sites, which are as wide as the sites are f
 where an arc parts the sites, the stiffest prior reads the arc from all of them instead
 (two nested circles on pixels, ``tests/test_images.py``, come out at least twice as near
 the truth as with the softest prior alone). Where no arc parts them (the curvature
-changes along the line), the line bends again.
+changes along the line), the line bends again. Before the ladder, an open interface of a
+partition is tried straight (:data:`STRAIGHT`): of the curves that part its sites, the
+straight one is kept, as a circle would bow between them at no cost of its prior.
 
 A point junction that lies alone (no other junction or border end within
 ``junctions.MIN_SPACING`` h) moves with its three interfaces (:func:`fit_network`): its
@@ -31,10 +37,7 @@ move ``u`` moves each one's end by ``n . u``, and the sites within :data:`JUNCTI
 h of it part all three, beyond their ends too. Where the interfaces meet is then read
 along their whole length, not from the sites around the point alone, which the largest
 margin of a Y of straight rays misplaces (its rays turn to widen the margins: the truth
-runs nearer some sites than the widest parting does). Those interfaces also pay
-``BEND * sum(kappa^2) step``, which holds them straight where the sites do not bend them,
-unless their other end is held (towards which it would pull them); one it holds across its
-sites (:data:`CROSS_MAX`) is fitted without it.
+runs nearer some sites than the widest parting does).
 An interface's end on the domain's border slides along it, and where the junctions' fits
 placed it (a crossing fitted to the sites around it) this fit, read along the whole
 interface, places it anew; the ends at pairs of junctions are held. An end or a junction the
@@ -68,6 +71,7 @@ import scipy.sparse.linalg as spla
 from scipy.linalg import LinAlgError
 from scipy.spatial import cKDTree
 
+from ..solvers.cholesky import factorize_spd
 from . import junctions
 from .junctions import stored_values
 
@@ -88,17 +92,36 @@ STIFFNESS = (1e7, BETA)
 #: How far (h) a site may lie on the wrong side of its fitted interface: the margins' soft
 #: minimum leaves a few hundredths.
 SLACK = 0.02
-#: How far (h) a site may lie on the wrong side of an interface fitted with the softest
-#: curvature-change prior, but for one between two junctions fitted with it (:data:`SLACK`
-#: then): farther, the interface is fitted again without its curvature prior (which holds
-#: it straight where the sites do not bend it, not across them), and if it still crosses a
-#: site that far, it is left as relaxed.
+#: An interface fitted with the softest curvature-change prior that still holds a site
+#: farther than this (h) on its wrong side is left as relaxed.
 CROSS_MAX = 0.5
-#: Weight of the curvature prior on the interfaces from a junction fitted with them (and
-#: no held end), lengths in h.
-BEND = 10000.0
 #: Width of the margins' soft minimum, in h.
 TAU = 0.1
+#: The widths of the soft minimum a partition's interfaces narrow through, each fit
+#: starting from the one before. The soft minimum of a line's margins on each side is its
+#: nearest site's margin less the width times the log of how many sites lie about as
+#: near, so a wide one moves the line away from the side whose nearest sites come in a
+#: cluster (half the width times the log of the ratio: between two rows of sites 0.2 h
+#: apart, one twice as dense, 0.035 h at 0.1 and 0.0035 h at 0.01). Where sites lie within
+#: a few widths of the line, narrowed, the nearest of them part it by their middle; where
+#: none does, the narrow minimum has no pull and the line stays where the wider width and
+#: its prior put it. After the first width, an end on the domain's border is held where
+#: that width put it: with fewer sites than a junction's three interfaces, a short
+#: interface would swing about its other end to widen its margins.
+TAUS = (TAU, 0.03, 0.01)
+#: Weight of the curvature prior (lengths in h) that holds an open interface of a
+#: partition straight on its first rung: a line that a straight one parts (within
+#: :data:`SLACK`) is fitted straight, and only the others bend (:data:`STIFFNESS`). A
+#: circle of curvature-change prior zero would otherwise bow between sites that a
+#: straight line parts as well, and a bow of a third of h along a Voronoi edge of 40 h
+#: changes its regions' areas by a tenth of a percent.
+STRAIGHT = 1e6
+#: Passes of the (1, 2, 1) / 4 filter over an interface's polyline (steps of h / 2)
+#: before its fit: a Gaussian of 1.4 h. The relaxed polyline kinks wherever it crosses an
+#: element, with curvatures near 1 / h, and the curvature priors are linearised about it:
+#: their neglected second-order terms then exceed the curvature of the arcs being fitted
+#: (1 / (100 h)), and a line held straight by them came out bowed.
+START_PASSES = 16
 #: The two-region curves' fit (:func:`~ndboundary.pipeline.result.fit_two_regions`): its
 #: curvature-change weights, stiffest first (as :data:`STIFFNESS`), and the widths of the
 #: margins' soft minimum it narrows through, each fit starting from the one before. With
@@ -181,6 +204,21 @@ def resample(points, spacing, closed):
     return (out[:-1] if closed else out), s[-1] / m
 
 
+def _smoothed(points, closed, passes):
+    """The polyline ``points`` after ``passes`` of the (1, 2, 1) / 4 filter: an open one
+    keeps its ends.
+    """
+    points = np.array(points, dtype=np.float64)
+    if points.shape[0] < 3:
+        return points
+    for _ in range(passes):
+        if closed:
+            points = 0.5 * points + 0.25 * (np.roll(points, 1, axis=0) + np.roll(points, -1, axis=0))
+        else:
+            points[1:-1] = 0.5 * points[1:-1] + 0.25 * (points[:-2] + points[2:])
+    return points
+
+
 def _stencil(rows, cols, weights, step, cyclic=False):
     """The ``rows`` x ``cols`` matrix whose row ``i`` holds ``weights[k] / step`` at column
     ``i + k`` (modulo ``cols`` when ``cyclic``).
@@ -200,7 +238,8 @@ def refine(
     vertex's move along its ``normal``, which points away from the +1 sites. An open
     polyline keeps its ends, but for its first and last where ``loose`` says so (an end
     on the domain's border, which slides along it). ``nearest``, each site's nearest
-    vertex, is found when not given.
+    vertex, is found when not given. ``tau`` may be a sequence of widths of the margins'
+    soft minimum to narrow through (:data:`TAUS`), each fit starting from the one before.
 
     Examples
     --------
@@ -219,7 +258,8 @@ def refine(
     """
     terms = _line_terms(points, step, sites, side, beta, closed, nearest)
     ends = ("loose", "loose") if closed else tuple("loose" if free else "held" for free in loose)
-    return fit_network([(terms, ends)], 0, tau, iterations)[0][0], terms[0]
+    taus = tuple(float(t) for t in np.atleast_1d(tau))
+    return _solve_network([(terms, ends)], 0, taus, iterations)[0][0], terms[0]
 
 
 def _line_terms(points, step, sites, side, beta, closed, nearest, extend=(False, False), alpha=0.0):
@@ -294,19 +334,24 @@ def fit_network(lines, n_junctions, tau=TAU, iterations=30, stiffness=None, bend
     return _solve_network(lines, n_junctions, (tau,), iterations, stiffness, bends)[:2]
 
 
-def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=None, bends=None, start=None):
+def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=None, bends=None, start=None, hold=None):
     """:func:`fit_network`, its Newton steps from the unknowns ``start`` (none moved when
     not given), which it returns too; the margins' soft minimum narrows through the widths
-    ``taus``, each solve starting from the one before.
+    ``taus``, each solve starting from the one before, and the border ends of the lines
+    that ``hold`` (a boolean per line, none when not given) says are held after the first
+    width where it put them.
     """
     blocks, width = [], 2 * n_junctions  # the junctions' moves come first
-    for terms, ends in lines:
+    loose = []  # the unknowns of the ends on the border
+    for line, (terms, ends) in enumerate(lines):
         normal = terms[0]
         n = normal.shape[0]
         rows, cols, vals = [np.arange(1, n - 1)], [width + np.arange(n - 2)], [np.ones(n - 2)]
         width += n - 2
         for i, end in ((0, ends[0]), (n - 1, ends[1])):
             if end == "loose":
+                if hold is not None and hold[line]:
+                    loose.append(width)
                 rows.append([i]), cols.append([width]), vals.append([1.0])
                 width += 1
             elif end != "held":
@@ -331,37 +376,82 @@ def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=Non
     signed = np.concatenate([line[0][2] for line in lines])
     side = np.concatenate([line[0][3] for line in lines])
     z = np.zeros(width) if start is None else start.copy()
-    z = margin_newton(H0, g0, F, signed, side, taus, z, iterations, 1e-6, spla.spsolve)[0]
+    if loose and len(taus) > 1:
+        z = margin_newton(H0, g0, F, signed, side, taus[:1], z, iterations, 1e-6, _spd_solve, PROXIMAL)[0]
+        # the other unknowns, with those of the border ends fixed at z: margins of
+        # F @ (P @ y + fixed) and a prior of (P @ y + fixed)
+        free = np.setdiff1d(np.arange(width), loose)
+        P = sp.csr_matrix((np.ones(free.size), (free, np.arange(free.size))), shape=(width, free.size))
+        fixed = np.zeros(width)
+        fixed[loose] = z[loose]
+        y = margin_newton(
+            (P.T @ H0 @ P).tocsr(), P.T @ (g0 + H0 @ fixed), (F @ P).tocsr(), signed - F @ fixed, side, taus[1:],
+            z[free], iterations, 1e-6, _spd_solve, PROXIMAL, 0,
+        )[0]  # fmt: skip
+        z = P @ y + fixed
+    else:
+        z = margin_newton(H0, g0, F, signed, side, taus, z, iterations, 1e-6, _spd_solve, PROXIMAL)[0]
     moves = place @ z
     lines_moves = [moves[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
     return lines_moves, z[: 2 * n_junctions].reshape(n_junctions, 2), z
 
 
-def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve):
+#: Weight (per h^2) of the proximal term that holds each narrower width of a partition's
+#: fit where the one before left the unknowns, but for what its sites move.
+PROXIMAL = 1e-2
+#: Newton stops when the step's predicted fall of the loss (its Newton decrement) is below
+#: this, relative to the margins' part of the loss.
+DECREMENT = 1e-10
+
+
+def _spd_solve(A, b):
+    """``A x = b`` for the symmetric positive definite Newton systems of a network's fit,
+    by the fastest sparse Cholesky installed (:func:`~ndboundary.solvers.cholesky.factorize_spd`:
+    supernodal CHOLMOD with the ``[fast]`` extra; SuperLU, as ``spsolve``, without it).
+    """
+    return factorize_spd(sp.csr_matrix(A))(b)
+
+
+def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve, proximal=0.0, proximal_from=1):
     """Newton steps on ``z @ H @ z / 2 + g @ z + sum(exp(-margin / tau))``, ``margin = side *
     (F @ z - signed)``, from ``z`` (a new array is returned), for each width ``tau`` of
-    ``taus`` in turn, until no entry moves farther than ``tolerance``; ``solve(A, b)``
-    solves the Newton systems (symmetric positive definite). Returns ``(z, finite)``,
-    ``finite`` False when a step was not (the last finite ``z`` is returned).
+    ``taus`` in turn, until no entry moves farther than ``tolerance`` or the loss can fall
+    by no more than :data:`DECREMENT`; ``solve(A, b)`` solves the Newton systems (symmetric
+    positive definite). Each width from the ``proximal_from``-th on adds ``proximal / 2 *
+    |z - z0|^2``, z0 where z was when it began: a narrow soft minimum leaves directions of almost no
+    curvature (where no site is near), along which z would otherwise wander by the
+    systems' rounding. Returns ``(z, finite)``, ``finite`` False when a step was not (the
+    last finite ``z`` is returned).
     """
     z = np.array(z, dtype=np.float64)
-    ridge = 1e-9 * sp.identity(z.size, format="csr")
+    identity = sp.identity(z.size, format="csr")
 
-    def loss(z, tau):
-        return 0.5 * z @ (H @ z) + g @ z + np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0)).sum()
+    def exps(z, tau):
+        return np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
 
-    for tau in taus:
+    for k, tau in enumerate(taus):
+        anchor, rho = z.copy(), proximal if k >= proximal_from else 0.0
         for _ in range(iterations):
-            e = np.exp(np.clip(-side * (F @ z - signed) / tau, -50.0, 50.0))
-            grad = H @ z + g - F.T @ (side * e / tau)
-            move = solve((H + F.T @ sp.diags(e / tau**2) @ F + ridge).tocsc(), -grad)
+            e = exps(z, tau)
+            grad = H @ z + g - F.T @ (side * e / tau) + rho * (z - anchor)
+            move = solve((H + F.T @ sp.diags(e / tau**2) @ F + (1e-9 + rho) * identity).tocsc(), -grad)
             if not np.isfinite(move).all():
                 return z, False
-            step, now, slope = 1.0, loss(z, tau), float(grad @ move)
-            # the margins' exponentials are far from quadratic: a backtracking search, but for
-            # a step whose change of the loss is below its rounding (Newton converges there)
-            while -slope > 1e-12 * abs(now) and step > 1e-4:
-                if loss(z + step * move, tau) <= now + 1e-4 * step * slope:
+            # the margins' exponentials are far from quadratic: a backtracking search on the
+            # loss's change, summed term by term (the loss itself is large beside it: the
+            # priors' weights reach 1e7)
+            slope = float(grad @ move)
+            lin = float((H @ z + g + rho * (z - anchor)) @ move)
+            curve = float(move @ (H @ move) + rho * (move @ move))
+            if -slope <= DECREMENT * (1.0 + e.sum()):
+                # the loss cannot fall by more than its rounding: converged. The narrowest
+                # widths leave directions of almost no curvature (where no site is near), along
+                # which further steps would only wander
+                break
+            step = 1.0
+            while step > 1e-4:
+                change = step * lin + 0.5 * step**2 * curve + float((exps(z + step * move, tau) - e).sum())
+                if change <= 1e-4 * step * slope:
                     break
                 step *= 0.5
             z += step * move
@@ -370,16 +460,38 @@ def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve):
     return z, True
 
 
-def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None, taus=None, corner=np.inf):
+def interface_corrections(
+    domain,
+    codes,
+    on,
+    values,
+    faces,
+    h,
+    skip,
+    ladder=None,
+    taus=None,
+    corner=np.inf,
+    straight=None,
+    start_passes=None,
+    hold_border=True,
+):
     """New values of the region functions near every interface of ``faces`` (an
     :class:`~ndboundary.partition.Interfaces` of a partition of the plane), and near the
     junctions fitted with them, as the module describes: a list of ``(vertices, regions,
     new)`` and the number of junctions moved, none at the vertices of ``skip`` (those the
     junctions' fits hold) but those a moved junction writes anew, and none sharing a
     vertex. ``ladder`` and ``taus``: the curvature-change weights tried (:data:`STIFFNESS`
-    when not given) and the widths of the margins' soft minimum (:data:`TAU`); a line
-    whose curvature exceeds ``corner`` (1 / h) is not fitted.
+    when not given) and the widths of the margins' soft minimum (:data:`TAUS`); a line
+    whose curvature exceeds ``corner`` (1 / h) is not fitted; ``straight``: the curvature
+    prior's weight on a first rung that holds open lines straight (:data:`STRAIGHT`; 0: no
+    such rung); ``start_passes``: the smoothing of each polyline before its fit
+    (:data:`START_PASSES`); ``hold_border``: whether the ends on the domain's border are
+    held after the first width.
     """
+    ladder = STIFFNESS if ladder is None else ladder
+    taus = TAUS if taus is None else taus
+    straight = STRAIGHT if straight is None else straight
+    start_passes = START_PASSES if start_passes is None else start_passes
     # only the vertices whose two largest functions are within reach of each other can lie
     # near an interface (the functions grow by about one per h from it), and only the sites
     # there: the searches follow the interfaces, not the domain
@@ -393,7 +505,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None
         site_ids = np.flatnonzero(domain.elements_at(mask))
         sites = domain.element_centroids()[site_ids]
     site_codes, points_near = codes[site_ids], domain.points[vertices_near]
-    lines = []  # (a, b, points, step, closed, end vertices), lengths in h
+    lines = []  # (a, b, points, step, closed, end vertices, points as relaxed), lengths in h
     key = faces.pairs[:, 0].astype(np.int64) * (int(faces.pairs.max(initial=0)) + 1) + faces.pairs[:, 1]
     # an interface ends at a junction (three or more pieces meet there) or on the border,
     # where it is the only piece: that end slides along the border with the fit
@@ -406,9 +518,10 @@ def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None
         for ids, closed in polylines(faces.points, mine):
             if ids.size >= 3:
                 ids = _canonical(faces.points, ids, closed)
-                points, step = resample(faces.points[ids] / h, 0.5, closed)
+                raw, step = resample(faces.points[ids] / h, 0.5, closed)
+                points = _smoothed(raw, closed, start_passes)
                 if points.shape[0] >= 4 and (corner == np.inf or _sharpest(points, step, closed) <= corner):
-                    lines.append((int(pair[0]), int(pair[1]), points, step, closed, (ids[0], ids[-1])))
+                    lines.append((int(pair[0]), int(pair[1]), points, step, closed, (ids[0], ids[-1]), raw))
     if not lines:
         return [], 0
     # one search for all the polylines: each site and vertex goes with the nearest
@@ -419,7 +532,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None
     junction_of, special, spacing = _single_junctions(faces, degree, lines, h)
     site_tree = cKDTree(sites / h)
     fitted = {}  # line -> (terms, ends)
-    for k, (a, b, points, step, closed, end_ids) in enumerate(lines):
+    for k, (a, b, points, step, closed, end_ids, _) in enumerate(lines):
         near = np.flatnonzero(site_line == k)
         near = near[(site_codes[near] == a) | (site_codes[near] == b)]
         if near.size < 3:
@@ -437,17 +550,13 @@ def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None
                 near = np.r_[near, extra]
                 at = np.r_[at, cKDTree(points).query(sites[extra] / h)[1]]
         side = np.where(site_codes[near] == a, 1.0, -1.0)
-        # an interface from a junction fitted with it is held straight, unless its other end
-        # is held (it is not pulled straight towards that)
-        bend = BEND if any(not isinstance(e, str) for e in ends) and "held" not in ends else 0.0
-        terms = _line_terms(points, step, sites[near] / h, side, BETA, closed, at, extend, bend)
+        # the curvature prior at unit weight: the straight rung's, weighed by _fit_all
+        terms = _line_terms(points, step, sites[near] / h, side, BETA, closed, at, extend, 1.0)
         if not (np.isfinite(terms[0]).all() and terms[2].size >= 3):
             continue
         fitted[k] = (terms, ends)
     closed_lines = {k for k in fitted if lines[k][4]}
-    moves, ends_of, shifts = _fit_all(
-        fitted, closed_lines, len(special), STIFFNESS if ladder is None else ladder, (TAU,) if taus is None else taus
-    )  # fmt: skip
+    moves, ends_of, shifts = _fit_all(fitted, closed_lines, len(special), ladder, taus, straight, hold_border)
     placed, kept = _moved_junctions(
         domain, values, faces, special, spacing, shifts, lines, moves, ends_of, fitted, vertices_near, h
     )  # fmt: skip
@@ -462,8 +571,10 @@ def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None
         zone_of[vertices] = z
     out, moved = [], len(placed)
     for k, delta in moves.items():
-        a, b, points, step, closed, _ = lines[k]
+        a, b, points, step, closed, _, raw = lines[k]
         normal = fitted[k][0][0]
+        # the fit moved the smoothed polyline; the tie to move runs along the relaxed one
+        delta = delta - ((raw - points) * normal).sum(axis=1)
         # a junction left where it was holds its ends, as the junctions' fits do
         ends = tuple("held" if e in kept else e for e in ends_of[k])
         if not closed:  # the move grows from a held end
@@ -474,7 +585,7 @@ def interface_corrections(domain, codes, on, values, faces, h, skip, ladder=None
         if mine.size == 0:
             continue
         at = vertex_at[mine]
-        offset = points_near[mine] / h - points[at]
+        offset = points_near[mine] / h - raw[at]
         d, s = np.linalg.norm(offset, axis=1), (offset * normal[at]).sum(axis=1)
         regions = np.array([a, b])
         stored = _stored(values, vertices_near[mine], regions)
@@ -590,17 +701,25 @@ def _sharpest(points, step, closed, reach=2.0):
     return float(np.convolve(kappa, np.ones(width) / width, mode="valid").max())
 
 
-def _fit_all(fitted, closed, n_junctions, ladder, taus):
-    """:func:`fit_network` of the ``fitted`` lines (``{line: (terms, ends)}``), each with
-    the stiffest prior of ``ladder`` (:data:`STIFFNESS`) that parts its sites (fitted again, softer,
-    while one does not), then again with the ends held that it moved too far: a border end
-    farther than :data:`LOOSE_MAX` h (a short interface, which its sites hold loosely,
-    swinging about its other end) or a junction farther than :data:`JUNCTION_MAX` h.
+def _fit_all(fitted, closed, n_junctions, ladder, taus, straight=0.0, hold_border=False):
+    """:func:`fit_network` of the ``fitted`` lines (``{line: (terms, ends)}``), each with the
+    stiffest prior of ``ladder`` (:data:`STIFFNESS`) that parts its sites (fitted again,
+    softer, while one does not), an open line first held straight (a curvature prior of
+    weight ``straight``, unless 0); then again with the ends held that it moved too far: a
+    border end farther than :data:`LOOSE_MAX` h (a short interface, which its sites hold
+    loosely, swinging about its other end) or a junction farther than :data:`JUNCTION_MAX`
+    h. Every fit narrows the margins' soft minimum through ``taus``, holding the ends on the
+    border after the first width if ``hold_border``: a prior is too stiff for a line if it
+    still holds a site more than :data:`SLACK` h on the wrong side at the narrowest.
     Returns each line's moves and ends as fitted, and each junction's move (NaN where
     held); a line whose end still moves too far after a few rounds, or which still holds a
     site farther than :data:`CROSS_MAX` h on its wrong side, is left out, as relaxed.
     """
     keys = list(fitted)
+    if straight:
+        ladder = (ladder[0], *ladder)
+    first = np.array([straight if straight and k not in closed else 0.0 for k in keys])
+    hold = [hold_border and k not in closed for k in keys]
     held_junctions, held_ends = set(), set()
     rung = dict.fromkeys(keys, 0)  # each line's place on the ladder
     z, crossed = None, []
@@ -610,19 +729,21 @@ def _fit_all(fitted, closed, n_junctions, ladder, taus):
             for k in keys
         }
         stiffness = np.array([ladder[min(rung[k], len(ladder) - 1)] / BETA for k in keys])
-        bends = np.array([float(rung[k] < len(ladder)) for k in keys])
+        bends = np.where(np.array([rung[k] for k in keys]) == 0, first, 0.0)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", spla.MatrixRankWarning)
                 # after a softening alone the unknowns are the same: Newton goes on from them
                 moves, shifts, z = _solve_network(
                     [(fitted[k][0], ends[k]) for k in keys], n_junctions, taus, stiffness=stiffness, bends=bends,
-                    start=z if crossed else None,
+                    start=z if crossed else None, hold=hold,
                 )  # fmt: skip
         except (LinAlgError, RuntimeError, ValueError):
             return {}, {}, np.full((n_junctions, 2), np.nan)
         crossed = [
-            k for k, delta in zip(keys, moves, strict=True) if _too_stiff(fitted[k][0], delta, rung[k], ends[k], ladder)
+            k
+            for k, delta in zip(keys, moves, strict=True)
+            if rung[k] < len(ladder) - 1 and _least_margin(fitted[k][0], delta) < -SLACK
         ]
         for k in crossed:  # too stiff to part those lines' sites: bend them more easily
             rung[k] += 1
@@ -651,21 +772,6 @@ def _fit_all(fitted, closed, n_junctions, ladder, taus):
     return good, ends, shifts
 
 
-def _too_stiff(terms, delta, rung, ends, ladder):
-    """Whether a line fitted (moved by ``delta``) with the priors of ``rung`` (its place on
-    ``ladder``, then past it without its curvature prior) and ``ends`` holds one of
-    its sites on the wrong side of it, farther than a softer rung is tried for: an arc
-    between two junctions (a disc cut by a line) is not held straight across its sites.
-    """
-    if rung < len(ladder) - 1:
-        slack = SLACK
-    elif rung == len(ladder) - 1 and terms[6].nnz:
-        slack = SLACK if all(not isinstance(e, str) for e in ends) else CROSS_MAX
-    else:
-        return False
-    return _least_margin(terms, delta) < -slack
-
-
 def _least_margin(terms, delta):
     """The least signed distance (h) of a line's sites to it moved by ``delta``, positive
     on their side.
@@ -688,7 +794,7 @@ def _moved_junctions(domain, values, faces, special, spacing, shifts, lines, mov
         return out, kept
     rays = defaultdict(list)  # junction -> (pair, its interface's fitted points 1-4 h away)
     for k, delta in moves.items():
-        a, b, points, step, _, _ = lines[k]
+        a, b, points, step = lines[k][:4]
         curve = points + delta[:, None] * fitted[k][0][0]
         for i, e in enumerate(ends[k]):
             if not isinstance(e, str):

@@ -636,7 +636,7 @@ def fit_two_regions(result, codes):
     faces = partition(*complex_).interfaces()
     fixes, _ = interface_fit.interface_corrections(
         domain, codes, "elements", values, faces, h, [], interface_fit.CURVE_STIFFNESS, interface_fit.CURVE_TAUS,
-        interface_fit.CURVE_CORNER,
+        interface_fit.CURVE_CORNER, straight=0.0, start_passes=0, hold_border=False,
     )  # fmt: skip
     phi = np.array(result.phi, dtype=np.float64)
     for vertices, regions, new in fixes:
