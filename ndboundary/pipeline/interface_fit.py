@@ -447,7 +447,7 @@ def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve, 
             lin = float((H @ z + g + rho * (z - anchor)) @ move)
             curve = float(move @ (H @ move) + rho * (move @ move))
             if -slope <= DECREMENT * (1.0 + e.sum()):
-                # the loss cannot fall by more than its rounding: converged. The narrowest
+                # the loss can fall by no more than DECREMENT: converged. The narrowest
                 # widths leave directions of almost no curvature (where no site is near), along
                 # which further steps would only wander
                 break
