@@ -87,8 +87,9 @@ to the labels is measured against; the junctions that lie alone are still fitted
 their interfaces then, unless ``--no-interface-fit`` too, which keeps the interfaces of
 plane partitions as relaxed, and their junctions where the junctions' fit put them
 (``ndboundary.pipeline.interface_fit.INTERFACE_FIT = False``). ``--soft-interfaces`` fits
-every interface with the softest curvature-change prior alone, not the stiffest that parts
-its sites (``interface_fit.STIFFNESS = (interface_fit.BETA,)``). ``--vertex-pins`` holds phi
+every interface that a straight line does not part with the softest curvature-change prior
+alone, not the stiffest that parts its sites (``interface_fit.STIFFNESS =
+(interface_fit.BETA,)``). ``--vertex-pins`` holds phi
 at the jagged boundary's vertices on triangles and tetrahedra, as the paper does, instead
 of at its facets' centres (``ndboundary.pipeline.boundary.FACET_CENTRE_PINS = False``).
 
@@ -719,7 +720,8 @@ def main():
     parser.add_argument(
         "--soft-interfaces",
         action="store_true",
-        help="fit every interface with the softest curvature-change prior alone, not the stiffest that parts its sites",
+        help="fit every interface that a straight line does not part with the softest curvature-change prior alone, "
+        "not the stiffest that parts its sites",
     )
     parser.add_argument(
         "--wide-margins",
