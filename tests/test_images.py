@@ -774,6 +774,28 @@ def test_a_y_of_rays_on_pixels_is_fitted_with_its_junction(monkeypatch):
     assert errors[True][2] < 0.5 * errors[False][2], errors
 
 
+def test_a_junction_the_pixels_around_it_misplace_is_moved_back_by_its_interfaces(monkeypatch):
+    """A Y of rays on 64² pixels whose junction the fit to the pixels around it leaves half
+    a pixel off (one of the 12 Y's of ``benchmarks/regions.py --cases image-y``): fitted
+    with its three interfaces, which read the rays along their whole length, it lies
+    within a tenth of a pixel of the truth, where holding it beyond half a pixel kept it
+    off."""
+    from ndboundary.pipeline import interface_fit
+
+    n, centre, angles = 64, np.array([31.48583536, 31.88948783]), np.radians([115.873, 244.924, 357.307])
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), axis=-1).reshape(-1, 2).astype(float)
+    labels = (np.searchsorted(angles, np.arctan2(*(g - centre).T[::-1]) % (2 * np.pi)) % 3).reshape(n, n)
+
+    def junction_error():
+        j = relax_image(labels).interfaces().junctions()
+        return np.linalg.norm(j.points[j.simplices[:, 0]] - centre, axis=1).min()
+
+    moved = junction_error()
+    monkeypatch.setattr(interface_fit, "JUNCTION_MAX", 0.5)
+    held = junction_error()
+    assert moved < 0.1 and held > 0.4, (moved, held)
+
+
 def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatch):
     """Two nested circles parting three regions on 96² pixels: fitted with the stiffest
     prior on the change of curvature that parts their pixels, the interfaces lie within a
