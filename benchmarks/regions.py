@@ -75,7 +75,7 @@ area on Voronoi polygons is as much the draw's as the method's: the oracle itsel
 
 ``--wide-margins``, ``--no-straight`` and ``--raw-start`` undo, one each, three parts of the
 interfaces' fit in the plane (``interface_fit.TAUS``, ``STRAIGHT`` and ``START_PASSES``):
-the margins' soft minimum narrowed to a hard one, the straight first rung, and the
+the margins' soft minimum narrowed to a nearly hard one, the straight first rung, and the
 smoothing of the relaxed polylines the fit is linearised about.
 
 ``--independent`` relaxes every region against the rest on its own, its field smoothed
@@ -654,7 +654,7 @@ def cases(args):
 def draws(args):
     """The plane Voronoi cases (``--cases``, default all three) for ``args.draws`` draws of
     the sites: each target's median and worst value over the draws and how many pass,
-    beside the oracle's area error (``mid%``), which bounds what the labels let a fit reach.
+    beside the oracle's area error (``mid%``), the labels' best estimate given the true lines.
     """
     meshes = {
         "plane-tri80": ("plane tri 80^2", lambda: kuhn_grid(80, 2, jitter=0.25, random_state=0)),
