@@ -799,9 +799,9 @@ def test_a_junction_the_pixels_around_it_misplace_is_moved_back_by_its_interface
 def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatch):
     """Two nested circles parting three regions on 96² pixels: fitted with the stiffest
     prior on the change of curvature that parts their pixels, the interfaces lie within a
-    fiftieth of a pixel of the circles on average, at least twice as near as with the
-    softest prior alone, which bends them into the gaps between the pixels, and nearer at
-    most by a third (the narrowed margins hold the softest fit from the widest gaps)."""
+    fortieth of a pixel of the circles on average, and nearer than with the softest prior
+    alone, which bends them into the gaps between the pixels: at most by half, on average by
+    two fifths (the narrowed margins bring the softest fit nearer on average too)."""
     from ndboundary.pipeline import interface_fit
 
     n, centre, radii = 96, np.array([47.3, 44.8]), (14.3, 31.6)
@@ -818,7 +818,7 @@ def test_interfaces_on_pixels_are_read_as_arcs_where_the_labels_allow(monkeypatc
     stiff = errors()
     monkeypatch.setattr(interface_fit, "STIFFNESS", (interface_fit.BETA,))
     soft = errors()
-    assert stiff[0] < 0.02 and stiff[0] < 0.5 * soft[0] and stiff[1] < 0.67 * soft[1], (stiff, soft)
+    assert stiff[0] < 0.025 and stiff[0] < 0.6 * soft[0] and stiff[1] < 0.5 * soft[1], (stiff, soft)
 
 
 def test_a_curved_interface_between_junctions_is_not_fitted_across_its_pixels(monkeypatch):
