@@ -348,7 +348,7 @@ def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=Non
     width where it put them.
     """
     blocks, width = [], 2 * n_junctions  # the junctions' moves come first
-    loose = []  # the unknowns of the ends on the border
+    border = []  # the unknowns of the ends on the border that are held after the first width
     for line, (terms, ends) in enumerate(lines):
         normal = terms[0]
         n = normal.shape[0]
@@ -357,7 +357,7 @@ def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=Non
         for i, end in ((0, ends[0]), (n - 1, ends[1])):
             if end == "loose":
                 if hold is not None and hold[line]:
-                    loose.append(width)
+                    border.append(width)
                 rows.append([i]), cols.append([width]), vals.append([1.0])
                 width += 1
             elif end != "held":
@@ -382,14 +382,14 @@ def _solve_network(lines, n_junctions, taus=(TAU,), iterations=30, stiffness=Non
     signed = np.concatenate([line[0][2] for line in lines])
     side = np.concatenate([line[0][3] for line in lines])
     z = np.zeros(width) if start is None else start.copy()
-    if loose and len(taus) > 1:
+    if border and len(taus) > 1:
         z = margin_newton(H0, g0, F, signed, side, taus[:1], z, iterations, 1e-6, _spd_solve, PROXIMAL)[0]
         # the other unknowns, with those of the border ends fixed at z: margins of
         # F @ (P @ y + fixed) and a prior of (P @ y + fixed)
-        free = np.setdiff1d(np.arange(width), loose)
+        free = np.setdiff1d(np.arange(width), border)
         P = sp.csr_matrix((np.ones(free.size), (free, np.arange(free.size))), shape=(width, free.size))
         fixed = np.zeros(width)
-        fixed[loose] = z[loose]
+        fixed[border] = z[border]
         y = margin_newton(
             (P.T @ H0 @ P).tocsr(), P.T @ (g0 + H0 @ fixed), (F @ P).tocsr(), signed - F @ fixed, side, taus[1:],
             z[free], iterations, 1e-6, _spd_solve, PROXIMAL, 0,
@@ -415,7 +415,7 @@ def _spd_solve(A, b):
     by the fastest sparse Cholesky installed (:func:`~ndboundary.solvers.cholesky.factorize_spd`:
     supernodal CHOLMOD with the ``[fast]`` extra; SuperLU, as ``spsolve``, without it).
     """
-    return factorize_spd(sp.csr_matrix(A))(b)
+    return factorize_spd(A)(b)
 
 
 def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve, proximal=0.0, proximal_from=1):
@@ -439,7 +439,8 @@ def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve, 
         anchor, rho = z.copy(), proximal if k >= proximal_from else 0.0
         for _ in range(iterations):
             e = exps(z, tau)
-            grad = H @ z + g - F.T @ (side * e / tau) + rho * (z - anchor)
+            prior = H @ z + g
+            grad = prior - F.T @ (side * e / tau) + rho * (z - anchor)
             move = solve((H + F.T @ sp.diags(e / tau**2) @ F + (1e-9 + rho) * identity).tocsc(), -grad)
             if not np.isfinite(move).all():
                 return z, False
@@ -447,7 +448,7 @@ def margin_newton(H, g, F, signed, side, taus, z, iterations, tolerance, solve, 
             # loss's change, summed term by term (the loss itself is large beside it: the
             # priors' weights reach 1e7)
             slope = float(grad @ move)
-            lin = float((H @ z + g + rho * (z - anchor)) @ move)
+            lin = float((prior + rho * (z - anchor)) @ move)
             curve = float(move @ (H @ move) + rho * (move @ move))
             if -slope <= DECREMENT * (1.0 + e.sum()):
                 # the loss can fall by no more than DECREMENT: converged. The narrowest
