@@ -658,7 +658,9 @@ def _pair_functions(ends, angles):
     return linear
 
 
-def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, values, h, unit, rays=None):
+def _imposed_linear(
+    domain, centre, frame, owners, linear, near, core, blend, values, h, unit, rays=None, taper=None, level=False
+):
     """The linear functions ``linear`` (rows: gradient and offset, in the frame's
     coordinates about ``centre`` in units of ``unit``) of the regions ``owners``, imposed
     on their functions within ``core`` of ``centre`` and blended back by ``blend``:
@@ -667,9 +669,15 @@ def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, va
     They are scaled to the relaxed functions' rise across their ties, read at the vertices
     within 2 h of the tie of their two largest, or, for a Y with ``rays`` (the angles of
     :func:`y_gradients`, from ``centre``), within 2 h of each ray (not of its line's far
-    half, beyond the centre), between the two sectors it parts.
+    half, beyond the centre), between the two sectors it parts. ``taper`` (one per vertex
+    of ``near``, 1 when not given) scales the imposed part's weight. ``level``: each
+    vertex's leading linear function's region keeps the largest value there (the others
+    fall below it by the linear functions' gaps) instead of rising by its linear function,
+    so that the ties with regions beyond ``owners`` stay where they were; the differences
+    between ``owners`` are the same linear functions either way.
     """
-    vertices = near[np.linalg.norm(domain.points[near] - centre, axis=1) < blend]
+    within = np.linalg.norm(domain.points[near] - centre, axis=1) < blend
+    vertices = near[within]
     stored = _values_at(values, vertices, owners)
     if stored is None:
         return None
@@ -692,6 +700,10 @@ def _imposed_linear(domain, centre, frame, owners, linear, near, core, blend, va
     if not scale > 0:
         return None
     weight = np.clip((blend - np.linalg.norm(rel, axis=1)) / (blend - core), 0.0, 1.0)[:, None]
+    if taper is not None:
+        weight = weight * np.asarray(taper)[within][:, None]
+    if level:
+        g = g - g.max(axis=1, keepdims=True)
     return vertices, owners, (1.0 - weight) * stored + weight * (stored.max(axis=1, keepdims=True) + scale * g)
 
 

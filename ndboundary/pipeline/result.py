@@ -21,7 +21,7 @@ from ..domains.pointcloud_operators import StencilDomain
 from ..levelset import LevelSet, marching_simplices, simplex_measures
 from ..partition import Cells, Partition, partition
 from ..partition_clip import sweep_sparse
-from . import interface_fit, junctions
+from . import interface_fit, junction_curves, junctions
 from .band import can_cut, extend_outside
 from .boundary import Boundary
 
@@ -453,9 +453,9 @@ class RegionsResult(_RegionMethods):
         self._regions = regions
         self.timings = {} if timings is None else timings
         self.params = {} if params is None else params
-        # the labels' region per element (or vertex), kept where point junctions are fitted:
-        # on meshes and images in the plane and on surfaces, not on a graph
-        fitted = getattr(domain, "element_dim", None) == 2 and can_cut(domain)
+        # the labels' region per element (or vertex), kept where junctions are fitted: on
+        # meshes and images in the plane, on surfaces and in volumes, not on a graph
+        fitted = getattr(domain, "element_dim", None) in (2, 3) and can_cut(domain)
         fitted = fitted and not isinstance(domain, StencilDomain)
         self._codes = codes if fitted else None
         self._junction_values = []  # (vertices, regions, values) near each fitted junction
@@ -567,8 +567,12 @@ class RegionsResult(_RegionMethods):
         near = _near_junctions(*complex_, complex_lead, 5.0 * h)
         faces = None if near is None else partition(*near).interfaces()
         crossings = _border_crossings(*complex_, complex_lead)
-        if faces is not None or len(crossings[0]):
-            on = self.params.get("on", "elements")
+        on = self.params.get("on", "elements")
+        if faces is not None and faces.simplices.shape[1] == 3:  # surfaces in a volume
+            self._junction_values = junction_curves.curve_corrections(
+                self.domain, self._codes, on, values, faces, h, lead
+            )
+        elif faces is not None or len(crossings[0]):
             crossings = (*crossings, lead)
             self._junction_values = junctions.junction_corrections(
                 self.domain, self._codes, on, values, faces, h, crossings

@@ -1,0 +1,320 @@
+"""Junction curves fitted to the labels: where three regions meet in a volume.
+
+The largest of the region functions puts a junction curve within about half an element
+of where the labels' three regions meet: the interfaces either side are averaged along
+their whole extent by the relaxation, but the curve has only its own length. Near the
+curve, though, its three interfaces are nearly planes, and a cross-section of them is a
+Y of three rays, as at a point junction in the plane
+(:mod:`~ndboundary.pipeline.junctions`).
+
+So each junction curve of three regions is sampled every :data:`STEP` h along its
+length, and at each sample the labelled sites (element centroids, or vertices for vertex
+labels) of its three regions within :data:`RADIUS` h of the curve and :data:`SLAB` h of
+the sample's normal plane are projected onto that plane and fitted by a Y
+(:func:`~ndboundary.pipeline.junctions.fit_ys`, all samples at once). Along a straight
+curve the projection is exact and the slab's sites all pin the same Y. The fitted
+centres and rays are averaged along the curve over :data:`PASSES` passes of the (1, 2,
+1) / 4 filter, then imposed on the three regions' functions as at a point junction, in
+the plane normal to the curve: within :data:`CORE` h of the fitted curve each function is
+the three's common largest value plus a linear function of the cross-section, whose ties
+are the fitted rays; between :data:`CORE` and :data:`BLEND` h they are blended back into
+the relaxed functions. Each vertex near a curve takes the Y of the sample nearest it.
+
+A sample within :data:`END_GAP` h of a point where junction curves meet (four regions or
+more) is left as relaxed, as is one whose fit moves the curve farther than
+:data:`~ndboundary.pipeline.junctions.MAX_MOVE` h or whose sectors are not convex.
+:data:`~ndboundary.pipeline.junctions.JUNCTION_FIT` switches these fits off with those of
+point junctions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .interface_fit import _smoothed, polylines, resample
+from .junctions import MARGIN, MAX_MOVE, _imposed_linear, fit_ys, y_gradients
+
+__all__ = ["curve_corrections"]
+
+#: Spacing (h) of the samples along a junction curve.
+STEP = 1.0
+#: Radius (h) about the curve of the sites each sample is fitted to.
+RADIUS = 5.0
+#: Half-thickness (h) of the slab about each sample's normal plane whose sites it reads.
+SLAB = 1.5
+#: Passes of the (1, 2, 1) / 4 filter over the curve before it is sampled, and over the
+#: fitted centres and rays after.
+PASSES = 4
+#: Within ``CORE`` h of a fitted curve the region functions are the fitted ones, blended
+#: back into the relaxed ones by ``BLEND`` h.
+CORE = 1.5
+BLEND = 3.0
+#: Samples within this many h of a point where junction curves meet are not fitted.
+END_GAP = 2.0
+#: A sample's fit is kept only where its Y puts at least this share of its sites in their
+#: regions' sectors (and no fewer than the relaxed Y does).
+ACCURACY = 0.95
+#: A sample whose fitted Y has a sector wider than this (radians) is left as relaxed: a
+#: T, where a region meets a flat face of another. No three linear functions part a T: as
+#: a sector nears half a turn, their rise across the opposite ray vanishes
+#: (:func:`~ndboundary.pipeline.junctions.y_gradients`), and imposed there they moved the
+#: regions of a test partition framed by a layer one voxel thick by up to 3 %.
+MAX_SECTOR = np.radians(170.0)
+
+
+def curve_corrections(domain, codes, on, values, faces, h, lead):
+    """New values of the region functions near every junction curve of three regions
+    that fits, as the module describes.
+
+    Parameters
+    ----------
+    domain : Domain
+        Of elements of dimension 3.
+    codes : ndarray of int
+        The labels' region of each element (``on="elements"``) or vertex.
+    on : {"elements", "vertices"}
+    values : ndarray or sparse matrix of shape (n_vertices, n_regions)
+        The region functions (:meth:`RegionsResult.region_values`).
+    faces : Interfaces or None
+        The partition's interfaces near its junctions, with their junction curves.
+    h : float
+    lead : ndarray of int of shape (n_vertices,)
+        Each vertex's largest function: a sample's Y is imposed only where one of its
+        three regions leads, never over a fourth region near the curve.
+
+    Returns
+    -------
+    list of (vertices, regions, new)
+        For each fitted sample: the vertices that take its Y, its three regions, and their
+        new values, shape (n_vertices_near, 3). No two share a vertex.
+    """
+    junctions = None if faces is None else faces.junctions()
+    if junctions is None or len(junctions) == 0 or junctions.simplices.shape[1] != 2:
+        return []
+    samples = _samples(junctions, h)
+    if not samples:
+        return []
+    centres = np.array([s[0] for s in samples])
+    n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
+    unit = float(np.cbrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
+    reach = float(np.hypot(RADIUS, SLAB)) * h
+    near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, reach)
+    if not near:
+        return []
+    pieces = _pair_points(faces)
+    problems = []
+    for k, ((centre, tangent, frame, trio, curve), around) in enumerate(zip(samples, site_near, strict=True)):
+        rel = sites[around] - centre
+        along = rel @ tangent
+        planar = rel @ frame.T
+        keep = (np.abs(along) <= SLAB * h) & (np.linalg.norm(planar, axis=1) <= RADIUS * h)
+        guess = _ray_angles(pieces, trio, centre, tangent, frame, h)
+        if guess is None:
+            continue
+        angles, owners = guess
+        if np.diff(np.r_[angles, angles[0] + 2 * np.pi]).max() > MAX_SECTOR:
+            continue  # a T as relaxed (below)
+        mine = keep & np.isin(site_codes[around], owners)
+        order = np.argsort(owners)
+        sector = order[np.searchsorted(owners, site_codes[around][mine], sorter=order)]
+        if np.bincount(sector, minlength=3).min() < 3:
+            continue
+        problems.append((k, curve, owners, (planar[mine] / unit, sector, angles)))
+    if not problems:
+        return []
+    fits = fit_ys([p[3] for p in problems], MARGIN)
+    fitted = {}  # sample -> (centre, angles, owners)
+    for (k, _, owners, (planar, sector, angles)), fit in zip(problems, fits, strict=True):
+        if fit is None or np.linalg.norm(fit[0]) > MAX_MOVE:
+            continue
+        # kept only where it parts the sites at least as well as the relaxed Y, and nearly all
+        right = np.mean(_sectors(planar - fit[0], fit[1]) == sector)
+        widest = np.diff(np.r_[fit[1], fit[1][0] + 2 * np.pi]).max()
+        if widest <= MAX_SECTOR and right >= max(ACCURACY, np.mean(_sectors(planar, angles) == sector)):
+            centre, _, frame, _, _ = samples[k]
+            fitted[k] = (centre + (fit[0] * unit) @ frame, fit[1], owners)
+    fitted = _averaged(fitted, samples)
+    if not fitted:
+        return []
+    keys = list(fitted)
+    moved = np.array([fitted[k][0] for k in keys])
+    candidates = np.unique(np.concatenate([near[k] for k in keys]))
+    d, nearest = cKDTree(moved).query(domain.points[candidates], distance_upper_bound=BLEND * h)
+    fixes = []
+    for i, k in enumerate(keys):
+        centre, angles, owners = fitted[k]
+        vertices = candidates[(nearest == i) & np.isfinite(d)]
+        vertices = vertices[np.isin(lead[vertices], owners)]
+        if vertices.size < 3:
+            continue
+        tangent, frame = samples[k][1], samples[k][2]
+        # a vertex beyond the end of a curve (towards a point where curves meet, or past the
+        # last sample fitted) takes the Y's weight only within half a step of it
+        taper = np.clip(1.5 - np.abs((domain.points[vertices] - centre) @ tangent) / (STEP * h), 0.0, 1.0)
+        grads = y_gradients(angles)
+        if grads is None:
+            continue
+        linear = np.column_stack([grads, np.zeros(3)])
+        fix = _imposed_linear(domain, centre, frame, owners, linear, vertices, CORE * h, BLEND * h, values, h, unit,
+                              angles, taper, level=True)  # fmt: skip
+        if fix is not None:
+            fixes.append(fix)
+    return fixes
+
+
+def _sectors(sites, angles):
+    """The sector of each site (n, 2) of the Y of rays at ``angles`` from the origin
+    (counter-clockwise; sector ``q`` from ray ``q`` to ray ``q + 1``).
+    """
+    theta = np.arctan2(sites[:, 1], sites[:, 0])
+    return (np.searchsorted(np.sort(np.mod(angles - angles[0], 2 * np.pi)), np.mod(theta - angles[0], 2 * np.pi),
+                            side="right") - 1) % 3  # fmt: skip
+
+
+def _samples(junctions, h):
+    """The samples of the junction curves of three regions: ``(point, tangent, frame,
+    regions, curve)`` every :data:`STEP` h along each, the frame (2, 3) an orthonormal
+    basis of the normal plane turning with the curve (each curve's frames are projected
+    from one direction, so that the rays' angles compare along it), ``curve`` numbering
+    the polylines. Samples within :data:`END_GAP` h of a point where curves meet are left
+    out.
+    """
+    points, simplices, regions = junctions.points, junctions.simplices, junctions.regions
+    if regions.shape[1] < 3:
+        return []
+    three = regions[:, 2] >= 0
+    if regions.shape[1] > 3:
+        three &= regions[:, 3] < 0
+    if not three.any():
+        return []
+    degree = np.bincount(simplices.ravel(), minlength=points.shape[0])
+    meeting = points[degree >= 3]
+    meeting_tree = cKDTree(meeting) if len(meeting) else None
+    trios = regions[three, :3]
+    key = (trios[:, 0] * (trios.max() + 1) + trios[:, 1]) * (trios.max() + 1) + trios[:, 2]
+    out, curve = [], 0
+    for value in np.unique(key):
+        mine = three.nonzero()[0][key == value]
+        trio = trios[np.flatnonzero(key == value)[0]]
+        for ids, closed in polylines(points, simplices[mine]):
+            if ids.size < 2:
+                continue
+            chain = _smoothed(points[ids] / h, closed, PASSES)
+            if not closed and chain.shape[0] >= 2 and np.linalg.norm(chain[-1] - chain[0]) < STEP:
+                continue
+            line, _ = resample(chain, STEP, closed)
+            if closed:
+                tangent = np.roll(line, -1, axis=0) - np.roll(line, 1, axis=0)
+            else:
+                tangent = np.gradient(line, axis=0)
+            tangent /= np.maximum(np.linalg.norm(tangent, axis=1), 1e-300)[:, None]
+            if not np.isfinite(tangent).all():
+                continue
+            reference = np.eye(3)[np.argmin(np.abs(tangent.mean(axis=0)))]
+            first = reference - (tangent @ reference)[:, None] * tangent
+            first /= np.linalg.norm(first, axis=1)[:, None]
+            second = np.cross(tangent, first)
+            line = line * h
+            far = np.ones(line.shape[0], dtype=bool)
+            if meeting_tree is not None:
+                far = meeting_tree.query(line)[0] > END_GAP * h
+            for p, t, a, b in zip(line[far], tangent[far], first[far], second[far], strict=True):
+                out.append((p, t, np.stack([a, b]), trio, curve))
+            curve += 1
+    return out
+
+
+def _sites_near(domain, codes, on, centres, reach):
+    """For each sample at ``centres``: the domain's vertices within ``reach`` of it, and
+    the labelled sites there (element centroids, or vertices): ``(near, sites,
+    site_codes, site_near)``, ``site_near`` indexing ``sites``; empty lists when no vertex
+    is that near. Only the vertices of a tube about the curves are searched again, and
+    only the elements at them read.
+    """
+    d = cKDTree(centres).query(domain.points, distance_upper_bound=reach)[0]
+    close = np.flatnonzero(np.isfinite(d))
+    if close.size == 0:
+        return [], None, None, []
+    tree = cKDTree(domain.points[close])
+    near = [close[np.asarray(ids, dtype=np.intp)] for ids in tree.query_ball_point(centres, reach)]
+    if on == "vertices":
+        return near, domain.points, np.asarray(codes), near
+    mask = np.zeros(domain.n_vertices, dtype=bool)
+    mask[close] = True
+    elements = np.flatnonzero(domain.elements_at(mask))
+    sites = domain.centroids_of(elements)
+    site_near = [np.asarray(ids, dtype=np.intp) for ids in cKDTree(sites).query_ball_point(centres, reach)]
+    return near, sites, np.asarray(codes)[elements], site_near
+
+
+def _pair_points(faces):
+    """For each pair of regions of the interfaces ``faces``, the points of its pieces, and
+    a tree over each.
+    """
+    out = {}
+    pairs = np.sort(faces.pairs, axis=1)
+    for pair in np.unique(pairs, axis=0):
+        ids = np.unique(faces.simplices[(pairs[:, 0] == pair[0]) & (pairs[:, 1] == pair[1])])
+        out[(int(pair[0]), int(pair[1]))] = cKDTree(faces.points[ids]), faces.points[ids]
+    return out
+
+
+def _ray_angles(pieces, trio, centre, tangent, frame, h):
+    """First guesses of the rays between the three regions ``trio`` in the normal plane
+    of a junction curve at ``centre``: the direction of each pair's interface points 1-4 h
+    from the curve within the sample's slab, and the sector of each region
+    (counter-clockwise order); None when a pair has no such points.
+    """
+    rays = []
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        pair = (int(min(trio[a], trio[b])), int(max(trio[a], trio[b])))
+        if pair not in pieces:
+            return None
+        tree, points = pieces[pair]
+        ids = tree.query_ball_point(centre, float(np.hypot(4.0, SLAB)) * h)
+        rel = points[ids] - centre
+        planar = rel @ frame.T
+        d = np.linalg.norm(planar, axis=1)
+        use = (np.abs(rel @ tangent) <= SLAB * h) & (d >= h) & (d <= 4 * h)
+        if not use.any():
+            return None
+        direction = planar[use].mean(axis=0)
+        rays.append(((a, b), np.arctan2(direction[1], direction[0]) % (2 * np.pi)))
+    rays.sort(key=lambda ray: ray[1])
+    owners = [(set(rays[q][0]) & set(rays[(q + 1) % 3][0])).pop() for q in range(3)]
+    if sorted(owners) != [0, 1, 2]:
+        return None
+    return np.array([angle for _, angle in rays]), np.asarray(trio)[owners]
+
+
+def _averaged(fitted, samples):
+    """The fitted centres and rays averaged along their curves (:data:`PASSES` passes of
+    the (1, 2, 1) / 4 filter over each run of consecutive fitted samples of one curve with
+    the same sectors), each centre kept in its own sample's normal plane.
+    """
+    out = {}
+    keys = sorted(fitted)
+    runs, run = [], []
+    for k in keys:
+        if run and (
+            k != run[-1] + 1
+            or samples[k][4] != samples[run[-1]][4]
+            or not np.array_equal(fitted[k][2], fitted[run[-1]][2])
+        ):
+            runs.append(run)
+            run = []
+        run.append(k)
+    if run:
+        runs.append(run)
+    for run in runs:
+        centres = np.array([fitted[k][0] for k in run])
+        angles = np.unwrap(np.array([fitted[k][1] for k in run]), axis=0)
+        if len(run) >= 3:
+            centres = _smoothed(centres, False, PASSES)
+            angles = _smoothed(angles, False, PASSES)
+        for k, c, a in zip(run, centres, angles, strict=True):
+            point, tangent = samples[k][0], samples[k][1]
+            c = c - ((c - point) @ tangent) * tangent
+            out[k] = (c, a, fitted[k][2])
+    return out
