@@ -1,4 +1,5 @@
-"""Junction curves fitted to the labels: where three regions meet in a volume.
+"""Junction curves and their corners fitted to the labels: where three or four regions meet
+in a volume.
 
 The largest of the region functions puts a junction curve within about half an element
 of where the labels' three regions meet: the interfaces either side are averaged along
@@ -15,14 +16,26 @@ the sample's normal plane are projected onto that plane and fitted by a Y
 curve the projection is exact and the slab's sites all pin the same Y. The fitted
 centres and rays are averaged along the curve over :data:`PASSES` passes of the (1, 2,
 1) / 4 filter, then imposed on the three regions' functions as at a point junction, in
-the plane normal to the curve: within :data:`CORE` h of the fitted curve each function is
-the three's common largest value plus a linear function of the cross-section, whose ties
-are the fitted rays; between :data:`CORE` and :data:`BLEND` h they are blended back into
-the relaxed functions. Each vertex near a curve takes the Y of the sample nearest it.
+the plane normal to the curve: within :data:`CORE` h of the fitted curve the three
+functions differ by linear functions of the cross-section whose ties are the fitted
+rays (:func:`~ndboundary.pipeline.junctions.y_gradients`), the leading one keeping its
+value, so that the ties with any other region stay where they were; between :data:`CORE`
+and :data:`BLEND` h they are blended back into the relaxed functions. Each vertex near a
+curve takes the Y of the sample nearest it, and only a vertex that one of the three
+leads.
 
-A sample within :data:`END_GAP` h of a point where junction curves meet (four regions or
-more) is left as relaxed, as is one whose fit moves the curve farther than
-:data:`~ndboundary.pipeline.junctions.MAX_MOVE` h or whose sectors are not convex.
+Where junction curves meet, four regions meet at a point (a corner), and near it the
+four interfaces' six pieces are nearly planes through it: the argmax of four affine
+functions. Each corner with four regions about it is fitted so (:func:`fit_corner`, the
+functions first fitted to the relaxed ones around it) to the sites within
+:data:`CORNER_RADIUS` h, and imposed as a Y is, within :data:`CORNER_CORE` h of it,
+blended out by :data:`CORNER_BLEND`; the curves' samples within :data:`END_GAP` h of a
+point where curves meet are not fitted, and the corner's vertices are its own.
+
+A fit is left out (the curve or corner as relaxed) when it moves the junction farther
+than :data:`~ndboundary.pipeline.junctions.MAX_MOVE` sites' spacings, when it puts fewer of
+its sites in their regions than :data:`ACCURACY` or than the relaxed functions do, or
+when a sector is not convex; so is a T (:data:`MAX_SECTOR`).
 :data:`~ndboundary.pipeline.junctions.JUNCTION_FIT` switches these fits off with those of
 point junctions.
 """
@@ -33,9 +46,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .interface_fit import _smoothed, polylines, resample
-from .junctions import MARGIN, MAX_MOVE, _imposed_linear, fit_ys, y_gradients
+from .junctions import MARGIN, MAX_MOVE, _imposed_linear, _separating, fit_ys, stored_values, y_gradients
 
-__all__ = ["curve_corrections"]
+__all__ = ["curve_corrections", "fit_corner"]
 
 #: Spacing (h) of the samples along a junction curve.
 STEP = 1.0
@@ -52,6 +65,11 @@ CORE = 1.5
 BLEND = 3.0
 #: Samples within this many h of a point where junction curves meet are not fitted.
 END_GAP = 2.0
+#: A point where four regions meet (a corner) is fitted to the sites within this many h
+#: of it, and imposed fully within ``CORNER_CORE`` h, blended out by ``CORNER_BLEND``.
+CORNER_RADIUS = 4.0
+CORNER_CORE = 1.25
+CORNER_BLEND = 2.5
 #: A sample's fit is kept only where its Y puts at least this share of its sites in their
 #: regions' sectors (and no fewer than the relaxed Y does).
 ACCURACY = 0.95
@@ -92,16 +110,20 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
     junctions = None if faces is None else faces.junctions()
     if junctions is None or len(junctions) == 0 or junctions.simplices.shape[1] != 2:
         return []
-    samples = _samples(junctions, h)
-    if not samples:
-        return []
-    centres = np.array([s[0] for s in samples])
     n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
     unit = float(np.cbrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
+    corners = _corner_fixes(domain, codes, on, values, junctions, h, lead, unit)
+    taken = np.zeros(domain.n_vertices, dtype=bool)
+    for vertices, _, _ in corners:
+        taken[vertices] = True
+    samples = _samples(junctions, h)
+    if not samples:
+        return corners
+    centres = np.array([s[0] for s in samples])
     reach = float(np.hypot(RADIUS, SLAB)) * h
     near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, reach)
     if not near:
-        return []
+        return corners
     pieces = _pair_points(faces)
     problems = []
     for k, ((centre, tangent, frame, trio, curve), around) in enumerate(zip(samples, site_near, strict=True)):
@@ -122,7 +144,7 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
             continue
         problems.append((k, curve, owners, (planar[mine] / unit, sector, angles)))
     if not problems:
-        return []
+        return corners
     fits = fit_ys([p[3] for p in problems], MARGIN)
     fitted = {}  # sample -> (centre, angles, owners)
     for (k, _, owners, (planar, sector, angles)), fit in zip(problems, fits, strict=True):
@@ -136,16 +158,16 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
             fitted[k] = (centre + (fit[0] * unit) @ frame, fit[1], owners)
     fitted = _averaged(fitted, samples)
     if not fitted:
-        return []
+        return corners
     keys = list(fitted)
     moved = np.array([fitted[k][0] for k in keys])
     candidates = np.unique(np.concatenate([near[k] for k in keys]))
     d, nearest = cKDTree(moved).query(domain.points[candidates], distance_upper_bound=BLEND * h)
-    fixes = []
+    fixes = list(corners)
     for i, k in enumerate(keys):
         centre, angles, owners = fitted[k]
         vertices = candidates[(nearest == i) & np.isfinite(d)]
-        vertices = vertices[np.isin(lead[vertices], owners)]
+        vertices = vertices[np.isin(lead[vertices], owners) & ~taken[vertices]]
         if vertices.size < 3:
             continue
         tangent, frame = samples[k][1], samples[k][2]
@@ -161,6 +183,147 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
         if fix is not None:
             fixes.append(fix)
     return fixes
+
+
+def fit_corner(sites, region, linear, margin=MARGIN, iterations=100):
+    """The affine functions, one per region, whose largest parts labelled sites with the
+    largest margins, fitted from a first guess: where four regions meet in a volume, four
+    functions part space into the four cones about the point where they tie.
+
+    Each site of region ``r`` should lie on r's side of the plane where its function ties
+    with each other's; the loss ``sum(exp(-d / margin))`` over the sites' signed distances
+    ``d`` to those planes is minimised by damped Gauss-Newton steps, region 0's function
+    held at zero (adding one affine function to all of them parts space alike).
+
+    Parameters
+    ----------
+    sites : ndarray of shape (n, dim)
+        Site coordinates, in the unit of ``margin``.
+    region : ndarray of int of shape (n,)
+        Each site's region, 0 to m - 1.
+    linear : ndarray of shape (m, dim + 1)
+        First guess: each region's gradient and value at the origin.
+    margin : float, default=MARGIN
+
+    Returns
+    -------
+    ndarray of shape (m, dim + 1) or None
+        The fitted functions, region 0's zero; None when more than a twentieth of the
+        sites stay on a wrong side, or the fit is not finite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sites = np.random.default_rng(0).uniform(-4, 4, (600, 3))
+    >>> truth = np.array([[0, 0, 0, 0], [1, 0, 0, 0.2], [0, 1, 0, 0.2], [0, 0, 1, 0.2]], float)
+    >>> region = np.argmax(sites @ truth[:, :3].T + truth[:, 3], axis=1)
+    >>> fit = fit_corner(sites, region, truth + [[0, 0, 0, 0], [0.2, 0.1, 0, 0.3], [0, 0.9, 0.1, 0], [0, 0, 1.2, 0]])
+    >>> corner = np.linalg.solve(fit[1:, :3], -fit[1:, 3])  # where the four tie
+    >>> bool(np.linalg.norm(corner - [-0.2, -0.2, -0.2]) < 0.2)
+    True
+    """
+    sites = np.asarray(sites, dtype=np.float64)
+    region = np.asarray(region, dtype=np.intp)
+    m, dim = linear.shape[0], sites.shape[1]
+    start = np.asarray(linear, dtype=np.float64) - linear[0]
+    # one constraint per site and other region: (site, own region, other region)
+    other = np.array([[s for s in range(m) if s != r] for r in range(m)])[region]
+    site = np.repeat(np.arange(sites.shape[0]), m - 1)
+    own, other = np.repeat(region, m - 1), other.ravel()
+    x = sites[site]
+    width = dim + 1
+
+    def signed(p):
+        rows = np.vstack([np.zeros(width), p.reshape(m - 1, width)])
+        D = rows[own, :dim] - rows[other, :dim]
+        norm = np.maximum(np.linalg.norm(D, axis=1), 1e-300)
+        dist = (np.einsum("ij,ij->i", D, x) + rows[own, dim] - rows[other, dim]) / norm
+        # the distance's derivatives by D and by the offset, then by each region's parameters
+        dD = x / norm[:, None] - (dist / norm)[:, None] * (D / norm[:, None])
+        dA = 1.0 / norm
+        d = np.zeros((dist.size, (m - 1) * width))
+        k = np.arange(dist.size)
+        for r, sign in ((own, 1.0), (other, -1.0)):
+            has = r > 0
+            cols = (r[has] - 1) * width
+            for j in range(dim):
+                d[k[has], cols + j] += sign * dD[has, j]
+            d[k[has], cols + dim] += sign * dA[has]
+        return dist, d
+
+    p = _separating(signed, start[1:].ravel(), margin, iterations)
+    if p is None:
+        return None
+    return np.vstack([np.zeros(width), p.reshape(m - 1, width)])
+
+
+def _corner_fixes(domain, codes, on, values, junctions, h, lead, unit):
+    """The corners of the junction curves (points where four regions meet) fitted
+    (:func:`fit_corner`) and imposed on the four regions' functions: a list of
+    ``(vertices, regions, new)``, no two sharing a vertex.
+    """
+    corners = _corners(junctions, h)
+    if not corners:
+        return []
+    centres = np.array([c for c, _ in corners])
+    near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, CORNER_RADIUS * h)
+    fixes, taken = [], np.zeros(domain.n_vertices, dtype=bool)
+    for (centre, owners), vertices, around in zip(corners, near, site_near, strict=True):
+        stored = stored_values(values, vertices, owners)
+        rel = (domain.points[vertices] - centre) / unit
+        use = ~np.isnan(stored).any(axis=1) & (np.linalg.norm(rel, axis=1) <= 2.0 * h / unit)
+        mine = np.isin(site_codes[around], owners)
+        if use.sum() < 8 or mine.sum() < 20:
+            continue
+        # the first guess: each region's relaxed function, affine over the vertices near
+        design = np.column_stack([rel[use], np.ones(use.sum())])
+        guess = np.linalg.lstsq(design, stored[use], rcond=None)[0].T
+        region = np.searchsorted(owners, site_codes[around][mine])
+        points = (sites[around][mine] - centre) / unit
+        fit = fit_corner(points, region, guess, MARGIN)
+        if fit is None:
+            continue
+        right = np.mean(np.argmax(points @ fit[:, :3].T + fit[:, 3], axis=1) == region)
+        before = np.mean(np.argmax(points @ guess[:, :3].T + guess[:, 3], axis=1) == region)
+        try:
+            moved = np.linalg.solve(fit[1:, :3], -fit[1:, 3])  # where the four functions tie
+        except np.linalg.LinAlgError:
+            continue
+        if not (right >= max(ACCURACY, before) and np.linalg.norm(moved) <= MAX_MOVE):
+            continue
+        linear = np.column_stack([fit[:, :3], fit[:, :3] @ moved + fit[:, 3]])  # about the moved point
+        place = centre + moved * unit
+        within = vertices[np.isin(lead[vertices], owners) & ~taken[vertices]]
+        fix = _imposed_linear(domain, place, np.eye(3), owners, linear, within, CORNER_CORE * h, CORNER_BLEND * h,
+                              values, h, unit, level=True)  # fmt: skip
+        if fix is not None:
+            taken[fix[0]] = True
+            fixes.append(fix)
+    return fixes
+
+
+def _corners(junctions, h):
+    """The points where junction curves meet with four regions about them: ``(point,
+    regions)``, the points of one corner (within h of each other) merged.
+    """
+    points, simplices, regions = junctions.points, junctions.simplices, junctions.regions
+    degree = np.bincount(simplices.ravel(), minlength=points.shape[0])
+    meeting = np.flatnonzero(degree >= 3)
+    if meeting.size == 0:
+        return []
+    groups = cKDTree(points[meeting]).query_ball_point(points[meeting], h)
+    out, seen = [], set()
+    for i, group in enumerate(groups):
+        if i in seen:
+            continue
+        seen.update(group)
+        ids = meeting[group]
+        touching = np.isin(simplices, ids).any(axis=1)
+        owners = np.unique(regions[touching])
+        owners = owners[owners >= 0]
+        if owners.size == 4:
+            out.append((points[ids].mean(axis=0), owners))
+    return out
 
 
 def _sectors(sites, angles):

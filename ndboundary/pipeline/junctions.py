@@ -662,7 +662,8 @@ def _imposed_linear(
     domain, centre, frame, owners, linear, near, core, blend, values, h, unit, rays=None, taper=None, level=False
 ):
     """The linear functions ``linear`` (rows: gradient and offset, in the frame's
-    coordinates about ``centre`` in units of ``unit``) of the regions ``owners``, imposed
+    coordinates about ``centre`` in units of ``unit``; the frame is (2, dim) in the plane
+    and on surfaces, any orthonormal rows in a volume) of the regions ``owners``, imposed
     on their functions within ``core`` of ``centre`` and blended back by ``blend``:
     ``(vertices, regions, new values)``, or None.
 
@@ -682,12 +683,12 @@ def _imposed_linear(
     if stored is None:
         return None
     rel = (domain.points[vertices] - centre) @ frame.T
-    g = rel @ linear[:, :2].T / unit + linear[:, 2]
+    g = rel @ linear[:, :-1].T / unit + linear[:, -1]
     rows = np.arange(vertices.size)
     if rays is None:
         top = np.argsort(g, axis=1)[:, -2:]
         first, second = top[:, 1], top[:, 0]
-        slope = np.linalg.norm(linear[first, :2] - linear[second, :2], axis=1) / unit
+        slope = np.linalg.norm(linear[first, :-1] - linear[second, :-1], axis=1) / unit
         across = g[rows, first] - g[rows, second] < 2 * h * slope
         parted = [(first, second, across)]
     else:
