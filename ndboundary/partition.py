@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ._arrays import used_vertices
+from ._arrays import unique_values, used_vertices
 from .levelset import LevelSet, simplex_measures
 from .partition_clip import interface_facets, sweep, sweep_sparse
 
@@ -176,15 +176,30 @@ class Interfaces:
             return Junctions(np.zeros((0, D)), np.zeros((0, max(k - 1, 0)), dtype=np.int64), np.zeros((0, 0), int), [])
         faces = np.concatenate([np.sort(np.delete(T, i, axis=1), axis=1) for i in range(k)])
         regs = np.tile(self.pairs, (k, 1))
-        rows = np.concatenate([np.column_stack([faces, regs[:, 0]]), np.column_stack([faces, regs[:, 1]])])
-        rows = np.unique(rows, axis=0)
-        uf, start, counts = np.unique(rows[:, :-1], axis=0, return_index=True, return_counts=True)
+        n, r = max(self.points.shape[0], 1), int(self.pairs.max(initial=0)) + 1
+        if float(n) ** (k - 1) * r < 2.0**62:  # each (face, region) row as one integer: a faster sort
+            code = np.zeros(faces.shape[0], dtype=np.int64)
+            for c in range(k - 1):
+                code = code * n + faces[:, c]
+            keys = unique_values(np.concatenate([code * r + regs[:, 0], code * r + regs[:, 1]]))
+            face_keys, region_of = keys // r, keys % r
+            start = np.flatnonzero(np.r_[True, face_keys[1:] != face_keys[:-1]])
+            counts = np.diff(np.r_[start, face_keys.size])
+            uf = np.empty((start.size, k - 1), dtype=np.int64)
+            rest = face_keys[start]
+            for c in range(k - 2, -1, -1):
+                uf[:, c], rest = rest % n, rest // n
+        else:
+            rows = np.concatenate([np.column_stack([faces, regs[:, 0]]), np.column_stack([faces, regs[:, 1]])])
+            rows = np.unique(rows, axis=0)
+            uf, start, counts = np.unique(rows[:, :-1], axis=0, return_index=True, return_counts=True)
+            region_of = rows[:, -1]
         j = np.flatnonzero(counts >= 3)
         width = int(counts[j].max()) if j.size else 0
         regions = np.full((j.size, width), -1, dtype=np.int64)
         for w in range(width):
             has = counts[j] > w
-            regions[has, w] = rows[start[j][has] + w, -1]
+            regions[has, w] = region_of[start[j][has] + w]
         used, simp = np.unique(uf[j], return_inverse=True)
         return Junctions(self.points[used], simp.reshape(j.size, k - 1), regions, used)
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._arrays import unique_values
 from .interface_fit import _smoothed, polylines, resample
 from .junctions import MARGIN, MAX_MOVE, _imposed_linear, _separating, fit_ys, stored_values, y_gradients
 
@@ -161,7 +162,7 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
         return corners
     keys = list(fitted)
     moved = np.array([fitted[k][0] for k in keys])
-    candidates = np.unique(np.concatenate([near[k] for k in keys]))
+    candidates = unique_values(np.concatenate([near[k] for k in keys]))
     d, nearest = cKDTree(moved).query(domain.points[candidates], distance_upper_bound=BLEND * h)
     fixes = list(corners)
     for i, k in enumerate(keys):
@@ -418,7 +419,7 @@ def _pair_points(faces):
     out = {}
     pairs = np.sort(faces.pairs, axis=1)
     for pair in np.unique(pairs, axis=0):
-        ids = np.unique(faces.simplices[(pairs[:, 0] == pair[0]) & (pairs[:, 1] == pair[1])])
+        ids = unique_values(faces.simplices[(pairs[:, 0] == pair[0]) & (pairs[:, 1] == pair[1])])
         out[(int(pair[0]), int(pair[1]))] = cKDTree(faces.points[ids]), faces.points[ids]
     return out
 

@@ -122,52 +122,65 @@ def fit_ys(problems, margin=MARGIN, iterations=100):
     """:func:`fit_y` of several junctions ``(sites, sector, angles)`` at once.
 
     Their losses are independent: each step takes a damped Gauss-Newton step
-    (Levenberg-Marquardt) of every junction's five parameters from one pass over all the
+    (Levenberg-Marquardt) of every junction's five parameters from one pass over the
     sites, and keeps it for the junctions whose loss it lowers (raising their damping for
-    the others), so that a few array passes serve every junction.
+    the others), so that a few array passes serve every junction. A junction whose step
+    falls below 1e-7, or whose damping passes 1e12, is done: the passes after read only
+    the sites of the others.
     """
     n = len(problems)
     sites = np.concatenate([np.asarray(p[0], dtype=np.float64) for p in problems])
     owner = np.repeat(np.arange(n), [len(p[0]) for p in problems])
     sector = np.concatenate([np.asarray(p[1], dtype=np.intp) for p in problems])
     following = (sector + 1) % 3
-    rows = np.arange(sites.shape[0])
-    summed = sp.csr_matrix((np.ones(rows.size), (owner, rows)), shape=(n, rows.size))  # sites -> junctions
 
-    def terms(x):
-        """Each junction's loss, gradient and Gauss-Newton matrix at parameters ``x``."""
+    def terms(x, active):
+        """The loss, gradient and Gauss-Newton matrix of each junction of ``active`` at its
+        parameters ``x`` (one row each).
+        """
+        slot = np.full(n, -1)
+        slot[active] = np.arange(active.size)
+        mine = np.flatnonzero(slot[owner] >= 0)
+        at, first, second = slot[owner[mine]], sector[mine], following[mine]
+        rows = np.arange(mine.size)
+        summed = sp.csr_matrix((np.ones(mine.size), (at, rows)), shape=(active.size, mine.size))  # sites -> junctions
         centre, angle = x[:, :2], x[:, 2:]
-        rel = sites - centre[owner]
-        a0, a1 = angle[owner, sector], angle[owner, following]
+        rel = sites[mine] - centre[at]
+        a0, a1 = angle[at, first], angle[at, second]
         left = np.stack([-np.sin(a0), np.cos(a0)], axis=1)  # left normal of each site's first ray
         right = np.stack([np.sin(a1), -np.cos(a1)], axis=1)  # right normal of its second
-        loss, grad, hess = np.zeros(n), np.zeros((n, 5)), np.zeros((n, 5, 5))
-        for normal, ray in ((left, 2 + sector), (right, 2 + following)):
+        k = active.size
+        loss, grad, hess = np.zeros(k), np.zeros((k, 5)), np.zeros((k, 5, 5))
+        for normal, ray in ((left, 2 + first), (right, 2 + second)):
             dist = np.einsum("ij,ij->i", rel, normal)
             e, slope = _soft_exp(-dist / margin)
-            d = np.zeros((sites.shape[0], 5))  # the distance's derivatives
+            d = np.zeros((mine.size, 5))  # the distance's derivatives
             d[:, :2] = -normal
             d[rows, ray] = rel[:, 1] * normal[:, 0] - rel[:, 0] * normal[:, 1]  # turning the normal
             loss += summed @ e
             grad += summed @ ((-slope / margin)[:, None] * d)
             hess += (summed @ ((slope / margin**2)[:, None] * (d[:, :, None] * d[:, None, :]).reshape(-1, 25))).reshape(
-                n, 5, 5
+                k, 5, 5
             )
         return loss, grad, hess
 
     x = np.column_stack([np.zeros((n, 2)), np.array([np.asarray(p[2], dtype=np.float64) for p in problems])])
-    loss, grad, hess = terms(x)
+    active = np.arange(n)
+    loss, grad, hess = terms(x, active)
     damping = np.full(n, 1e-3)
     for _ in range(iterations):
-        scaled = hess + damping[:, None, None] * (np.eye(5) * (np.einsum("jii->ji", hess)[:, :, None] + 1e-12))
-        step = -np.linalg.solve(scaled, grad[:, :, None])[:, :, 0]
-        trial = terms(x + step)
-        better = trial[0] < loss
-        x[better] += step[better]
-        loss[better], grad[better], hess[better] = trial[0][better], trial[1][better], trial[2][better]
-        damping = np.where(better, damping / 3.0, damping * 4.0)
-        if np.abs(step).max() < 1e-7 or damping.min() > 1e12:
+        if active.size == 0:
             break
+        h, g, mu = hess[active], grad[active], damping[active]
+        scaled = h + mu[:, None, None] * (np.eye(5) * (np.einsum("jii->ji", h)[:, :, None] + 1e-12))
+        step = -np.linalg.solve(scaled, g[:, :, None])[:, :, 0]
+        trial = terms(x[active] + step, active)
+        better = trial[0] < loss[active]
+        moved = active[better]
+        x[moved] += step[better]
+        loss[moved], grad[moved], hess[moved] = trial[0][better], trial[1][better], trial[2][better]
+        damping[active] = np.where(better, mu / 3.0, mu * 4.0)
+        active = active[~((np.abs(step).max(axis=1) < 1e-7) | (damping[active] > 1e12))]
     out = []
     for centre, fitted in zip(x[:, :2], x[:, 2:], strict=True):
         spans = np.diff(np.concatenate([fitted, fitted[:1] + 2 * np.pi]))
