@@ -81,7 +81,8 @@ smoothing of the relaxed polylines the fit is linearised about.
 ``--independent`` relaxes every region against the rest on its own, its field smoothed
 as one (``ndboundary.pipeline.sectors.SECTOR_SMOOTHING = False``): the baseline that
 smoothing within sectors is measured against. ``--no-junction-fit`` keeps the point
-junctions (in the plane, on the sphere) where the relaxed functions put them
+junctions (in the plane, on the sphere), and the junction curves and their corners (in
+volumes), where the relaxed functions put them
 (``ndboundary.pipeline.junctions.JUNCTION_FIT = False``): the baseline that fitting them
 to the labels is measured against; the junctions that lie alone are still fitted with
 their interfaces then, unless ``--no-interface-fit`` too, which keeps the interfaces of
@@ -709,7 +710,8 @@ def main():
     parser.add_argument(
         "--no-junction-fit",
         action="store_true",
-        help="keep the point junctions where the relaxed functions put them (not fitted to the labels)",
+        help="keep the junctions (points, curves and their corners) where the relaxed functions put them (not "
+        "fitted to the labels)",
     )
     parser.add_argument(
         "--no-interface-fit",
