@@ -482,7 +482,7 @@ class RegionsResult(_RegionMethods):
     @property
     def phi(self):
         """The region functions, shape (n_vertices, n_regions) (built once): each region's
-        relaxation, and near each point junction fitted to the labels the fitted values
+        relaxation, and near each junction fitted to the labels the fitted values
         (:meth:`region_values`).
         """
         cached = self.__dict__.get("_phi")
@@ -503,8 +503,10 @@ class RegionsResult(_RegionMethods):
         function with work and memory that follow the bands, not ``L`` times the domain.
 
         In the plane and on surfaces, the values near each point junction are those of
-        the junction fitted to the labels (:mod:`~ndboundary.pipeline.junctions`), so
-        that the partition's junctions are the fitted ones, and in the plane the values
+        the junction fitted to the labels (:mod:`~ndboundary.pipeline.junctions`), in
+        volumes those near each junction curve and its corners
+        (:mod:`~ndboundary.pipeline.junction_curves`), so that the partition's junctions
+        are the fitted ones, and in the plane the values
         near each interface those of the interface fitted to them
         (:mod:`~ndboundary.pipeline.interface_fit`); ``regions`` keeps every region's own
         relaxation.
@@ -546,8 +548,10 @@ class RegionsResult(_RegionMethods):
         return out
 
     def _fit_junctions(self, values):
-        """Fit the point junctions of the partition of the relaxed functions ``values`` to
-        the labels (:mod:`~ndboundary.pipeline.junctions`), once; whether any was fitted.
+        """Fit the junctions of the partition of the relaxed functions ``values`` to the
+        labels, once: points in the plane and on surfaces
+        (:mod:`~ndboundary.pipeline.junctions`), curves and their corners in volumes
+        (:mod:`~ndboundary.pipeline.junction_curves`); whether any was fitted.
 
         The junctions are found by cutting the complex near them only
         (:func:`_near_junctions`); the mixed elements of the relaxed functions are kept
