@@ -74,6 +74,9 @@ CORNER_BLEND = 2.5
 #: A sample's fit is kept only where its Y puts at least this share of its sites in their
 #: regions' sectors (and no fewer than the relaxed Y does).
 ACCURACY = 0.95
+#: A sample whose slab holds fewer sites of its three regions than this share of a whole
+#: slab's (the domain's border cuts it, or a fourth region fills part of it) is not fitted.
+FULL = 0.5
 #: A sample whose fitted Y has a sector wider than this (radians) is left as relaxed: a
 #: T, where a region meets a flat face of another. No three linear functions part a T: as
 #: a sector nears half a turn, their rise across the opposite ray vanishes
@@ -126,6 +129,7 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
     if not near:
         return corners
     pieces = _pair_points(faces)
+    expected = np.pi * RADIUS**2 * 2.0 * SLAB * (h / unit) ** 3  # the sites of a whole slab
     problems = []
     for k, ((centre, tangent, frame, trio, curve), around) in enumerate(zip(samples, site_near, strict=True)):
         rel = sites[around] - centre
@@ -141,8 +145,8 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
         mine = keep & np.isin(site_codes[around], owners)
         order = np.argsort(owners)
         sector = order[np.searchsorted(owners, site_codes[around][mine], sorter=order)]
-        if np.bincount(sector, minlength=3).min() < 3:
-            continue
+        if np.bincount(sector, minlength=3).min() < 3 or mine.sum() < FULL * expected:
+            continue  # too few sites, or a slab the domain's border cuts short
         problems.append((k, curve, owners, (planar[mine] / unit, sector, angles)))
     if not problems:
         return corners
