@@ -381,12 +381,13 @@ def _samples(junctions, h):
                 continue
             reference = np.eye(3)[np.argmin(np.abs(tangent.mean(axis=0)))]
             first = reference - (tangent @ reference)[:, None] * tangent
-            first /= np.linalg.norm(first, axis=1)[:, None]
+            length = np.linalg.norm(first, axis=1)
+            first /= np.maximum(length, 1e-300)[:, None]
             second = np.cross(tangent, first)
             line = line * h
-            far = np.ones(line.shape[0], dtype=bool)
+            far = length > 0.1  # a loop's tangent may turn onto the reference direction
             if meeting_tree is not None:
-                far = meeting_tree.query(line)[0] > END_GAP * h
+                far &= meeting_tree.query(line)[0] > END_GAP * h
             for p, t, a, b in zip(line[far], tangent[far], first[far], second[far], strict=True):
                 out.append((p, t, np.stack([a, b]), trio, curve))
             curve += 1
