@@ -30,7 +30,9 @@ functions. Each corner with four regions about it is fitted so (:func:`fit_corne
 functions first fitted to the relaxed ones around it) to the sites within
 :data:`CORNER_RADIUS` h, and imposed as a Y is, within :data:`CORNER_CORE` h of it,
 blended out by :data:`CORNER_BLEND`; the curves' samples within :data:`END_GAP` h of a
-point where curves meet are not fitted, and the corner's vertices are its own.
+point where curves meet are not fitted, and the corner's vertices are its own. Two
+corners nearer than :data:`CORNER_PAIR` h are fitted together, as five affine functions
+about both.
 
 A fit is left out (the curve or corner as relaxed) when it moves the junction farther
 than :data:`~ndboundary.pipeline.junctions.MAX_MOVE` sites' spacings, when it puts fewer of
@@ -71,6 +73,8 @@ END_GAP = 2.0
 CORNER_RADIUS = 4.0
 CORNER_CORE = 1.25
 CORNER_BLEND = 2.5
+#: Two corners nearer than this many h to each other are fitted together.
+CORNER_PAIR = 8.0
 #: A sample's fit is kept only where its Y puts at least this share of its sites in their
 #: regions' sectors (and no fewer than the relaxed Y does).
 ACCURACY = 0.95
@@ -270,13 +274,16 @@ def _corner_fixes(domain, codes, on, values, junctions, h, lead, unit):
     corners = _corners(junctions, h)
     if not corners:
         return []
-    centres = np.array([c for c, _ in corners])
-    near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, CORNER_RADIUS * h)
+    centres = np.array([c for c, _, _ in corners])
+    reach = CORNER_RADIUS * h + max(r for _, _, r in corners)
+    near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, reach)
     fixes, taken = [], np.zeros(domain.n_vertices, dtype=bool)
-    for (centre, owners), vertices, around in zip(corners, near, site_near, strict=True):
+    for (centre, owners, half), vertices, around in zip(corners, near, site_near, strict=True):
+        vertices = vertices[np.linalg.norm(domain.points[vertices] - centre, axis=1) <= CORNER_RADIUS * h + half]
+        around = around[np.linalg.norm(sites[around] - centre, axis=1) <= CORNER_RADIUS * h + half]
         stored = stored_values(values, vertices, owners)
         rel = (domain.points[vertices] - centre) / unit
-        use = ~np.isnan(stored).any(axis=1) & (np.linalg.norm(rel, axis=1) <= 2.0 * h / unit)
+        use = ~np.isnan(stored).any(axis=1) & (np.linalg.norm(rel, axis=1) <= (2.0 * h + half) / unit)
         mine = np.isin(site_codes[around], owners)
         if use.sum() < 8 or mine.sum() < 20:
             continue
@@ -290,17 +297,19 @@ def _corner_fixes(domain, codes, on, values, junctions, h, lead, unit):
             continue
         right = np.mean(np.argmax(points @ fit[:, :3].T + fit[:, 3], axis=1) == region)
         before = np.mean(np.argmax(points @ guess[:, :3].T + guess[:, 3], axis=1) == region)
-        try:
-            moved = np.linalg.solve(fit[1:, :3], -fit[1:, 3])  # where the four functions tie
-        except np.linalg.LinAlgError:
-            continue
+        moved = np.zeros(3)
+        if owners.size == 4:
+            try:
+                moved = np.linalg.solve(fit[1:, :3], -fit[1:, 3])  # where the four functions tie
+            except np.linalg.LinAlgError:
+                continue
         if not (right >= max(ACCURACY, before) and np.linalg.norm(moved) <= MAX_MOVE):
             continue
         linear = np.column_stack([fit[:, :3], fit[:, :3] @ moved + fit[:, 3]])  # about the moved point
         place = centre + moved * unit
         within = vertices[np.isin(lead[vertices], owners) & ~taken[vertices]]
-        fix = _imposed_linear(domain, place, np.eye(3), owners, linear, within, CORNER_CORE * h, CORNER_BLEND * h,
-                              values, h, unit, level=True)  # fmt: skip
+        fix = _imposed_linear(domain, place, np.eye(3), owners, linear, within, CORNER_CORE * h + half,
+                              CORNER_BLEND * h + half, values, h, unit, level=True)  # fmt: skip
         if fix is not None:
             taken[fix[0]] = True
             fixes.append(fix)
@@ -309,7 +318,10 @@ def _corner_fixes(domain, codes, on, values, junctions, h, lead, unit):
 
 def _corners(junctions, h):
     """The points where junction curves meet with four regions about them: ``(point,
-    regions)``, the points of one corner (within h of each other) merged.
+    regions, 0)``, the points of one corner (within h of each other) merged; two corners
+    nearer than :data:`CORNER_PAIR` h to each other, and to no third, as one ``(midpoint,
+    their five regions, half their distance)``: four affine functions about each would
+    not see the other's fifth region, which the fit of all five about both does.
     """
     points, simplices, regions = junctions.points, junctions.simplices, junctions.regions
     degree = np.bincount(simplices.ravel(), minlength=points.shape[0])
@@ -327,8 +339,21 @@ def _corners(junctions, h):
         owners = np.unique(regions[touching])
         owners = owners[owners >= 0]
         if owners.size == 4:
-            out.append((points[ids].mean(axis=0), owners))
-    return out
+            out.append((points[ids].mean(axis=0), owners, 0.0))
+    if len(out) < 2:
+        return out
+    at = np.array([c for c, _, _ in out])
+    dist, other = cKDTree(at).query(at, k=min(3, len(out)))
+    dist = np.column_stack([dist, np.full((len(out), 3 - dist.shape[1]), np.inf)])
+    paired, merged = set(), []
+    for i, (d, j) in enumerate(zip(dist, other[:, 1], strict=True)):
+        if i in paired or not d[1] < CORNER_PAIR * h or d[2] < CORNER_PAIR * h or dist[j, 2] < CORNER_PAIR * h:
+            continue
+        regions_ij = np.union1d(out[i][1], out[j][1])
+        if regions_ij.size == 5:
+            paired |= {i, int(j)}
+            merged.append((0.5 * (at[i] + at[j]), regions_ij, 0.5 * float(d[1])))
+    return [c for k, c in enumerate(out) if k not in paired] + merged
 
 
 def _sectors(sites, angles):
