@@ -624,13 +624,31 @@ def test_many_regions_on_the_whole_grid_take_the_images_band_width():
     np.testing.assert_allclose(result.region_measures(), [13 * 1600, 13 * 1600, 14 * 1600], rtol=1e-3)
 
 
+def _fitted_and_relaxed(monkeypatch, labels, off, fitted_below, relaxed_above):
+    """``relax_image(labels)`` with its junctions fitted puts them within ``fitted_below``
+    of the truth by ``off`` (a function of the result), keeping the regions' volumes,
+    and the relaxation alone farther than ``relaxed_above``.
+    """
+    from ndboundary.pipeline import junctions
+
+    fitted = relax_image(labels)
+    assert off(fitted) < fitted_below  # the fit is made when the partition is first built
+    np.testing.assert_allclose(fitted.region_measures(), np.bincount(labels.ravel()), rtol=3e-3)
+    monkeypatch.setattr(junctions, "JUNCTION_FIT", False)
+    assert off(relax_image(labels)) > relaxed_above
+
+
+def _meeting_points(result):
+    """The points where the junction curves of ``result`` meet."""
+    j = result.interfaces().junctions()
+    return j.points[np.bincount(j.simplices.ravel(), minlength=j.points.shape[0]) >= 3]
+
+
 def test_a_junction_curve_the_relaxation_misplaces_is_moved_onto_its_line(monkeypatch):
     """Three regions of unequal angles (80, 150 and 130 degrees) meet along a straight line
     tilted to the voxels: the relaxed functions put their junction curve a third of a
     voxel off it, the fit of its cross-sections to the voxels within a tenth, and the
     regions keep their volumes."""
-    from ndboundary.pipeline import junctions
-
     n = 28
     axis = np.array([0.2, 0.3, 1.0]) / np.linalg.norm([0.2, 0.3, 1.0])
     centre = np.array([13.7, 13.2, 13.5])
@@ -646,11 +664,7 @@ def test_a_junction_curve_the_relaxation_misplaces_is_moved_onto_its_line(monkey
         r = points - centre
         return np.linalg.norm(r - np.outer(r @ axis, axis), axis=1).mean()
 
-    fitted = relax_image(labels)
-    assert off_line(fitted) < 0.1  # the fit is made when the partition is first built
-    np.testing.assert_allclose(fitted.region_measures(), np.bincount(labels.ravel()), rtol=2e-3)
-    monkeypatch.setattr(junctions, "JUNCTION_FIT", False)
-    assert off_line(relax_image(labels)) > 0.25
+    _fitted_and_relaxed(monkeypatch, labels, off_line, 0.1, 0.25)
 
 
 def test_a_point_where_four_regions_meet_is_moved_onto_the_truth(monkeypatch):
@@ -658,23 +672,15 @@ def test_a_point_where_four_regions_meet_is_moved_onto_the_truth(monkeypatch):
     relaxed functions put their corner (where junction curves meet) most of a voxel off
     it, its fit to the voxels around it within a fifth, and the regions keep their
     volumes."""
-    from ndboundary.pipeline import junctions
-
     n = 28
     corner = np.array([13.3, 12.6, 14.1])
     gradients = np.array([[0.0, 0.0, 0.0], [1.0, 0.2, 0.0], [0.1, 1.0, 0.3], [-0.6, -0.5, 1.0]])
     labels = np.argmax((np.indices((n, n, n)).reshape(3, -1).T - corner) @ gradients.T, axis=1).reshape((n,) * 3)
 
     def off(result):
-        j = result.interfaces().junctions()
-        meeting = np.bincount(j.simplices.ravel(), minlength=j.points.shape[0]) >= 3
-        return np.linalg.norm(j.points[meeting] - corner, axis=1).min()
+        return np.linalg.norm(_meeting_points(result) - corner, axis=1).min()
 
-    fitted = relax_image(labels)
-    assert off(fitted) < 0.2  # the fit is made when the partition is first built
-    np.testing.assert_allclose(fitted.region_measures(), np.bincount(labels.ravel()), rtol=3e-3)
-    monkeypatch.setattr(junctions, "JUNCTION_FIT", False)
-    assert off(relax_image(labels)) > 0.6
+    _fitted_and_relaxed(monkeypatch, labels, off, 0.2, 0.6)
 
 
 def test_two_corners_near_each_other_are_fitted_together(monkeypatch):
@@ -682,8 +688,6 @@ def test_two_corners_near_each_other_are_fitted_together(monkeypatch):
     partition of five affine functions about both, each lies within a fifth of a voxel of
     the truth (as relaxed, 0.58 and 0.39 voxel)."""
     from scipy.spatial import Voronoi, cKDTree
-
-    from ndboundary.pipeline import junctions
 
     n = 28
     sites = np.random.default_rng(44).uniform(4, n - 5, (5, 3))
@@ -693,15 +697,10 @@ def test_two_corners_near_each_other_are_fitted_together(monkeypatch):
     labels = cKDTree(sites).query(np.indices((n, n, n)).reshape(3, -1).T)[1].reshape((n,) * 3)
 
     def off(result):
-        j = result.interfaces().junctions()
-        meeting = j.points[np.bincount(j.simplices.ravel(), minlength=j.points.shape[0]) >= 3]
+        meeting = _meeting_points(result)
         return max(np.linalg.norm(meeting - c, axis=1).min() for c in corners)
 
-    fitted = relax_image(labels)
-    assert off(fitted) < 0.2  # the fit is made when the partition is first built
-    np.testing.assert_allclose(fitted.region_measures(), np.bincount(labels.ravel()), rtol=3e-3)
-    monkeypatch.setattr(junctions, "JUNCTION_FIT", False)
-    assert off(relax_image(labels)) > 0.5
+    _fitted_and_relaxed(monkeypatch, labels, off, 0.2, 0.5)
 
 
 def test_many_regions_partition_their_bands_as_their_filled_functions():
