@@ -124,14 +124,21 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
     taken = np.zeros(domain.n_vertices, dtype=bool)
     for vertices, _, _ in corners:
         taken[vertices] = True
+    return corners + _curve_fixes(domain, codes, on, values, faces, junctions, h, lead, unit, taken)
+
+
+def _curve_fixes(domain, codes, on, values, faces, junctions, h, lead, unit, taken):
+    """The junction curves' samples fitted and imposed, as the module describes, on the
+    vertices that no corner's fit took (``taken``).
+    """
     samples = _samples(junctions, h)
     if not samples:
-        return corners
+        return []
     centres = np.array([s[0] for s in samples])
     reach = float(np.hypot(RADIUS, SLAB)) * h
     near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, reach)
     if not near:
-        return corners
+        return []
     pieces = _pair_points(faces)
     expected = np.pi * RADIUS**2 * 2.0 * SLAB * (h / unit) ** 3  # the sites of a whole slab
     problems = []
@@ -144,7 +151,7 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
         if guess is None:
             continue
         angles, owners = guess
-        if np.diff(np.r_[angles, angles[0] + 2 * np.pi]).max() > MAX_SECTOR:
+        if _widest(angles) > MAX_SECTOR:
             continue  # a T as relaxed (below)
         mine = keep & np.isin(site_codes[around], owners)
         order = np.argsort(owners)
@@ -153,7 +160,7 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
             continue  # too few sites, or a slab the domain's border cuts short
         problems.append((k, curve, owners, (planar[mine] / unit, sector, angles)))
     if not problems:
-        return corners
+        return []
     fits = fit_ys([p[3] for p in problems], MARGIN)
     fitted = {}  # sample -> (centre, angles, owners)
     for (k, _, owners, (planar, sector, angles)), fit in zip(problems, fits, strict=True):
@@ -161,18 +168,17 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
             continue
         # kept only where it parts the sites at least as well as the relaxed Y, and nearly all
         right = np.mean(_sectors(planar - fit[0], fit[1]) == sector)
-        widest = np.diff(np.r_[fit[1], fit[1][0] + 2 * np.pi]).max()
-        if widest <= MAX_SECTOR and right >= max(ACCURACY, np.mean(_sectors(planar, angles) == sector)):
+        if _widest(fit[1]) <= MAX_SECTOR and right >= max(ACCURACY, np.mean(_sectors(planar, angles) == sector)):
             centre, _, frame, _, _ = samples[k]
             fitted[k] = (centre + (fit[0] * unit) @ frame, fit[1], owners)
     fitted = _averaged(fitted, samples)
     if not fitted:
-        return corners
+        return []
     keys = list(fitted)
     moved = np.array([fitted[k][0] for k in keys])
     candidates = unique_values(np.concatenate([near[k] for k in keys]))
     d, nearest = cKDTree(moved).query(domain.points[candidates], distance_upper_bound=BLEND * h)
-    fixes = list(corners)
+    fixes = []
     for i, k in enumerate(keys):
         centre, angles, owners = fitted[k]
         vertices = candidates[(nearest == i) & np.isfinite(d)]
@@ -356,6 +362,11 @@ def _corners(junctions, h):
     return [c for k, c in enumerate(out) if k not in paired] + merged
 
 
+def _widest(angles):
+    """The widest sector (radians) of the Y of rays at ``angles`` (counter-clockwise)."""
+    return float(np.diff(np.r_[angles, angles[0] + 2 * np.pi]).max())
+
+
 def _sectors(sites, angles):
     """The sector of each site (n, 2) of the Y of rays at ``angles`` from the origin
     (counter-clockwise; sector ``q`` from ray ``q`` to ray ``q + 1``).
@@ -388,8 +399,9 @@ def _samples(junctions, h):
     key = (trios[:, 0] * (trios.max() + 1) + trios[:, 1]) * (trios.max() + 1) + trios[:, 2]
     out, curve = [], 0
     for value in np.unique(key):
-        mine = three.nonzero()[0][key == value]
-        trio = trios[np.flatnonzero(key == value)[0]]
+        same = key == value
+        mine = np.flatnonzero(three)[same]
+        trio = trios[np.argmax(same)]
         for ids, closed in polylines(points, simplices[mine]):
             if ids.size < 2:
                 continue
