@@ -141,9 +141,10 @@ class _RegionMethods:
         lies in that region, whole, and no interface crosses it. Cutting only the others
         makes the cost follow the interfaces, not the domain.
         """
+        values = self.region_values()  # may leave the cut of its junctions' fit here
         cached = self.__dict__.get("_mixed_cache")
         if cached is None:
-            cached = self.__dict__["_mixed_cache"] = _mixed_of(self.domain, self.region_values())
+            cached = self.__dict__["_mixed_cache"] = _mixed_of(self.domain, values)
         return cached
 
     def _cut(self):
@@ -564,6 +565,7 @@ class RegionsResult(_RegionMethods):
         lead = _argmax_rows(values)
         mixed = _mixed_of(self.domain, values, lead)
         if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
+            self.__dict__["_mixed_cache"] = mixed  # the partition's, not built twice
             return False  # the whole cut would not fit in memory: see _RegionCuts
         h = self.params.get("h") or self.domain.mean_edge_length()
         complex_ = _complex(self.domain, values) if mixed[0] is None else mixed[0]
