@@ -789,6 +789,38 @@ def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):
         at_once.region_boundary(-1)
 
 
+def test_a_whole_voxel_grid_builds_its_tables_when_read(monkeypatch):
+    """A VoxelGrid holds no table of its voxels' corners, coordinates or volumes until one
+    is read: its largest corner values, a slab of voxels at a time, are the table's. A
+    partition relaxed region by region on their bands and cut region by region (beyond
+    PARTITION_BY_REGION_SIMPLICES, an atlas's size) reads none of them, from the
+    relaxation to every region's boundary and measure."""
+    from ndboundary.domains import image
+    from ndboundary.pipeline import result as result_module
+
+    tables = ("cell_vertices", "points", "_volumes")
+    grid = ImageGrid((5, 6, 7), spacing=(1.0, 0.5, 2.0))
+    assert not any(name in grid.__dict__ for name in tables)
+    assert (grid.n_vertices, grid.n_elements, grid.dim) == (6 * 7 * 8, 5 * 6 * 7, 3)
+    f = np.random.default_rng(0).normal(size=grid.n_vertices)
+    monkeypatch.setattr(image, "SLAB_VOXELS", 50)  # slabs of one layer: 42 voxels
+    by_slab = grid.element_max(f)
+    assert not any(name in grid.__dict__ for name in tables)
+    corners = grid.cell_vertices[1].reshape(-1, 8)
+    np.testing.assert_array_equal(by_slab, f[corners].max(axis=1))
+    np.testing.assert_array_equal(grid.element_max(f), by_slab)  # from the table, once read
+    np.testing.assert_allclose(grid.element_centroids()[0], grid.points[corners[0]].mean(axis=0))
+    assert grid.A.sum() == pytest.approx(5 * 3 * 14)
+
+    labels = np.pad(_voronoi((16, 18, 20), 6, (1.0, 1.0, 1.0), seed=2), 1, constant_values=9)
+    monkeypatch.setattr(result_module, "PARTITION_BY_REGION_SIMPLICES", 0)
+    result = relax_image(labels, band=4.0)
+    assert isinstance(result.domain, VoxelGrid)
+    result.region_boundaries()
+    assert result.region_measures().sum() == pytest.approx(labels.size, rel=1e-12)
+    assert not any(name in result.domain.__dict__ for name in tables)
+
+
 @pytest.mark.parametrize("band", [False, True])
 def test_a_voxel_grids_gradient_and_divergence_need_no_matrix(band):
     """The gradient and weak divergence of voxels, computed from the box every voxel shares,

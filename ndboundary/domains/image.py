@@ -529,6 +529,57 @@ class VoxelGrid(ImageGrid, _Voxels):
         self.direction = grid_direction(direction, 3)
         _init_voxels(self, None, kwargs)
 
+    # The whole grid's tables are built when first read: relaxed region by region
+    # (``relax_image`` with many labels), a grid serves as the domain its bands are cut
+    # from and its results live on, and an atlas's 23 M voxels would hold 3.7 GB of
+    # corners, coordinates and volumes that nothing reads.
+
+    @cached_property
+    def cell_vertices(self):
+        """The (voxel, corner) pairs, 8 a voxel in :data:`CORNER_BITS` order."""
+        n = self._n_voxels
+        corners = _lowest_corners(self.shape, np.arange(n))[:, None] + CORNER_BITS @ corner_strides(self.shape)
+        return np.repeat(np.arange(n), 8), corners.ravel()
+
+    @cached_property
+    def points(self):
+        """The corners' coordinates, shape (n_vertices, 3), in the grid's C order."""
+        return corner_points(self.shape, self.spacing, self.origin, self.direction)
+
+    @cached_property
+    def _volumes(self):
+        return self.build_measures()
+
+    def build_measures(self):
+        """The voxels' volumes, all alike."""
+        return np.full(self._n_voxels, float(np.prod(self.spacing)))
+
+    @property
+    def n_vertices(self):
+        """Number of vertices (the grid's corners)."""
+        return int(np.prod(np.asarray(self.shape) + 1))
+
+    @property
+    def dim(self):
+        """3: the corners' coordinates."""
+        return 3
+
+    def element_max(self, f):
+        """Per voxel, the largest value of the vertex function ``f`` at its corners, a
+        slab of voxels at a time unless their corners are held: no table of every
+        voxel's corners.
+        """
+        if "cell_vertices" in self.__dict__:
+            return super().element_max(f)
+        f = np.asarray(f)
+        out = np.empty(self._n_voxels, dtype=f.dtype)
+        offsets = CORNER_BITS @ corner_strides(self.shape)
+        step = max(1, SLAB_VOXELS // (self.shape[1] * self.shape[2])) * self.shape[1] * self.shape[2]
+        for start in range(0, self._n_voxels, step):
+            voxels = np.arange(start, min(start + step, self._n_voxels))
+            out[voxels] = corner_max(f, _lowest_corners(self.shape, voxels)[:, None] + offsets)
+        return out
+
 
 class GridBand:
     """Some of the pixels or voxels of an image, as a domain of their own: the band of a
@@ -751,6 +802,11 @@ def grid_facets(grid, region1, near=None):
     return tuple(np.concatenate(x) for x in (facets, normals, areas, inner_c, outer_c))
 
 
+#: Voxels a pass of :meth:`VoxelGrid.element_max` reads at a time (whole slabs of the
+#: first axis, at least one): 64 MB of corners.
+SLAB_VOXELS = 1 << 20
+
+
 def _lowest_corners(shape, pixels):
     """The lowest corner of each pixel, as an index among the grid's corners."""
     return np.ravel_multi_index(np.unravel_index(pixels, shape), tuple(n + 1 for n in shape))
@@ -789,33 +845,33 @@ def _pixel_strides(grid):
 
 
 def _init_voxels(mesh, voxels, kwargs):
-    """Build the hexahedra of the ``voxels`` of ``mesh``'s grid (all of them for None): their
-    corners and points; the faces are found when first read (``_Voxels._faces``).
+    """Build the hexahedra of the ``voxels`` of ``mesh``'s grid: their corners and points;
+    the faces are found when first read (``_Voxels._faces``). For None (every voxel),
+    :class:`VoxelGrid` builds its corners and points when first read.
     """
     laplacian = kwargs.pop("laplacian", "consistent")
     stabilization = check_laplacian_options(laplacian, kwargs.pop("stabilization", 4.0))
     if kwargs:
         raise TypeError(f"{type(mesh).__name__} got unexpected keyword arguments {sorted(kwargs)}")
     shape = mesh.shape
-    if voxels is None:
-        lowest = _lowest_corners(shape, np.arange(int(np.prod(shape))))
-        cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(shape)
-        points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction)
-    else:
-        # the corners the voxels hold, numbered by a table over the corners of the voxels'
-        # bounding box, without a sort: its size follows the band, not the grid
-        start, box, index = _pixel_box(shape, voxels)
-        cshape = tuple(n + 1 for n in box)
-        lowest = np.ravel_multi_index(index, cshape)
-        cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(box)
-        used, remap = used_vertices(cell_vertices, int(np.prod(cshape)))
-        cell_vertices = remap[cell_vertices]
-        mesh.corners = np.ravel_multi_index(
-            tuple(i + s for i, s in zip(np.unravel_index(used, cshape), start, strict=True)),
-            tuple(n + 1 for n in shape),
-        )  # increasing: the box's C order is the grid's
-        points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
-    mesh.stabilization, mesh.laplacian, mesh.points = stabilization, laplacian, points
+    mesh.stabilization, mesh.laplacian = stabilization, laplacian
+    if voxels is None:  # the whole grid: its tables are built when read (VoxelGrid)
+        mesh._n_voxels = int(np.prod(shape))
+        return
+    # the corners the voxels hold, numbered by a table over the corners of the voxels'
+    # bounding box, without a sort: its size follows the band, not the grid
+    start, box, index = _pixel_box(shape, voxels)
+    cshape = tuple(n + 1 for n in box)
+    lowest = np.ravel_multi_index(index, cshape)
+    cell_vertices = lowest[:, None] + CORNER_BITS @ corner_strides(box)
+    used, remap = used_vertices(cell_vertices, int(np.prod(cshape)))
+    cell_vertices = remap[cell_vertices]
+    mesh.corners = np.ravel_multi_index(
+        tuple(i + s for i, s in zip(np.unravel_index(used, cshape), start, strict=True)),
+        tuple(n + 1 for n in shape),
+    )  # increasing: the box's C order is the grid's
+    points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
+    mesh.points = points
     mesh._n_voxels = cell_vertices.shape[0]
     mesh._volumes = np.full(cell_vertices.shape[0], float(np.prod(mesh.spacing)))
     mesh.__dict__["cell_vertices"] = (np.repeat(np.arange(cell_vertices.shape[0]), 8), cell_vertices.ravel())

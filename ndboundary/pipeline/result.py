@@ -600,7 +600,7 @@ class RegionsResult(_RegionMethods):
             self._codes is None
             or not interface_fit.INTERFACE_FIT
             or self.classes.size < 3
-            or self.domain.points.shape[1] != 2
+            or self.domain.dim != 2
         ):
             return False
         tick = time.perf_counter()
