@@ -596,12 +596,7 @@ class RegionsResult(_RegionMethods):
         plane; whether any was fitted.
         """
         self._interface_values = []
-        if (
-            self._codes is None
-            or not interface_fit.INTERFACE_FIT
-            or self.classes.size < 3
-            or self.domain.dim != 2
-        ):
+        if self._codes is None or not interface_fit.INTERFACE_FIT or self.classes.size < 3 or self.domain.dim != 2:
             return False
         tick = time.perf_counter()
         complex_ = _mixed_of(self.domain, values)[0]
