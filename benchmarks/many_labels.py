@@ -11,10 +11,18 @@ image's volume. A thread polls ``/proc/self/statm`` every 50 ms: ``rss`` is the 
 after each phase, ``peak`` the most within it. The run stops itself beyond ``--limit``
 GB.
 
+``--layout brain`` draws a brain-like atlas instead: background (label 0) outside and
+inside, a folded cortical ribbon 5 voxels thick cut into ``--sites`` - 35 parcels by
+direction from the centre, and 35 deep nuclei (balls of radius 5 to 12 voxels). Most of
+the volume is then one region, the background, whose boundary is every other region's:
+its own band holds millions of voxels, where the Voronoi partition's largest holds a few
+hundred thousand.
+
 Usage::
 
     python benchmarks/many_labels.py                       # 365 sites, 275 x 347 x 245
     python benchmarks/many_labels.py --sites 46 --scale 0.5
+    python benchmarks/many_labels.py --layout brain
 """
 
 from __future__ import annotations
@@ -49,17 +57,58 @@ class Memory:
             time.sleep(0.05)
 
 
+def voronoi_labels(shape, sites):
+    """The Voronoi partition of ``sites`` random sites by voxel centre."""
+    points = np.random.default_rng(0).uniform(0, 1, (sites, 3)) * shape
+    centres = np.indices(shape, dtype=np.float32).reshape(3, -1).T
+    return cKDTree(points).query(centres, workers=2)[1].astype(np.int32).reshape(shape)
+
+
+def brain_labels(shape, parcels, nuclei=35, thickness=5.0, seed=0):
+    """A brain-like atlas (see the module's docstring), a slab of the first axis at a time."""
+    rng = np.random.default_rng(seed)
+    centre, semi = (np.asarray(shape) - 1) / 2, 0.42 * np.asarray(shape)
+    directions = rng.normal(size=(parcels, 3))
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    waves = rng.normal(size=(12, 3))
+    waves /= np.linalg.norm(waves, axis=1)[:, None]
+    phases, frequencies = rng.uniform(0, 2 * np.pi, 12), 2 * np.pi * rng.uniform(5, 8, 12)
+    nucleus_centres, nucleus_radii = rng.uniform(-0.3, 0.3, (nuclei, 3)) * semi, rng.uniform(5, 12, nuclei)
+    by_direction = cKDTree(directions)
+    out = np.zeros(shape, dtype=np.int32)
+    j, k = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
+    for i in range(shape[0]):
+        x = np.stack([np.full(j.size, i), j.ravel(), k.ravel()], axis=1) - centre
+        q = x / semi
+        rho = np.linalg.norm(q, axis=1)
+        u = q / np.maximum(rho, 1e-12)[:, None]
+        folded = 1.0 + 0.1 * np.sin((u @ waves.T) * frequencies + phases).sum(axis=1) / np.sqrt(12)
+        depth = (folded - rho) * semi.min()  # voxels beneath the folded surface
+        label = np.zeros(j.size, dtype=np.int32)
+        ribbon = (depth >= 0) & (depth < thickness)
+        label[ribbon] = 1 + by_direction.query(u[ribbon])[1]
+        inner = np.flatnonzero(depth >= thickness)
+        d = np.linalg.norm((x[inner, None, :] - nucleus_centres) / nucleus_radii[:, None], axis=2)
+        nearest = np.argmin(d, axis=1)
+        hit = d[np.arange(inner.size), nearest] < 1
+        label[inner[hit]] = 1 + parcels + nearest[hit]
+        out[i] = label.reshape(j.shape)
+    return out
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sites", type=int, default=365, help="regions (default 365)")
     parser.add_argument("--scale", type=float, default=1.0, help="times the atlas's size along each axis")
     parser.add_argument("--limit", type=float, default=21.0, help="stop beyond this resident memory, GB")
+    parser.add_argument("--layout", choices=("voronoi", "brain"), default="voronoi", help="the labels' layout")
     args = parser.parse_args()
     shape = tuple(int(round(n * args.scale)) for n in ATLAS_SHAPE)
-    sites = np.random.default_rng(0).uniform(0, 1, (args.sites, 3)) * shape
-    centres = np.indices(shape, dtype=np.float32).reshape(3, -1).T
-    labels = cKDTree(sites).query(centres, workers=2)[1].astype(np.int32).reshape(shape)
-    del centres
+    if args.layout == "brain":
+        labels = brain_labels(shape, args.sites - 35, thickness=5.0 * args.scale)
+    else:
+        labels = voronoi_labels(shape, args.sites)
+    print(f"{args.layout} layout: {np.unique(labels).size} labels, background {np.mean(labels == 0):.1%} of the voxels")
     memory = Memory(args.limit)
     from ndboundary import relax_image
 

@@ -121,7 +121,8 @@ def _blocks_on_threads(blocks, compute, first_alone, threads):
 class Beside:
     """``compute(*args)`` on a thread of its own, started now, while the caller goes on:
     :meth:`result` waits for it and returns its value or raises its exception. With one
-    available thread (:func:`available_threads`) it runs when :meth:`result` is called.
+    available thread (:func:`available_threads`), or ``defer`` (a caller that cannot hold
+    what both compute at once), it runs when :meth:`result` is called.
 
     Its own thread rather than :func:`shared_pool`'s: ``compute`` may itself split work
     over the shared pool and wait for it, which a pool worker must not do with every
@@ -138,9 +139,9 @@ class Beside:
     ValueError: invalid literal for int() with base 10: 'six'
     """
 
-    def __init__(self, compute, *args):
+    def __init__(self, compute, *args, defer=False):
         self._compute, self._args, self._future = compute, args, None
-        if available_threads() > 1:
+        if not defer and available_threads() > 1:
             pool = ThreadPoolExecutor(1, thread_name_prefix="ndboundary-beside")
             self._future = pool.submit(compute, *args)
             pool.shutdown(wait=False)  # the thread ends with its one task

@@ -789,6 +789,27 @@ def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):
         at_once.region_boundary(-1)
 
 
+def test_a_large_bands_integration_terms_after_its_field_change_nothing(monkeypatch):
+    """A band beyond BESIDE_MAX_VERTICES builds its integration terms after its field, its
+    own stiffness let go first, not beside it: the same functions, to the bit."""
+    from ndboundary.pipeline import relaxer
+
+    deferred = []
+
+    class Spy(relaxer.Beside):
+        def __init__(self, *args, defer=False):
+            deferred.append(defer)
+            super().__init__(*args, defer=defer)
+
+    monkeypatch.setattr(relaxer, "Beside", Spy)
+    labels = _voronoi((14, 16, 18), 5, (1.0, 1.0, 1.0), seed=1)
+    beside = relax_image(labels, band=4.0).region_values().toarray()
+    monkeypatch.setattr(relaxer, "BESIDE_MAX_VERTICES", 0)
+    after = relax_image(labels, band=4.0).region_values().toarray()
+    assert deferred == [False] * 5 + [True] * 5
+    np.testing.assert_array_equal(after, beside)
+
+
 def test_a_whole_voxel_grid_builds_its_tables_when_read(monkeypatch):
     """A VoxelGrid holds no table of its voxels' corners, coordinates or volumes until one
     is read: its largest corner values, a slab of voxels at a time, are the table's. A

@@ -58,6 +58,13 @@ from .smoothing import smooth
 
 __all__ = ["Relaxer"]
 
+#: A band of more vertices than this, relaxed by a relaxer that keeps nothing (an image's
+#: regions), builds its integration terms after its field, once its own stiffness and
+#: adjacency are let go, instead of beside the field: built beside, both were held at
+#: once, 13.9 GB for the background of a brain-like atlas (a band of 9.3 M voxels,
+#: ``python benchmarks/many_labels.py --layout brain``). Smaller bands gain the overlap.
+BESIDE_MAX_VERTICES = 4_000_000
+
 
 class _Lines:
     """Where a relaxation's progress lines go: to stderr, or held until :meth:`release`
@@ -264,7 +271,9 @@ class Relaxer:
         # with BLAS limited to one thread on this thread around both (the solves and the
         # preconditioner's build limit it too, and OpenBLAS lifts a limit only on the
         # thread that set it: the limit opened first must close last, here)
-        with blas_threads(1), Beside(self._integration_terms, padded, boundary.sources, h, p) as terms:
+        # a large band's terms, on the inner band, come after its field (BESIDE_MAX_VERTICES)
+        later = not self._keep and self._reach is not None and padded.work.n_vertices > BESIDE_MAX_VERTICES
+        with blas_threads(1), Beside(self._integration_terms, padded, boundary.sources, h, p, defer=later) as terms:
             u, heat_info, X = self._field(key, boundary, padded, region1, p["t"] * h * h, p["rtol"], prog)
             groups = None
             if self._sectors is not None:
@@ -272,6 +281,9 @@ class Relaxer:
                 codes, region = self._sectors
                 groups = region_sectors(padded.work, codes[padded.parent], region)
             Xs = smooth(padded.work, X, p["smoothing"], groups)
+            groups = None
+            if later:
+                _forget(padded.work, ("K", "adjacency"))
             prog.step("smoothing")
             start = time.perf_counter()
             yield  # the factor may still be built beside: the caller can go on meanwhile

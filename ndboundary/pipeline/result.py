@@ -299,8 +299,8 @@ class _RegionCuts:
             self._measures[r] = 0.0
             return partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2))), 0
         indptr, ids = self._at_point  # the simplices at the points storing r
-        at = ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])]
-        simplices = self.simplices[unique_values(at)]
+        chosen = unique_values(ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])])
+        simplices = self.simplices[chosen]
         used = unique_values(simplices)
         slot = getattr(self._scratch, "slot", None)
         if slot is None:
@@ -311,8 +311,8 @@ class _RegionCuts:
         values = sp.csr_matrix(
             (values.data, np.searchsorted(present, values.indices), values.indptr), shape=(used.size, present.size)
         )
-        points, simplices = self.points[used], slot[simplices]
-        X, S, regions, parents = sweep_sparse(points, simplices, values)
+        X, S, regions, parents = sweep_sparse(self.points[used], slot[simplices], values)
+        del simplices, values  # the cut's own copies are let go before its boundary is found
         j = int(np.searchsorted(present, r))
         mine = regions == j
         self._measures[r] = float(simplex_measures(X, S[mine]).sum())
@@ -323,7 +323,7 @@ class _RegionCuts:
         near = touched[S].any(axis=1)
         part = Partition(
             Cells(X, S[near], regions[near], None, parents), present.size,
-            lambda: float(simplex_measures(points, simplices).sum()),
+            lambda: float(simplex_measures(self.points, self.simplices[chosen]).sum()),
         )  # fmt: skip
         return part, j
 
