@@ -108,7 +108,8 @@ def main():
         labels = brain_labels(shape, args.sites - 35, thickness=5.0 * args.scale)
     else:
         labels = voronoi_labels(shape, args.sites)
-    print(f"{args.layout} layout: {np.unique(labels).size} labels, background {np.mean(labels == 0):.1%} of the voxels")
+    share = f", background (label 0) {np.mean(labels == 0):.1%} of the voxels" if args.layout == "brain" else ""
+    print(f"{args.layout} layout: {np.unique(labels).size} labels{share}")
     memory = Memory(args.limit)
     from ndboundary import relax_image
 
