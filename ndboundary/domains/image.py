@@ -870,8 +870,7 @@ def _init_voxels(mesh, voxels, kwargs):
         tuple(i + s for i, s in zip(np.unravel_index(used, cshape), start, strict=True)),
         tuple(n + 1 for n in shape),
     )  # increasing: the box's C order is the grid's
-    points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
-    mesh.points = points
+    mesh.points = corner_points(shape, mesh.spacing, mesh.origin, mesh.direction, mesh.corners)
     mesh._n_voxels = cell_vertices.shape[0]
     mesh._volumes = np.full(cell_vertices.shape[0], float(np.prod(mesh.spacing)))
     mesh.__dict__["cell_vertices"] = (np.repeat(np.arange(cell_vertices.shape[0]), 8), cell_vertices.ravel())
