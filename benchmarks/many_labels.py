@@ -23,6 +23,7 @@ Usage::
     python benchmarks/many_labels.py                       # 365 sites, 275 x 347 x 245
     python benchmarks/many_labels.py --sites 46 --scale 0.5
     python benchmarks/many_labels.py --layout brain
+    python benchmarks/many_labels.py --interfaces        # and every interface, with its junctions
 """
 
 from __future__ import annotations
@@ -102,6 +103,9 @@ def main():
     parser.add_argument("--scale", type=float, default=1.0, help="times the atlas's size along each axis")
     parser.add_argument("--limit", type=float, default=21.0, help="stop beyond this resident memory, GB")
     parser.add_argument("--layout", choices=("voronoi", "brain"), default="voronoi", help="the labels' layout")
+    parser.add_argument(
+        "--interfaces", action="store_true", help="the interfaces too, as `ndboundary relax --boundary` writes them"
+    )
     args = parser.parse_args()
     shape = tuple(int(round(n * args.scale)) for n in ATLAS_SHAPE)
     if args.layout == "brain":
@@ -131,6 +135,11 @@ def main():
     area = sum(boundary.measure() for boundary in result.region_boundaries())
     tick = phase(f"every region's boundary ({'region by region' if by_region else 'all at once'}), area {area:.6g}",
                  tick)  # fmt: skip
+    if args.interfaces:
+        faces = result.interfaces()
+        tick = phase(f"interfaces ({len(faces)} simplices)", tick)
+        tick = phase(f"their junctions ({len(faces.junctions())} segments)", tick)
+        del faces
     measures = result.region_measures()
     phase(f"region measures (sum off the volume by {abs(measures.sum() / labels.size - 1):.1e})", tick)
     print(f"end to end {time.perf_counter() - begin:.1f} s, most resident memory {memory.top:.2f} GB")

@@ -108,6 +108,38 @@ class Junctions:
         return f"Junctions(n_points={self.points.shape[0]}, n_simplices={len(self)})"
 
 
+#: :meth:`Interfaces.junctions` sorts the keys of at most about this many faces of the
+#: interface simplices at once (each face keyed twice, once per region of its piece):
+#: the 107 M faces of an atlas's 35.6 M interface triangles, sorted at once, held some
+#: 9 GB of keys and their copies.
+JUNCTION_KEYS_AT_ONCE = 1 << 24
+
+
+def _face_codes(faces, n):
+    """Each row of ``faces`` (sorted point ids below ``n``) as one integer."""
+    code = np.zeros(faces.shape[0], dtype=np.int64)
+    for c in range(faces.shape[1]):
+        code = code * n + faces[:, c]
+    return code
+
+
+def _widened(rows, width):
+    """``rows`` padded on the right with -1 to ``width`` columns."""
+    return np.pad(rows, ((0, 0), (0, width - rows.shape[1])), constant_values=-1)
+
+
+def _padded_runs(values, start, counts):
+    """The runs ``values[start[i]:start[i] + counts[i]]`` as the rows of an array padded
+    with -1.
+    """
+    width = int(counts.max()) if counts.size else 0
+    out = np.full((counts.size, width), -1, dtype=np.int64)
+    for w in range(width):
+        has = counts > w
+        out[has, w] = values[start[has] + w]
+    return out
+
+
 class Interfaces:
     """The (k-1)-simplices between cells of different regions, on one shared point array.
 
@@ -120,10 +152,13 @@ class Interfaces:
         points where the difference ``f_pairs[:, 1] - f_pairs[:, 0]`` increases).
     pairs : ndarray of int of shape (n, 2)
         The two regions, smaller first.
-    cells : ndarray of int of shape (n, 2)
+    cells : ndarray of int of shape (n, 2) or None
         The cell on the side of ``pairs[:, 0]`` and of ``pairs[:, 1]``.
-    point_ids : ndarray of int of shape (n_points,)
-        Index of each point in the partition's cell points.
+    point_ids : ndarray of int of shape (n_points,) or None
+        Index of each point in the partition's cell points. Both None where the pieces
+        come from each region's own cut, not from one partition
+        (:meth:`~ndboundary.pipeline.result.RegionsResult.interfaces` of many mixed
+        elements).
 
     Examples
     --------
@@ -174,34 +209,43 @@ class Interfaces:
         D = self.points.shape[1]
         if k < 2 or len(self) == 0:
             return Junctions(np.zeros((0, D)), np.zeros((0, max(k - 1, 0)), dtype=np.int64), np.zeros((0, 0), int), [])
-        faces = np.concatenate([np.sort(np.delete(T, i, axis=1), axis=1) for i in range(k)])
-        regs = np.tile(self.pairs, (k, 1))
         n, r = max(self.points.shape[0], 1), int(self.pairs.max(initial=0)) + 1
-        if float(n) ** (k - 1) * r < 2.0**62:  # each (face, region) row as one integer: a faster sort
-            code = np.zeros(faces.shape[0], dtype=np.int64)
-            for c in range(k - 1):
-                code = code * n + faces[:, c]
-            keys = unique_values(np.concatenate([code * r + regs[:, 0], code * r + regs[:, 1]]))
-            face_keys, region_of = keys // r, keys % r
-            start = np.flatnonzero(np.r_[True, face_keys[1:] != face_keys[:-1]])
-            counts = np.diff(np.r_[start, face_keys.size])
-            uf = np.empty((start.size, k - 1), dtype=np.int64)
-            rest = face_keys[start]
-            for c in range(k - 2, -1, -1):
-                uf[:, c], rest = rest % n, rest // n
-        else:
+        if float(n) ** (k - 1) * r >= 2.0**62:  # no integer key: rows of (face, region)
+            faces = np.concatenate([np.sort(np.delete(T, i, axis=1), axis=1) for i in range(k)])
+            regs = np.tile(self.pairs, (k, 1))
             rows = np.concatenate([np.column_stack([faces, regs[:, 0]]), np.column_stack([faces, regs[:, 1]])])
             rows = np.unique(rows, axis=0)
             uf, start, counts = np.unique(rows[:, :-1], axis=0, return_index=True, return_counts=True)
-            region_of = rows[:, -1]
-        j = np.flatnonzero(counts >= 3)
-        width = int(counts[j].max()) if j.size else 0
-        regions = np.full((j.size, width), -1, dtype=np.int64)
-        for w in range(width):
-            has = counts[j] > w
-            regions[has, w] = region_of[start[j][has] + w]
-        used, simp = np.unique(uf[j], return_inverse=True)
-        return Junctions(self.points[used], simp.reshape(j.size, k - 1), regions, used)
+            j = np.flatnonzero(counts >= 3)
+            regions = _padded_runs(rows[:, -1], start[j], counts[j])
+            uf = uf[j]
+        else:  # each (face, region) as one integer, sorted a share of the faces at a time
+            code = np.concatenate([_face_codes(np.sort(np.delete(T, i, axis=1), axis=1), n) for i in range(k)])
+            shares = max(1, -(-code.size // JUNCTION_KEYS_AT_ONCE))
+            share = (code % shares).astype(np.min_scalar_type(shares)) if shares > 1 else None
+            found, regions = [], []
+            for b in range(shares):
+                rows = np.arange(code.size) if share is None else np.flatnonzero(share == b)
+                pairs = self.pairs[rows % len(self)]
+                keys = unique_values(np.concatenate([code[rows] * r + pairs[:, 0], code[rows] * r + pairs[:, 1]]))
+                del rows, pairs
+                face_keys = keys // r
+                start = np.flatnonzero(np.r_[True, face_keys[1:] != face_keys[:-1]])
+                counts = np.diff(np.r_[start, face_keys.size])
+                j = np.flatnonzero(counts >= 3)
+                found.append(face_keys[start[j]])
+                regions.append(_padded_runs(keys % r, start[j], counts[j]))
+            del code, share
+            found = np.concatenate(found)
+            order = np.argsort(found, kind="stable")  # as one sort of every key would list them
+            width = max((a.shape[1] for a in regions), default=0)
+            regions = np.concatenate([_widened(a, width) for a in regions])
+            found, regions = found[order], regions[order]
+            uf = np.empty((found.size, k - 1), dtype=np.int64)
+            for c in range(k - 2, -1, -1):
+                uf[:, c], found = found % n, found // n
+        used, simp = np.unique(uf, return_inverse=True)
+        return Junctions(self.points[used], simp.reshape(uf.shape[0], k - 1), regions, used)
 
     def __repr__(self):
         return f"Interfaces(n_points={self.points.shape[0]}, n_simplices={len(self)})"

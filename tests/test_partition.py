@@ -375,3 +375,22 @@ def test_validation():
         partition([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], [[0], [1], [2]])
     with pytest.raises(ValueError):
         partition([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], [[0, np.nan], [1, 0], [2, 0]])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_junctions_sorted_a_share_of_the_faces_at_a_time_are_the_same(monkeypatch, dim):
+    """The junctions found from the faces' keys a share at a time (JUNCTION_KEYS_AT_ONCE)
+    are those found from every key at once, in the same order: the junction points of a
+    Voronoi partition in the plane, its junction curves in a volume."""
+    from ndboundary import partition as partition_module
+
+    mesh = kuhn_grid(30 if dim == 2 else 8, dim, jitter=0.2, random_state=1)
+    sites = np.random.default_rng(3).uniform(-1, 1, (9, dim))
+    values = -np.linalg.norm(mesh.points[:, None, :] - sites, axis=-1)
+    faces = partition(mesh.points, mesh.simplices, values).interfaces()
+    at_once = faces.junctions()
+    monkeypatch.setattr(partition_module, "JUNCTION_KEYS_AT_ONCE", 50)
+    by_share = faces.junctions()
+    assert len(at_once) >= 5 and dim * len(faces) > 4 * 50  # several shares
+    for name in ("points", "simplices", "regions", "point_ids"):
+        np.testing.assert_array_equal(getattr(by_share, name), getattr(at_once, name))

@@ -12,14 +12,14 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from .._arrays import expand_ranges, unique_values
+from .._arrays import expand_ranges, unique_values, used_vertices
 from .._compiled import unique_pairs
 from .._compiled_partition import point_simplices
 from .._threads import available_threads
 from ..domains.image import GridBand
 from ..domains.pointcloud_operators import StencilDomain
 from ..levelset import LevelSet, marching_simplices, simplex_measures
-from ..partition import Cells, Partition, partition
+from ..partition import Cells, Interfaces, Partition, partition
 from ..partition_clip import sweep_sparse
 from . import interface_fit, junction_curves, junctions
 from .band import can_cut, extend_outside
@@ -176,10 +176,17 @@ class _RegionMethods:
     def interfaces(self):
         """The interfaces between the relaxed regions (``pairs`` index ``classes``), with
         their junctions (:class:`~ndboundary.partition.Interfaces`). Built from the
-        partition of every mixed element at once: its memory follows all the interfaces
-        together, about a kilobyte per simplex of their elements' refinement.
+        partition of every mixed element at once, whose memory follows all the interfaces
+        together, about a kilobyte per simplex of their elements' refinement; beyond
+        :data:`PARTITION_BY_REGION_SIMPLICES`, from each region's own cut
+        (:meth:`_RegionCuts.interfaces`), whose memory follows one region: the same
+        simplices, without ``cells`` and ``point_ids`` (None), which name the cells of a
+        partition of them all.
         """
-        return self._cut()[0].interfaces()
+        cuts = self._by_region()
+        if cuts is None:
+            return self._cut()[0].interfaces()
+        return cuts.interfaces()
 
     def region_boundary(self, r):
         """Region ``r``'s boundary, oriented outward, as a :class:`~ndboundary.LevelSet`.
@@ -255,9 +262,10 @@ def _on_threads(fn, items):
 
 
 #: Beyond this many simplices in the refinement of the elements that interfaces cross,
-#: :meth:`RegionsResult.region_boundary` and :meth:`~RegionsResult.region_measures` cut
-#: each region's neighbourhood on its own (:class:`_RegionCuts`) instead of partitioning
-#: them all at once, whose memory grows by about 180 bytes per simplex (1.0 GB for the
+#: :meth:`RegionsResult.region_boundary`, :meth:`~RegionsResult.region_measures` and
+#: :meth:`~RegionsResult.interfaces` cut each region's neighbourhood on its own
+#: (:class:`_RegionCuts`) instead of partitioning them all at once, whose memory grows
+#: by about 180 bytes per simplex (1.0 GB for the
 #: 5.7 M simplices of 46 regions on 138 x 174 x 122 voxels, in 7.2 s): the regions together
 #: cost about twice the time (16 s there; each simplex is cut once for every region stored
 #: at its points), in memory that follows one region.
@@ -288,16 +296,17 @@ class _RegionCuts:
         self._measures = {}
 
     def _partition(self, r):
-        """``(partition, j)``: the partition of the simplices storing region ``r``, whose
-        regions are those stored there, ``r`` being its region ``j``; it keeps the cells
-        with a point of region ``j``'s cells only, all that its boundary needs. Region
-        ``r``'s measure is kept for :meth:`measure`.
+        """``(partition, j, present)``: the partition of the simplices storing region
+        ``r``, whose regions are those stored there (``present``, increasing), ``r`` being
+        its region ``j``; it keeps the cells with a point of region ``j``'s cells only,
+        all that its boundary needs. Region ``r``'s measure is kept for :meth:`measure`.
         """
         c = self.columns
         stored = c.indices[c.indptr[r] : c.indptr[r + 1]]
         if stored.size == 0:  # the region wins in none of these simplices
             self._measures[r] = 0.0
-            return partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2))), 0
+            empty = partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2)))
+            return empty, 0, np.array([r, r + 1])
         indptr, ids = self._at_point  # the simplices at the points storing r
         chosen = unique_values(ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])])
         simplices = self.simplices[chosen]
@@ -325,12 +334,43 @@ class _RegionCuts:
             Cells(X, S[near], regions[near], None, parents), present.size,
             lambda: float(simplex_measures(self.points, self.simplices[chosen]).sum()),
         )  # fmt: skip
-        return part, j
+        return part, j, present
 
     def boundary(self, r):
         """Region ``r``'s boundary, oriented outward (a :class:`~ndboundary.LevelSet`)."""
-        part, j = self._partition(r)
+        part, j, _ = self._partition(r)
         return part.region_boundary(j)
+
+    def _pieces(self, r):
+        """The interface simplices between region ``r`` and the regions after it, from
+        ``r``'s cut: ``(points, simplices, pairs)``, the pairs in the regions' numbering
+        (each region's cut numbers the regions stored in it in the same order).
+        """
+        part, j, present = self._partition(r)
+        faces = part.interfaces()
+        mine = faces.of_region(j)
+        mine = mine[faces.pairs[mine, 0] == j]  # from the lower region of each pair: once
+        used, remap = used_vertices(faces.simplices[mine], faces.points.shape[0])
+        return faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]]
+
+    def interfaces(self):
+        """Every interface, each piece taken from the cut of the lower of its two regions,
+        on several threads (as :meth:`RegionsResult.region_boundaries`): the same
+        simplices as the partition of them all. A point two cuts share has the same
+        coordinates in both, computed from the same values in the same order, and is
+        merged by them.
+        """
+        pieces = _on_threads(self._pieces, range(self.values.shape[1]))
+        points = np.concatenate([p for p, _, _ in pieces])
+        offsets = np.cumsum([0] + [p.shape[0] for p, _, _ in pieces])
+        simplices = np.concatenate([t + o for (_, t, _), o in zip(pieces, offsets, strict=False)])
+        pairs = np.concatenate([q for _, _, q in pieces])
+        del pieces
+        distinct, first, merged = np.unique(
+            np.ascontiguousarray(points).view([("", points.dtype)] * points.shape[1]).ravel(),
+            return_index=True, return_inverse=True,
+        )  # fmt: skip
+        return Interfaces(points[first], merged.ravel()[simplices], pairs, None, None)
 
     def measure(self, r):
         """Region ``r``'s measure within the simplices."""
