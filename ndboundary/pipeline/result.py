@@ -294,6 +294,7 @@ class _RegionCuts:
         self._at_point = point_simplices(simplices, points.shape[0])
         self._scratch = threading.local()  # a table of the points per thread
         self._measures = {}
+        self._interfaces = None
 
     def _partition(self, r):
         """``(partition, j, present)``: the partition of the simplices storing region
@@ -358,19 +359,22 @@ class _RegionCuts:
         on several threads (as :meth:`RegionsResult.region_boundaries`): the same
         simplices as the partition of them all. A point two cuts share has the same
         coordinates in both, computed from the same values in the same order, and is
-        merged by them.
+        merged by them. Built once.
         """
+        if self._interfaces is not None:
+            return self._interfaces
         pieces = _on_threads(self._pieces, range(self.values.shape[1]))
         points = np.concatenate([p for p, _, _ in pieces])
-        offsets = np.cumsum([0] + [p.shape[0] for p, _, _ in pieces])
-        simplices = np.concatenate([t + o for (_, t, _), o in zip(pieces, offsets, strict=False)])
+        offsets = np.cumsum([0] + [p.shape[0] for p, _, _ in pieces])[:-1]
+        simplices = np.concatenate([t + o for (_, t, _), o in zip(pieces, offsets, strict=True)])
         pairs = np.concatenate([q for _, _, q in pieces])
         del pieces
-        distinct, first, merged = np.unique(
+        _, first, merged = np.unique(
             np.ascontiguousarray(points).view([("", points.dtype)] * points.shape[1]).ravel(),
             return_index=True, return_inverse=True,
         )  # fmt: skip
-        return Interfaces(points[first], merged.ravel()[simplices], pairs, None, None)
+        self._interfaces = Interfaces(points[first], merged.ravel()[simplices], pairs, None, None)
+        return self._interfaces
 
     def measure(self, r):
         """Region ``r``'s measure within the simplices."""
