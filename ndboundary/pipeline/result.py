@@ -779,7 +779,10 @@ def _mixed_of(domain, values, lead=None):
     if sp.issparse(local):
         local = _within_reach(sub, local)
     whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
-    return _complex(sub, local), whole
+    points, simplices, local = _complex(sub, local)
+    if points.shape[0] < np.iinfo(np.int32).max:  # held until the partition: half the bytes
+        simplices = simplices.astype(np.int32)
+    return (points, simplices, local), whole
 
 
 def _argmax_rows(values):
