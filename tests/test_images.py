@@ -862,6 +862,7 @@ def test_a_whole_voxel_grid_builds_its_tables_when_read(monkeypatch):
     result.region_boundaries()
     assert result.region_measures().sum() == pytest.approx(labels.size, rel=1e-12)
     assert not any(name in result.domain.__dict__ for name in tables)
+    assert result._mixed()[0][1].dtype == np.int32  # the mixed voxels' tetrahedra, held to the end
 
 
 @pytest.mark.parametrize("band", [False, True])
