@@ -307,7 +307,7 @@ class _RegionCuts:
         if stored.size == 0:  # the region wins in none of these simplices
             self._measures[r] = 0.0
             empty = partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2)))
-            return empty, 0, np.array([r, r + 1])
+            return empty, 0, np.array([r])
         indptr, ids = self._at_point  # the simplices at the points storing r
         chosen = unique_values(ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])])
         simplices = self.simplices[chosen]
