@@ -779,6 +779,36 @@ def test_many_regions_cut_region_by_region_as_all_at_once(monkeypatch):
     assert len(segments[0]) > 0 and segments[0] == segments[1]
 
 
+def test_the_largest_region_is_cut_only_for_its_own_boundary(monkeypatch):
+    """Cut region by region, each interface piece comes from the cut of the smaller of its
+    two regions, and the largest region's measure is the rest of the simplices': the
+    region stored at the most points (an atlas's background) is cut for its own boundary
+    only, and the interfaces and measures are those of the partition of them all."""
+    from ndboundary.pipeline import junctions
+    from ndboundary.pipeline import result as result_module
+
+    monkeypatch.setattr(junctions, "JUNCTION_FIT", False)
+    labels = np.pad(_voronoi((12, 14, 16), 4, (1.0, 1.0, 1.0), seed=3) + 1, 5)  # background 0 about them
+    whole = relax_image(labels, band=4.0)
+    all_at_once = (whole.interfaces(), whole.region_measures(), whole.region_boundary(0))
+    assert whole._by_region() is None
+    monkeypatch.setattr(result_module, "PARTITION_BY_REGION_SIMPLICES", 0)
+    by_region = relax_image(labels, band=4.0)
+    cut = []
+    partition_of = result_module._RegionCuts._partition
+    monkeypatch.setattr(result_module._RegionCuts, "_partition", lambda self, r: cut.append(r) or partition_of(self, r))
+    faces = by_region.interfaces()
+    assert by_region._by_region()._largest == 0 and sorted(cut) == [1, 2, 3, 4]
+    measures = by_region.region_measures()
+    by_region.region_boundaries([1, 2, 3, 4])
+    assert 0 not in cut
+    assert _pieces(faces) == _pieces(all_at_once[0])
+    np.testing.assert_allclose(measures, all_at_once[1], rtol=1e-12)
+    assert measures.sum() == pytest.approx(labels.size, rel=1e-12)
+    assert _triangles(by_region.region_boundary(0)) == _triangles(all_at_once[2])
+    assert cut.count(0) == 1
+
+
 def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):
     """``region_boundaries`` cuts the regions on two threads at once beyond
     PARTITION_BY_REGION_SIMPLICES, in the order asked: the same surfaces, simplex for

@@ -243,7 +243,7 @@ class _RegionMethods:
         if cuts is None:
             measures = self._cut()[0].region_measures() + whole
         else:
-            measures = np.array(_on_threads(cuts.measure, range(whole.size))) + whole
+            measures = cuts.measures() + whole
         if isinstance(self.domain, GridBand):
             measures = measures + self.domain.measures_outside(self.classes)
         return measures
@@ -281,6 +281,12 @@ class _RegionCuts:
     region stored there, holds each of the region's cells exactly as the partition of
     the whole complex does (point ids keep their order, so every cut is triangulated
     alike), and so its boundary, which only cells of other regions next to them border.
+
+    The region stored at the most points (an atlas's background, whose cut alone would be
+    larger than any other by tens of times) is never cut for the interfaces or the
+    measures: each interface piece comes from the cut of the smaller of its two regions,
+    and the largest region's measure is the simplices' measure less the others' (the
+    partition is exact). Only its own boundary cuts it.
     """
 
     def __init__(self, points, simplices, values):
@@ -295,6 +301,13 @@ class _RegionCuts:
         self._scratch = threading.local()  # a table of the points per thread
         self._measures = {}
         self._interfaces = None
+        # each region's rank by the points storing it (ties by index): an interface piece
+        # is taken from the cut of its lower-ranked region, so the last is never cut for one
+        sizes = np.diff(self.columns.indptr)
+        order = np.lexsort((np.arange(sizes.size), sizes))
+        self._rank = np.empty(sizes.size, dtype=np.int64)
+        self._rank[order] = np.arange(sizes.size)
+        self._largest = int(order[-1])
 
     def _partition(self, r):
         """``(partition, j, present)``: the partition of the simplices storing region
@@ -343,27 +356,30 @@ class _RegionCuts:
         return part.region_boundary(j)
 
     def _pieces(self, r):
-        """The interface simplices between region ``r`` and the regions after it, from
-        ``r``'s cut: ``(points, simplices, pairs)``, the pairs in the regions' numbering
-        (each region's cut numbers the regions stored in it in the same order).
+        """The interface simplices between region ``r`` and the regions ranked above it,
+        from ``r``'s cut: ``(points, simplices, pairs)``, the pairs in the regions'
+        numbering (each region's cut numbers the regions stored in it in the same order,
+        and a pair lists its lower region first, whichever cut it comes from).
         """
         part, j, present = self._partition(r)
         faces = part.interfaces()
         mine = faces.of_region(j)
-        mine = mine[faces.pairs[mine, 0] == j]  # from the lower region of each pair: once
+        pairs = faces.pairs[mine]
+        other = np.where(pairs[:, 0] == j, pairs[:, 1], pairs[:, 0])
+        mine = mine[self._rank[present[other]] > self._rank[r]]  # from one cut of each pair
         used, remap = used_vertices(faces.simplices[mine], faces.points.shape[0])
         return faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]]
 
     def interfaces(self):
-        """Every interface, each piece taken from the cut of the lower of its two regions,
-        on several threads (as :meth:`RegionsResult.region_boundaries`): the same
-        simplices as the partition of them all. A point two cuts share has the same
-        coordinates in both, computed from the same values in the same order, and is
-        merged by them. Built once.
+        """Every interface, each piece taken from the cut of the lower-ranked of its two
+        regions (the one stored at fewer points), on several threads (as
+        :meth:`RegionsResult.region_boundaries`): the same simplices as the partition of
+        them all. A point two cuts share has the same coordinates in both, computed from
+        the same values in the same order, and is merged by them. Built once.
         """
         if self._interfaces is not None:
             return self._interfaces
-        pieces = _on_threads(self._pieces, range(self.values.shape[1]))
+        pieces = _on_threads(self._pieces, [r for r in range(self.values.shape[1]) if r != self._largest])
         points = np.concatenate([p for p, _, _ in pieces])
         offsets = np.cumsum([0] + [p.shape[0] for p, _, _ in pieces])[:-1]
         simplices = np.concatenate([t + o for (_, t, _), o in zip(pieces, offsets, strict=True)])
@@ -381,6 +397,26 @@ class _RegionCuts:
         if r not in self._measures:
             self._partition(r)
         return self._measures[r]
+
+    def measures(self):
+        """Every region's measure within the simplices: the others' from their cuts, on
+        several threads (as :meth:`interfaces`), the largest region's what they leave.
+        """
+        others = [r for r in range(self.values.shape[1]) if r != self._largest]
+        measures = np.zeros(self.values.shape[1])
+        measures[others] = _on_threads(self.measure, others)
+        measures[self._largest] = self.total() - measures[others].sum()
+        return measures
+
+    def total(self):
+        """The measure of all the simplices, summed a block at a time."""
+        step = 1 << 22
+        return float(
+            sum(
+                simplex_measures(self.points, self.simplices[i : i + step].astype(np.int64)).sum()
+                for i in range(0, self.simplices.shape[0], step)
+            )
+        )
 
 
 @dataclass
