@@ -779,11 +779,12 @@ def test_many_regions_cut_region_by_region_as_all_at_once(monkeypatch):
     assert len(segments[0]) > 0 and segments[0] == segments[1]
 
 
-def test_the_largest_region_is_cut_only_for_its_own_boundary(monkeypatch):
+def test_the_largest_region_is_never_cut(monkeypatch):
     """Cut region by region, each interface piece comes from the cut of the smaller of its
-    two regions, and the largest region's measure is the rest of the simplices': the
-    region stored at the most points (an atlas's background) is cut for its own boundary
-    only, and the interfaces and measures are those of the partition of them all."""
+    two regions, the largest region's boundary is its pieces and its measure the rest of
+    the simplices': the region stored at the most points (an atlas's background) is never
+    cut, and the interfaces, boundaries and measures are those of the partition of them
+    all."""
     from ndboundary.pipeline import junctions
     from ndboundary.pipeline import result as result_module
 
@@ -805,8 +806,16 @@ def test_the_largest_region_is_cut_only_for_its_own_boundary(monkeypatch):
     assert _pieces(faces) == _pieces(all_at_once[0])
     np.testing.assert_allclose(measures, all_at_once[1], rtol=1e-12)
     assert measures.sum() == pytest.approx(labels.size, rel=1e-12)
-    assert _triangles(by_region.region_boundary(0)) == _triangles(all_at_once[2])
-    assert cut.count(0) == 1
+    outside = by_region.region_boundary(0)
+    assert _triangles(outside) == _triangles(all_at_once[2]) and outside.is_closed()
+    assert outside.edges.shape == (outside.n_points, 2)
+    assert 0 not in cut
+    # every boundary at once: the largest's from the pieces its neighbours' cuts keep
+    again = relax_image(labels, band=4.0)
+    cut.clear()
+    surfaces = again.region_boundaries()
+    assert sorted(cut) == [1, 2, 3, 4]  # each cut once, for its boundary and its pieces
+    assert [_triangles(b) for b in surfaces] == [_triangles(whole.region_boundary(r)) for r in range(5)]
 
 
 def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):

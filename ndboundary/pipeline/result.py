@@ -222,7 +222,7 @@ class _RegionMethods:
         if cuts is None:
             whole = self._cut()[0]
             return [whole.region_boundary(r) for r in regions]
-        return _on_threads(cuts.boundary, regions)
+        return cuts.boundaries(regions)
 
     def _region_index(self, r):
         """``r`` checked as an index into ``classes``."""
@@ -283,10 +283,11 @@ class _RegionCuts:
     alike), and so its boundary, which only cells of other regions next to them border.
 
     The region stored at the most points (an atlas's background, whose cut alone would be
-    larger than any other by tens of times) is never cut for the interfaces or the
-    measures: each interface piece comes from the cut of the smaller of its two regions,
-    and the largest region's measure is the simplices' measure less the others' (the
-    partition is exact). Only its own boundary cuts it.
+    larger than any other by tens of times) is never cut: each interface piece comes from
+    the cut of the smaller of its two regions, the largest region's boundary is its
+    pieces, and its measure is the simplices' measure less the others' (the partition is
+    exact). The ``edges`` of a boundary cut region by region hold each point's parent
+    pair in the cut it comes from (:attr:`~ndboundary.partition.Cells.parents`).
     """
 
     def __init__(self, points, simplices, values):
@@ -300,7 +301,8 @@ class _RegionCuts:
         self._at_point = point_simplices(simplices, points.shape[0])
         self._scratch = threading.local()  # a table of the points per thread
         self._measures = {}
-        self._interfaces = None
+        self._interfaces = self._parents = None
+        self._kept = {}  # pieces kept from the cuts made for boundaries, for the interfaces
         # each region's rank by the points storing it (ties by index): an interface piece
         # is taken from the cut of its lower-ranked region, so the last is never cut for one
         sizes = np.diff(self.columns.indptr)
@@ -350,25 +352,53 @@ class _RegionCuts:
         )  # fmt: skip
         return part, j, present
 
-    def boundary(self, r):
-        """Region ``r``'s boundary, oriented outward (a :class:`~ndboundary.LevelSet`)."""
-        part, j, _ = self._partition(r)
+    def boundary(self, r, keep=False):
+        """Region ``r``'s boundary, oriented outward (a :class:`~ndboundary.LevelSet`):
+        from its cut, or, for the largest region, from the interfaces. ``keep`` keeps the
+        cut's interface pieces for :meth:`interfaces`.
+        """
+        if r == self._largest:
+            faces = self.interfaces()
+            mine = faces.of_region(r)
+            T = faces.simplices[mine]
+            flip = faces.pairs[mine, 1] == r  # outward: as the partition orients them
+            if T.shape[1] >= 2:
+                T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
+            used, remap = used_vertices(T, faces.points.shape[0])
+            return LevelSet(faces.points[used], remap[T], self._parents[used], 0.0)
+        cut = self._partition(r)
+        if keep and self._interfaces is None:
+            self._kept[r] = self._pieces(r, cut)
+        part, j, _ = cut
         return part.region_boundary(j)
 
-    def _pieces(self, r):
-        """The interface simplices between region ``r`` and the regions ranked above it,
-        from ``r``'s cut: ``(points, simplices, pairs)``, the pairs in the regions'
-        numbering (each region's cut numbers the regions stored in it in the same order,
-        and a pair lists its lower region first, whichever cut it comes from).
+    def boundaries(self, regions):
+        """:meth:`boundary` of each of ``regions`` (in their order), the cuts on several
+        threads; the largest region's last, from the pieces its neighbours' cuts kept.
         """
-        part, j, present = self._partition(r)
+        rest = sorted(set(regions) - {self._largest})
+        keep = self._largest in regions
+        done = dict(zip(rest, _on_threads(lambda r: self.boundary(r, keep), rest), strict=True))
+        if keep:
+            done[self._largest] = self.boundary(self._largest)
+        return [done[r] for r in regions]
+
+    def _pieces(self, r, cut=None):
+        """The interface simplices between region ``r`` and the regions ranked above it,
+        from ``r``'s cut (``cut``, made when not given): ``(points, simplices, pairs,
+        parents)``, the pairs in the regions' numbering (each region's cut numbers the
+        regions stored in it in the same order, and a pair lists its lower region first,
+        whichever cut it comes from), the parents the cut's.
+        """
+        part, j, present = self._partition(r) if cut is None else cut
         faces = part.interfaces()
         mine = faces.of_region(j)
         pairs = faces.pairs[mine]
         other = np.where(pairs[:, 0] == j, pairs[:, 1], pairs[:, 0])
         mine = mine[self._rank[present[other]] > self._rank[r]]  # from one cut of each pair
         used, remap = used_vertices(faces.simplices[mine], faces.points.shape[0])
-        return faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]]
+        return (faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]],
+                part.cells.parents[faces.point_ids[used]])  # fmt: skip
 
     def interfaces(self):
         """Every interface, each piece taken from the cut of the lower-ranked of its two
@@ -379,17 +409,21 @@ class _RegionCuts:
         """
         if self._interfaces is not None:
             return self._interfaces
-        pieces = _on_threads(self._pieces, [r for r in range(self.values.shape[1]) if r != self._largest])
-        points = np.concatenate([p for p, _, _ in pieces])
-        offsets = np.cumsum([0] + [p.shape[0] for p, _, _ in pieces])[:-1]
-        simplices = np.concatenate([t + o for (_, t, _), o in zip(pieces, offsets, strict=True)])
-        pairs = np.concatenate([q for _, _, q in pieces])
+        others = [r for r in range(self.values.shape[1]) if r != self._largest]
+        pieces = _on_threads(lambda r: self._kept.pop(r, None) or self._pieces(r), others)
+        self._kept.clear()
+        points = np.concatenate([p for p, _, _, _ in pieces])
+        offsets = np.cumsum([0] + [p.shape[0] for p, _, _, _ in pieces])[:-1]
+        simplices = np.concatenate([t + o for (_, t, _, _), o in zip(pieces, offsets, strict=True)])
+        pairs = np.concatenate([q for _, _, q, _ in pieces])
+        parents = np.concatenate([e for _, _, _, e in pieces])
         del pieces
         _, first, merged = np.unique(
             np.ascontiguousarray(points).view([("", points.dtype)] * points.shape[1]).ravel(),
             return_index=True, return_inverse=True,
         )  # fmt: skip
         self._interfaces = Interfaces(points[first], merged.ravel()[simplices], pairs, None, None)
+        self._parents = parents[first]
         return self._interfaces
 
     def measure(self, r):
