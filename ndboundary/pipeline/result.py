@@ -249,6 +249,25 @@ class _RegionMethods:
         return measures
 
 
+def _merged(pieces):
+    """Interface pieces ``(points, simplices, pairs, parents)`` from several regions' cuts
+    (a list, emptied) as one: a point two cuts share has the same coordinates in both,
+    computed from the same values in the same order, and is merged by them (its parents
+    are the first cut's).
+    """
+    points = np.concatenate([p for p, _, _, _ in pieces])
+    offsets = np.cumsum([0] + [p.shape[0] for p, _, _, _ in pieces])[:-1]
+    simplices = np.concatenate([t + o for (_, t, _, _), o in zip(pieces, offsets, strict=True)])
+    pairs = np.concatenate([q for _, _, q, _ in pieces])
+    parents = np.concatenate([e for _, _, _, e in pieces])
+    pieces.clear()  # let the pieces go before the merge
+    _, first, merged = np.unique(
+        np.ascontiguousarray(points).view([("", points.dtype)] * points.shape[1]).ravel(),
+        return_index=True, return_inverse=True,
+    )  # fmt: skip
+    return points[first], merged.ravel()[simplices], pairs, parents[first]
+
+
 def _on_threads(fn, items):
     """``[fn(item) for item in items]``, computed on :func:`~ndboundary._threads.available_threads`
     threads at once: for the regions' own cuts, whose compiled passes hold no GIL.
@@ -354,21 +373,14 @@ class _RegionCuts:
 
     def boundary(self, r, keep=False):
         """Region ``r``'s boundary, oriented outward (a :class:`~ndboundary.LevelSet`):
-        from its cut, or, for the largest region, from the interfaces. ``keep`` keeps the
-        cut's interface pieces for :meth:`interfaces`.
+        from its cut, or, for the largest region, from its neighbours' pieces with it.
+        ``keep`` keeps the cut's piece with the largest region for that.
         """
         if r == self._largest:
-            faces = self.interfaces()
-            mine = faces.of_region(r)
-            T = faces.simplices[mine]
-            flip = faces.pairs[mine, 1] == r  # outward: as the partition orients them
-            if T.shape[1] >= 2:
-                T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
-            used, remap = used_vertices(T, faces.points.shape[0])
-            return LevelSet(faces.points[used], remap[T], self._parents[used], 0.0)
+            return self._largest_boundary()
         cut = self._partition(r)
-        if keep and self._interfaces is None:
-            self._kept[r] = self._pieces(r, cut)
+        if keep:
+            self._kept[r] = self._pieces(r, cut, only=self._largest)
         part, j, _ = cut
         return part.region_boundary(j)
 
@@ -377,25 +389,51 @@ class _RegionCuts:
         threads; the largest region's last, from the pieces its neighbours' cuts kept.
         """
         rest = sorted(set(regions) - {self._largest})
-        keep = self._largest in regions
+        keep = self._largest in regions and self._interfaces is None
         done = dict(zip(rest, _on_threads(lambda r: self.boundary(r, keep), rest), strict=True))
-        if keep:
-            done[self._largest] = self.boundary(self._largest)
+        if self._largest in regions:
+            done[self._largest] = self._largest_boundary()
         return [done[r] for r in regions]
 
-    def _pieces(self, r, cut=None):
-        """The interface simplices between region ``r`` and the regions ranked above it,
-        from ``r``'s cut (``cut``, made when not given): ``(points, simplices, pairs,
-        parents)``, the pairs in the regions' numbering (each region's cut numbers the
-        regions stored in it in the same order, and a pair lists its lower region first,
-        whichever cut it comes from), the parents the cut's.
+    def _largest_boundary(self):
+        """The largest region's boundary: its pieces in the interfaces when they are built,
+        else from the cuts of the regions stored beside it (or the pieces they kept).
+        """
+        r = self._largest
+        if self._interfaces is not None:
+            faces, parents = self._interfaces, self._parents
+            mine = faces.of_region(r)
+            points, T, pairs = faces.points, faces.simplices[mine], faces.pairs[mine]
+        else:
+            c, v = self.columns, self.values
+            rows = c.indices[c.indptr[r] : c.indptr[r + 1]]
+            beside = unique_values(v.indices[expand_ranges(v.indptr[rows], v.indptr[rows + 1] - v.indptr[rows])])
+            beside = beside[beside != r].tolist()
+            if not beside:  # stored alone: no other region to take its pieces from
+                part, j, _ = self._partition(r)
+                return part.region_boundary(j)
+            pieces = _on_threads(lambda k: self._kept.pop(k, None) or self._pieces(k, only=r), beside)
+            points, T, pairs, parents = _merged(pieces)
+        self._kept.clear()
+        flip = pairs[:, 1] == r  # outward: as the partition orients them
+        if T.shape[1] >= 2:
+            T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
+        used, remap = used_vertices(T, points.shape[0])
+        return LevelSet(points[used], remap[T], parents[used], 0.0)
+
+    def _pieces(self, r, cut=None, only=None):
+        """The interface simplices between region ``r`` and the regions ranked above it
+        (or region ``only`` alone), from ``r``'s cut (``cut``, made when not given):
+        ``(points, simplices, pairs, parents)``, the pairs in the regions' numbering (each
+        region's cut numbers the regions stored in it in the same order, and a pair lists
+        its lower region first, whichever cut it comes from), the parents the cut's.
         """
         part, j, present = self._partition(r) if cut is None else cut
         faces = part.interfaces()
         mine = faces.of_region(j)
         pairs = faces.pairs[mine]
-        other = np.where(pairs[:, 0] == j, pairs[:, 1], pairs[:, 0])
-        mine = mine[self._rank[present[other]] > self._rank[r]]  # from one cut of each pair
+        other = present[np.where(pairs[:, 0] == j, pairs[:, 1], pairs[:, 0])]
+        mine = mine[self._rank[other] > self._rank[r] if only is None else other == only]  # one cut of each pair
         used, remap = used_vertices(faces.simplices[mine], faces.points.shape[0])
         return (faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]],
                 part.cells.parents[faces.point_ids[used]])  # fmt: skip
@@ -410,20 +448,8 @@ class _RegionCuts:
         if self._interfaces is not None:
             return self._interfaces
         others = [r for r in range(self.values.shape[1]) if r != self._largest]
-        pieces = _on_threads(lambda r: self._kept.pop(r, None) or self._pieces(r), others)
-        self._kept.clear()
-        points = np.concatenate([p for p, _, _, _ in pieces])
-        offsets = np.cumsum([0] + [p.shape[0] for p, _, _, _ in pieces])[:-1]
-        simplices = np.concatenate([t + o for (_, t, _, _), o in zip(pieces, offsets, strict=True)])
-        pairs = np.concatenate([q for _, _, q, _ in pieces])
-        parents = np.concatenate([e for _, _, _, e in pieces])
-        del pieces
-        _, first, merged = np.unique(
-            np.ascontiguousarray(points).view([("", points.dtype)] * points.shape[1]).ravel(),
-            return_index=True, return_inverse=True,
-        )  # fmt: skip
-        self._interfaces = Interfaces(points[first], merged.ravel()[simplices], pairs, None, None)
-        self._parents = parents[first]
+        points, simplices, pairs, self._parents = _merged(_on_threads(self._pieces, others))
+        self._interfaces = Interfaces(points, simplices, pairs, None, None)
         return self._interfaces
 
     def measure(self, r):
