@@ -135,7 +135,7 @@ def cmd_relax_image(args):
             labels, spacing=image.spacing, origin=origin, direction=image.direction, background=background,
             band=args.band, verbose=show, fit={"auto": "auto", "yes": True, "no": False}[args.fit], **kwargs,
         )  # fmt: skip
-    boundaries = dict(zip(surfaces, res.region_boundaries(surfaces), strict=True)) if args.region_surfaces else {}
+    closed = {}  # whether each region's written boundary is closed
     with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
         rest = iter(temporary)
         if args.output:
@@ -147,15 +147,19 @@ def cmd_relax_image(args):
                 io.write_level_set(next(rest), res.level_set())
             else:
                 io.write_interfaces(next(rest), res)
-        for r in boundaries:
-            io.write_level_set(next(rest), boundaries[r])
-    _report(args, image, labels, res, classes, boundaries)
+        if args.region_surfaces:  # each written and let go: an atlas's would not fit in memory together
+            paths = dict(zip(surfaces, rest, strict=True))
+            for r, boundary in res.each_region_boundary(surfaces):
+                io.write_level_set(paths[r], boundary)
+                closed[r] = boundary.is_closed()
+    _report(args, image, labels, res, classes, closed)
     return 0
 
 
-def _report(args, image, labels, res, classes, boundaries):
+def _report(args, image, labels, res, classes, closed):
     """The summary lines: the image, each region's measure against that of its pixels in the
-    ``labels`` relaxed (the image, framed by a layer of background), the time.
+    ``labels`` relaxed (the image, framed by a layer of background), whether each written
+    boundary (``closed``, by region) is closed, the time.
     """
     measure = "area" if image.labels.ndim == 2 else "volume"
     pixel = float(np.prod(image.spacing))
@@ -166,19 +170,19 @@ def _report(args, image, labels, res, classes, boundaries):
     counts = {c: int(n) for c, n in zip(*np.unique(labels, return_counts=True), strict=True)}
     for r, value in enumerate(res.region_measures()):
         given = counts[classes[r]] * pixel
-        closed = ""
-        if r in boundaries:
-            closed = ", boundary closed" if boundaries[r].is_closed() else ", boundary open (meets the image's border)"
+        state = ""
+        if r in closed:
+            state = ", boundary closed" if closed[r] else ", boundary open (meets the image's border)"
         framed = labels.shape != image.labels.shape and r == res.params.get("background")
         framed = " (background, framed by one layer)" if framed else ""
         lines.append(
             f"region {r} ({classes[r]}){framed}: {measure} {value:.6g} against {given:.6g} for its pixels "
-            f"({100 * (value / given - 1):+.3f} %){closed}"
+            f"({100 * (value / given - 1):+.3f} %){state}"
         )
     lines.append(f"time: {res.timings['total']:.2f} s")
     written = [p for p in (args.output, args.boundary) if p]
-    if boundaries:
-        written.append(f"{len(boundaries)} region boundaries to {args.region_surfaces}")
+    if closed:
+        written.append(f"{len(closed)} region boundaries to {args.region_surfaces}")
     if written:
         lines.append("wrote " + ", ".join(written))
     print("\n".join(lines))

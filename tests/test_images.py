@@ -817,6 +817,15 @@ def test_the_largest_region_is_never_cut(monkeypatch):
         surfaces = ask(relax_image(labels, band=4.0))
         assert sorted(cut) == [1, 2, 3, 4]  # each cut once
         assert [_triangles(b) for b in surfaces] == [_triangles(whole.region_boundary(r)) for r in range(len(surfaces))]
+    # one batch at a time, the largest last; in the order given where all are cut at once
+    monkeypatch.setattr(result_module, "BOUNDARIES_AT_ONCE", 1)
+    cut.clear()
+    streamed = list(relax_image(labels, band=4.0).each_region_boundary([3, 0, 1, 4, 2]))
+    assert [r for r, _ in streamed] == [3, 1, 4, 2, 0] and sorted(cut) == [1, 2, 3, 4]
+    assert all(_triangles(b) == _triangles(whole.region_boundary(r)) for r, b in streamed)
+    assert [r for r, _ in whole.each_region_boundary([3, 0, 1])] == [3, 0, 1]
+    with pytest.raises(ValueError, match="out of range"):
+        whole.each_region_boundary([0, 5])
 
 
 def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):

@@ -224,6 +224,27 @@ class _RegionMethods:
             return [whole.region_boundary(r) for r in regions]
         return cuts.boundaries(regions)
 
+    def each_region_boundary(self, regions=None):
+        """Yield ``(r, region_boundary(r))`` for each of ``regions`` (indices into
+        ``classes``; every region by default), a few at a time: a caller that writes each
+        boundary and lets it go holds a few at once, where :meth:`region_boundaries`
+        holds them all. In the order given, but where each region is cut on its own
+        (:data:`PARTITION_BY_REGION_SIMPLICES`) the region stored at the most points comes
+        last, its boundary assembled from the pieces its neighbours' cuts keep for it.
+        ``ndboundary relax IMAGE --surfaces DIR`` writes the surfaces this way.
+
+        Raises
+        ------
+        TypeError, ValueError
+            If a region is not an integer index into ``classes``.
+        """
+        regions = [self._region_index(r) for r in (range(self.classes.size) if regions is None else regions)]
+        cuts = self._by_region()
+        if cuts is None:
+            whole = self._cut()[0]
+            return ((r, whole.region_boundary(r)) for r in regions)
+        return cuts.each_boundary(regions, BOUNDARIES_AT_ONCE * available_threads())
+
     def _region_index(self, r):
         """``r`` checked as an index into ``classes``."""
         n = self.classes.size
@@ -289,6 +310,8 @@ def _on_threads(fn, items):
 #: cost about twice the time (16 s there; each simplex is cut once for every region stored
 #: at its points), in memory that follows one region.
 PARTITION_BY_REGION_SIMPLICES = 10_000_000
+#: :meth:`RegionsResult.each_region_boundary` cuts this many regions per thread at a time.
+BOUNDARIES_AT_ONCE = 4
 
 
 class _RegionCuts:
@@ -388,12 +411,22 @@ class _RegionCuts:
         """:meth:`boundary` of each of ``regions`` (in their order), the cuts on several
         threads; the largest region's last, from the pieces its neighbours' cuts kept.
         """
-        rest = sorted(set(regions) - {self._largest})
-        keep = self._largest in regions and self._interfaces is None
-        done = dict(zip(rest, _on_threads(lambda r: self.boundary(r, keep), rest), strict=True))
-        if self._largest in regions:
-            done[self._largest] = self._largest_boundary()
+        unique = sorted(set(regions))
+        done = dict(self.each_boundary(unique, len(unique)))
         return [done[r] for r in regions]
+
+    def each_boundary(self, regions, batch):
+        """``(r, boundary)`` for each of ``regions`` in turn, ``batch`` regions cut at a
+        time on several threads; the largest region's last, from the pieces its
+        neighbours' cuts kept.
+        """
+        rest = [r for r in regions if r != self._largest]
+        keep = self._largest in regions and self._interfaces is None
+        for start in range(0, len(rest), batch):
+            some = rest[start : start + batch]
+            yield from zip(some, _on_threads(lambda r: self.boundary(r, keep), some), strict=True)
+        if self._largest in regions:
+            yield self._largest, self._largest_boundary()
 
     def _largest_boundary(self):
         """The largest region's boundary: its pieces in the interfaces when they are built,
