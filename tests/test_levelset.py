@@ -25,6 +25,33 @@ def test_linear_function_gives_flat_level_set(dim, n, rng):
     assert not ls.is_closed()
 
 
+def test_a_surface_is_closed_when_every_edge_meets_its_reverse_once():
+    """A closed surface stays closed whatever its points' numbering and its triangles'
+    order; a hole, a flipped triangle, a repeated one or a flap opens it. Triangles are
+    checked by their edges as integers; the rows of sorted ids that every other kind of
+    simplex is checked by give the same answers."""
+    import ndboundary.levelset as levelset
+
+    dom = kuhn_grid(8, 3, jitter=0.25, random_state=3)
+    ball = marching_simplices(dom.points, dom.simplices, np.linalg.norm(dom.points, axis=1), 0.6)
+    rng = np.random.default_rng(0)
+    perm = rng.permutation(ball.n_points)
+    shuffled = levelset.LevelSet(ball.points[np.argsort(perm)], perm[ball.simplices][rng.permutation(ball.n_simplices)],
+                                 ball.edges, 0.6)  # fmt: skip
+    T = ball.simplices
+    flipped = T.copy()
+    flipped[7, [0, 1]] = flipped[7, [1, 0]]
+    flap = np.vstack([T, [T[0, 0], T[0, 1], ball.n_points]])  # a triangle on an edge already closed
+    cases = {"ball": (T, True), "shuffled": (shuffled.simplices, True), "hole": (T[1:], False),
+             "flipped": (flipped, False), "repeated": (np.vstack([T, T[:1]]), False),
+             "flap": (flap, False)}  # fmt: skip
+    points = np.vstack([ball.points, ball.points[:1]])
+    for name, (simplices, closed) in cases.items():
+        surface = levelset.LevelSet(points, simplices, None, 0.6)
+        assert surface.is_closed() == closed, name
+        assert levelset._closed_facets(surface.facets(), surface.n_points) == closed, name
+
+
 @pytest.mark.parametrize("dim, n, chi", [(2, 12, 0), (3, 8, 2)])
 def test_sphere_level_set_is_closed_and_oriented(dim, n, chi):
     dom = kuhn_grid(n, dim, jitter=0.25, random_state=3)
