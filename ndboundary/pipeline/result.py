@@ -7,6 +7,7 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -209,8 +210,9 @@ class _RegionMethods:
         Where each region is cut on its own (:data:`PARTITION_BY_REGION_SIMPLICES`), the
         regions are cut on several threads at once (:func:`~ndboundary._threads.available_threads`),
         since the cuts' compiled passes hold no GIL; the surfaces are the same, simplex for
-        simplex. Writing every region's surface (``ndboundary relax --region-surfaces``)
-        goes through here.
+        simplex. ``ndboundary relax MESH LABELS --region-surfaces DIR`` goes through here;
+        for a label image, which may hold hundreds of regions, see
+        :meth:`each_region_boundary`.
 
         Raises
         ------
@@ -344,7 +346,7 @@ class _RegionCuts:
         self._scratch = threading.local()  # a table of the points per thread
         self._measures = {}
         self._interfaces = self._parents = None
-        self._kept = {}  # pieces kept from the cuts made for boundaries, for the interfaces
+        self._kept = {}  # pieces with the largest region, kept from cuts made for boundaries
         # each region's rank by the points storing it (ties by index): an interface piece
         # is taken from the cut of its lower-ranked region, so the last is never cut for one
         sizes = np.diff(self.columns.indptr)
@@ -498,9 +500,10 @@ class _RegionCuts:
         others = [r for r in range(self.values.shape[1]) if r != self._largest]
         measures = np.zeros(self.values.shape[1])
         measures[others] = _on_threads(self.measure, others)
-        measures[self._largest] = self.total() - measures[others].sum()
+        measures[self._largest] = self.total - measures[others].sum()
         return measures
 
+    @cached_property
     def total(self):
         """The measure of all the simplices, summed a block at a time."""
         step = 1 << 22
