@@ -274,21 +274,21 @@ class _RegionMethods:
 
 def _merged(pieces):
     """Interface pieces ``(points, simplices, pairs, parents)`` from several regions' cuts
-    (a list, emptied) as one: a point two cuts share has the same coordinates in both,
-    computed from the same values in the same order, and is merged by them (its parents
-    are the first cut's).
+    (a list, not empty, emptied) as one: a point two cuts share has the same coordinates
+    in both, computed from the same values in the same order, and is merged by them (its
+    parents, where the pieces have them, are the first cut's).
     """
     points = np.concatenate([p for p, _, _, _ in pieces])
     offsets = np.cumsum([0] + [p.shape[0] for p, _, _, _ in pieces])[:-1]
     simplices = np.concatenate([t + o for (_, t, _, _), o in zip(pieces, offsets, strict=True)])
     pairs = np.concatenate([q for _, _, q, _ in pieces])
-    parents = np.concatenate([e for _, _, _, e in pieces])
+    parents = None if pieces[0][3] is None else np.concatenate([e for _, _, _, e in pieces])
     pieces.clear()  # let the pieces go before the merge
     _, first, merged = np.unique(
         np.ascontiguousarray(points).view([("", points.dtype)] * points.shape[1]).ravel(),
         return_index=True, return_inverse=True,
     )  # fmt: skip
-    return points[first], merged.ravel()[simplices], pairs, parents[first]
+    return points[first], merged.ravel()[simplices], pairs, None if parents is None else parents[first]
 
 
 def _on_threads(fn, items):
@@ -345,7 +345,7 @@ class _RegionCuts:
         self._at_point = point_simplices(simplices, points.shape[0])
         self._scratch = threading.local()  # a table of the points per thread
         self._measures = {}
-        self._interfaces = self._parents = None
+        self._interfaces = None
         self._kept = {}  # pieces with the largest region, kept from cuts made for boundaries
         # each region's rank by the points storing it (ties by index): an interface piece
         # is taken from the cut of its lower-ranked region, so the last is never cut for one
@@ -423,7 +423,7 @@ class _RegionCuts:
         neighbours' cuts kept.
         """
         rest = [r for r in regions if r != self._largest]
-        keep = self._largest in regions and self._interfaces is None
+        keep = self._largest in regions
         for start in range(0, len(rest), batch):
             some = rest[start : start + batch]
             yield from zip(some, _on_threads(lambda r: self.boundary(r, keep), some), strict=True)
@@ -431,25 +431,20 @@ class _RegionCuts:
             yield self._largest, self._largest_boundary()
 
     def _largest_boundary(self):
-        """The largest region's boundary: its pieces in the interfaces when they are built,
-        else from the cuts of the regions stored beside it (or the pieces they kept).
+        """The largest region's boundary, from the cuts of the regions stored beside it
+        (or the pieces they kept).
         """
         r = self._largest
-        if self._interfaces is not None:
-            faces, parents = self._interfaces, self._parents
-            mine = faces.of_region(r)
-            points, T, pairs = faces.points, faces.simplices[mine], faces.pairs[mine]
-        else:
-            c, v = self.columns, self.values
-            rows = c.indices[c.indptr[r] : c.indptr[r + 1]]
-            beside = unique_values(v.indices[expand_ranges(v.indptr[rows], v.indptr[rows + 1] - v.indptr[rows])])
-            beside = beside[beside != r].tolist()
-            if not beside:  # stored alone: no other region to take its pieces from
-                part, j, _ = self._partition(r)
-                return part.region_boundary(j)
-            pieces = _on_threads(lambda k: self._kept.pop(k, None) or self._pieces(k, only=r), beside)
-            points, T, pairs, parents = _merged(pieces)
+        c, v = self.columns, self.values
+        rows = c.indices[c.indptr[r] : c.indptr[r + 1]]
+        beside = unique_values(v.indices[expand_ranges(v.indptr[rows], v.indptr[rows + 1] - v.indptr[rows])])
+        beside = beside[beside != r].tolist()
+        if not beside:  # stored alone: no other region to take its pieces from
+            part, j, _ = self._partition(r)
+            return part.region_boundary(j)
+        pieces = _on_threads(lambda k: self._kept.pop(k, None) or self._pieces(k, only=r), beside)
         self._kept.clear()
+        points, T, pairs, parents = _merged(pieces)
         flip = pairs[:, 1] == r  # outward: as the partition orients them
         if T.shape[1] >= 2:
             T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
@@ -461,7 +456,8 @@ class _RegionCuts:
         (or region ``only`` alone), from ``r``'s cut (``cut``, made when not given):
         ``(points, simplices, pairs, parents)``, the pairs in the regions' numbering (each
         region's cut numbers the regions stored in it in the same order, and a pair lists
-        its lower region first, whichever cut it comes from), the parents the cut's.
+        its lower region first, whichever cut it comes from), the parents the cut's (with
+        ``only``; else None).
         """
         part, j, present = self._partition(r) if cut is None else cut
         faces = part.interfaces()
@@ -470,8 +466,8 @@ class _RegionCuts:
         other = present[np.where(pairs[:, 0] == j, pairs[:, 1], pairs[:, 0])]
         mine = mine[self._rank[other] > self._rank[r] if only is None else other == only]  # one cut of each pair
         used, remap = used_vertices(faces.simplices[mine], faces.points.shape[0])
-        return (faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]],
-                part.cells.parents[faces.point_ids[used]])  # fmt: skip
+        parents = None if only is None else part.cells.parents[faces.point_ids[used]]
+        return faces.points[used], remap[faces.simplices[mine]], present[faces.pairs[mine]], parents
 
     def interfaces(self):
         """Every interface, each piece taken from the cut of the lower-ranked of its two
@@ -483,7 +479,7 @@ class _RegionCuts:
         if self._interfaces is not None:
             return self._interfaces
         others = [r for r in range(self.values.shape[1]) if r != self._largest]
-        points, simplices, pairs, self._parents = _merged(_on_threads(self._pieces, others))
+        points, simplices, pairs, _ = _merged(_on_threads(self._pieces, others))
         self._interfaces = Interfaces(points, simplices, pairs, None, None)
         return self._interfaces
 
