@@ -42,6 +42,28 @@ def test_volume_surfaces_per_region_without_the_background(tmp_path, capsys):
     assert "boundary closed" in out and "wrote 2 region boundaries" in out
 
 
+def test_surfaces_written_show_their_progress_on_a_terminal(tmp_path, capsys, monkeypatch):
+    """A large image relaxed on a terminal reports each region's relaxation, then each
+    surface as it is written; off a terminal (a log) it reports neither."""
+    import sys
+
+    import ndboundary.cli_image
+
+    np.save(tmp_path / "seg.npy", _two_balls())
+    monkeypatch.setattr(ndboundary.cli_image, "PROGRESS_PIXELS", 1000)
+    for tty in (True, False):
+        monkeypatch.setattr(sys.stderr, "isatty", lambda tty=tty: tty)
+        code, _, err = _run(capsys, tmp_path / "seg.npy", "--surfaces", tmp_path / f"parts{tty}", "--background", "0")
+        assert code == 0
+        lines = [line for line in err.splitlines() if line.startswith("[ndboundary] surface ")]
+        assert ("[ndboundary] region 2/3: 1" in err) == tty
+        if tty:
+            assert [line.split(",")[0] for line in lines] == ["[ndboundary] surface 1/2: 1", "[ndboundary] surface 2/2: 2"]
+            assert all(line.endswith(" triangles") for line in lines)
+        else:
+            assert lines == []
+
+
 def test_volume_interfaces_as_stl_solids_and_surfaces_as_vtp(tmp_path, capsys):
     """``--boundary OUT.stl`` on a volume of three labels: one named solid per pair of
     regions that meet; ``--surface-format vtp``: each region's closed surface as VTK
