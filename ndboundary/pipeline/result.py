@@ -219,12 +219,9 @@ class _RegionMethods:
         TypeError, ValueError
             If a region is not an integer index into ``classes``.
         """
-        regions = [self._region_index(r) for r in (range(self.classes.size) if regions is None else regions)]
-        cuts = self._by_region()
-        if cuts is None:
-            whole = self._cut()[0]
-            return [whole.region_boundary(r) for r in regions]
-        return cuts.boundaries(regions)
+        regions = self._region_indices(regions)
+        done = dict(self._each_boundary(sorted(set(regions)), None))
+        return [done[r] for r in regions]
 
     def each_region_boundary(self, regions=None):
         """Yield ``(r, region_boundary(r))`` for each of ``regions`` (indices into
@@ -240,12 +237,22 @@ class _RegionMethods:
         TypeError, ValueError
             If a region is not an integer index into ``classes``.
         """
-        regions = [self._region_index(r) for r in (range(self.classes.size) if regions is None else regions)]
+        return self._each_boundary(self._region_indices(regions), BOUNDARIES_AT_ONCE * available_threads())
+
+    def _each_boundary(self, regions, batch):
+        """``(r, boundary)`` for each of ``regions`` (checked indices): from the partition of
+        every mixed element, or from the regions' own cuts, ``batch`` at a time (all at
+        once when None).
+        """
         cuts = self._by_region()
         if cuts is None:
             whole = self._cut()[0]
             return ((r, whole.region_boundary(r)) for r in regions)
-        return cuts.each_boundary(regions, BOUNDARIES_AT_ONCE * available_threads())
+        return cuts.each_boundary(regions, batch or max(len(regions), 1))
+
+    def _region_indices(self, regions):
+        """``regions`` (every region when None) checked as indices into ``classes``."""
+        return [self._region_index(r) for r in (range(self.classes.size) if regions is None else regions)]
 
     def _region_index(self, r):
         """``r`` checked as an index into ``classes``."""
@@ -408,14 +415,6 @@ class _RegionCuts:
             self._kept[r] = self._pieces(r, cut, only=self._largest)
         part, j, _ = cut
         return part.region_boundary(j)
-
-    def boundaries(self, regions):
-        """:meth:`boundary` of each of ``regions`` (in their order), the cuts on several
-        threads; the largest region's last, from the pieces its neighbours' cuts kept.
-        """
-        unique = sorted(set(regions))
-        done = dict(self.each_boundary(unique, len(unique)))
-        return [done[r] for r in regions]
 
     def each_boundary(self, regions, batch):
         """``(r, boundary)`` for each of ``regions`` in turn, ``batch`` regions cut at a
