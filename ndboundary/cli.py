@@ -192,7 +192,8 @@ def cmd_relax(args):
     two = res.classes.size == 2
     ls = res.level_set() if two else None
     regional = not two or args.partition or args.region_surfaces  # the partition is made: report its regions
-    boundaries = res.region_boundaries() if regional else []
+    pieces = {1: "points", 2: "segments", 3: "triangles", 4: "tetrahedra"}
+    summaries = {}  # each region's boundary, as the report gives it (each written and let go)
     with atomic_outputs(outputs, folders) as temporary:  # every output written, or none
         io.write_phi(temporary[0], res, labels=data if on == "elements" else None)
         rest = iter(temporary[1:])
@@ -203,9 +204,13 @@ def cmd_relax(args):
                 io.write_interfaces(next(rest), res)
         if args.partition:
             io.write_partition(next(rest), res)
-        if args.region_surfaces:
-            for boundary in boundaries:
-                io.write_level_set(next(rest), boundary)
+        paths = list(rest)  # one per region, with --region-surfaces
+        for r, boundary in res.each_region_boundary() if regional else ():
+            if paths:
+                io.write_level_set(paths[r], boundary)
+            k = boundary.simplices.shape[1]
+            closed = "" if k < 2 else ", closed" if boundary.is_closed() else ", open"
+            summaries[r] = f"boundary of {boundary.n_simplices} {pieces.get(k, 'simplices')}{closed}"
     t = res.timings
     lines = [f"{args.mesh}: {domain.n_vertices} vertices, {domain.n_elements} elements, labels on {on}"]
     if two:
@@ -218,13 +223,8 @@ def cmd_relax(args):
         lines[0] += f", {res.classes.size} regions"
         banded = [r for r in res.regions if "band" in r.params]
     measure = {1: "length", 2: "area", 3: "volume"}.get(domain.element_dim, "measure")
-    pieces = {1: "points", 2: "segments", 3: "triangles", 4: "tetrahedra"}
-    for r, (value, boundary) in enumerate(zip(res.region_measures() if regional else [], boundaries, strict=True)):
-        closed = "" if boundary.simplices.shape[1] < 2 else ", closed" if boundary.is_closed() else ", open"
-        lines.append(
-            f"region {r} ({res.classes[r]}): {measure} {value:.6g}, boundary of {boundary.n_simplices} "
-            f"{pieces.get(boundary.simplices.shape[1], 'simplices')}{closed}"
-        )
+    for r, value in enumerate(res.region_measures() if regional else []):
+        lines.append(f"region {r} ({res.classes[r]}): {measure} {value:.6g}, {summaries[r]}")
     if not two:
         faces = res.interfaces()
         n_pairs = np.unique(faces.pairs, axis=0).shape[0] if len(faces) else 0
@@ -248,7 +248,7 @@ def cmd_relax(args):
     )
     written = [args.output] + [p for p in (args.boundary, args.partition) if p]
     if args.region_surfaces:
-        written.append(f"{len(boundaries)} region boundaries to {args.region_surfaces}")
+        written.append(f"{len(paths)} region boundaries to {args.region_surfaces}")
     lines.append("wrote " + (f"{', '.join(written[:-1])} and {written[-1]}" if len(written) > 1 else written[0]))
     print("\n".join(lines))
     return 0
