@@ -25,6 +25,7 @@ Usage::
     python benchmarks/many_labels.py --layout brain
     python benchmarks/many_labels.py --interfaces        # and every interface, with its junctions
     python benchmarks/many_labels.py --layout brain --background 0   # as the command line's --background 0
+    python benchmarks/many_labels.py --image atlas.nii.gz --background 0   # a real atlas
 
 ``--background LABEL`` does what ``ndboundary relax IMAGE --surfaces DIR --background
 LABEL`` does: the labels framed by one layer of that label, relaxed with it as the
@@ -114,18 +115,32 @@ def main():
     parser.add_argument(
         "--background", type=int, help="this label's boundary left out, the image framed by it (as the command line)"
     )
+    parser.add_argument("--image", help="a label image file instead (a real atlas: NIfTI, NRRD, TIFF or .npy)")
     args = parser.parse_args()
-    shape = tuple(int(round(n * args.scale)) for n in ATLAS_SHAPE)
-    if args.layout == "brain":
-        labels = brain_labels(shape, args.sites - 35, thickness=5.0 * args.scale)
+    spacing = origin = None
+    if args.image:
+        from ndboundary import read_image
+
+        image = read_image(args.image)
+        labels, spacing, origin = image.labels, image.spacing, image.origin
+        if image.direction is not None:
+            raise SystemExit(f"{args.image}: an oblique image; relax it with `ndboundary relax`")
+        shape, name = labels.shape, args.image
     else:
-        labels = voronoi_labels(shape, args.sites)
-    share = f", background (label 0) {np.mean(labels == 0):.1%} of the voxels" if args.layout == "brain" else ""
-    print(f"{args.layout} layout: {np.unique(labels).size} labels{share}")
+        shape = tuple(int(round(n * args.scale)) for n in ATLAS_SHAPE)
+        if args.layout == "brain":
+            labels = brain_labels(shape, args.sites - 35, thickness=5.0 * args.scale)
+        else:
+            labels = voronoi_labels(shape, args.sites)
+        name = f"{args.layout} layout"
+    share = "" if args.background is None else f", background {np.mean(labels == args.background):.1%} of the voxels"
+    print(f"{name}: {np.unique(labels).size} labels{share}")
     if args.background is not None:
         if not (labels == args.background).any():
             raise SystemExit(f"--background {args.background}: not one of the labels")
         labels = np.pad(labels, 1, constant_values=args.background)
+        if origin is not None:  # the frame's voxels lie one step before the image's first
+            origin = np.asarray(origin, dtype=np.float64) - np.asarray(spacing, dtype=np.float64)
     memory = Memory(args.limit)
     from ndboundary import relax_image
 
@@ -136,8 +151,8 @@ def main():
         return time.perf_counter()
 
     begin = tick = time.perf_counter()
-    result = relax_image(labels, background=args.background)
-    tick = phase(f"relax {'x'.join(map(str, shape))}, {args.sites} labels", tick)
+    result = relax_image(labels, spacing=spacing, origin=origin, background=args.background)
+    tick = phase(f"relax {'x'.join(map(str, shape))}, {result.classes.size} labels", tick)
     values = result.region_values()
     tick = phase(f"region values ({values.nnz} stored)", tick)
     del values
@@ -154,7 +169,8 @@ def main():
         tick = phase(f"their junctions ({len(faces.junctions())} segments)", tick)
         del faces
     measures = result.region_measures()
-    phase(f"region measures (sum off the volume by {abs(measures.sum() / labels.size - 1):.1e})", tick)
+    volume = labels.size * float(np.prod(1.0 if spacing is None else spacing))
+    phase(f"region measures (sum off the volume by {abs(measures.sum() / volume - 1):.1e})", tick)
     print(f"end to end {time.perf_counter() - begin:.1f} s, most resident memory {memory.top:.2f} GB")
 
 
