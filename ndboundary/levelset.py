@@ -196,7 +196,7 @@ def _closed_triangles(simplices, n):
     of sorted ids held about forty bytes per edge several times over.
     """
     s = np.asarray(simplices, dtype=np.int64)
-    key = np.concatenate([s[:, 0] * n + s[:, 1], s[:, 1] * n + s[:, 2], s[:, 2] * n + s[:, 0]])
+    key = np.concatenate([row_codes(s[:, edge], n) for edge in ([0, 1], [1, 2], [2, 0])])
     key.sort()
     if (key[1:] == key[:-1]).any():  # an edge twice in one direction
         return False
@@ -231,10 +231,23 @@ def _row_keys(rows, n):
     ids = rows.shape[1] - 1
     if ids * np.log2(max(n, 2)) + 1 > 62:
         return rows
-    key = np.zeros(rows.shape[0], dtype=np.int64)
-    for c in range(ids):
-        key = key * n + rows[:, c]
-    return key * 2 + rows[:, -1]
+    return row_codes(rows[:, :ids], n) * 2 + rows[:, -1]
+
+
+def row_codes(rows, n):
+    """Each row of ``rows`` (ids below ``n``, ``n ** columns`` within 63 bits) as one
+    integer, in the rows' lexicographic order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> row_codes(np.array([[1, 2], [0, 2]]), 3).tolist()
+    [5, 2]
+    """
+    code = np.zeros(rows.shape[0], dtype=np.int64)
+    for c in range(rows.shape[1]):
+        code = code * n + rows[:, c]
+    return code
 
 
 def _permutation_parity(perm):

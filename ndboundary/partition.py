@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._arrays import unique_values, used_vertices
-from .levelset import LevelSet, simplex_measures
+from .levelset import LevelSet, row_codes, simplex_measures
 from .partition_clip import interface_facets, sweep, sweep_sparse
 
 __all__ = ["Cells", "Interfaces", "Junctions", "Partition", "partition"]
@@ -115,14 +115,6 @@ class Junctions:
 JUNCTION_KEYS_AT_ONCE = 1 << 24
 
 
-def _face_codes(faces, n):
-    """Each row of ``faces`` (sorted point ids below ``n``) as one integer."""
-    code = np.zeros(faces.shape[0], dtype=np.int64)
-    for c in range(faces.shape[1]):
-        code = code * n + faces[:, c]
-    return code
-
-
 def _widened(rows, width):
     """``rows`` padded on the right with -1 to ``width`` columns."""
     return np.pad(rows, ((0, 0), (0, width - rows.shape[1])), constant_values=-1)
@@ -220,7 +212,7 @@ class Interfaces:
             regions = _padded_runs(rows[:, -1], start[j], counts[j])
             uf = uf[j]
         else:  # each (face, region) as one integer, sorted a share of the faces at a time
-            code = np.concatenate([_face_codes(np.sort(np.delete(T, i, axis=1), axis=1), n) for i in range(k)])
+            code = np.concatenate([row_codes(np.sort(np.delete(T, i, axis=1), axis=1), n) for i in range(k)])
             shares = max(1, -(-code.size // JUNCTION_KEYS_AT_ONCE))
             share = (code % shares).astype(np.min_scalar_type(shares)) if shares > 1 else None
             found, regions = [], []
