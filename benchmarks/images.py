@@ -19,7 +19,8 @@ minute; ``--all`` for every case):
   (``regions_truths.YTruth``) on 128^2 pixels covering [-1, 1]^2.
 - ``voronoi64``: the Voronoi partition of 6 random sites of [-0.8, 0.8]^3 on 64^3
   voxels covering [-1, 1]^3; per-region volumes against the exact ones (the partition of
-  the grid's simplicial refinement by the sites' linear functions, exact).
+  the grid's simplicial refinement by the sites' linear functions, exact). The sites are
+  drawn with seed 0; ``--seeds K`` adds the draws of seeds 1 to K - 1, each case of its own.
 - ``aniso``: the ball of ``ball64`` on 64 x 64 x 22 voxels of spacing (1, 1, 3).
 - ``--prostate``: ``../shared/data/volumes/prostate_mask_00.nii`` (320 x 320 x 15
   voxels, labels 0, 1, 2, spacing 0.6 x 0.6 x 4 mm; ~2.5 min) end to end: each region's
@@ -58,6 +59,7 @@ Usage::
     .venv/bin/python benchmarks/images.py --cases ball128,torus128,blob128
     .venv/bin/python benchmarks/images.py --all --prostate   # everything, ~15 min
     .venv/bin/python benchmarks/images.py --all --no-fit         # two-region boundaries as relaxed
+    .venv/bin/python benchmarks/images.py --cases voronoi64 --seeds 8   # 8 draws of the sites
 
 Needs scikit-image and vtk (and, without ``ndboundary.read_image``, nibabel). Prints a
 table, the targets (PASS / FAIL), then one JSON line per case.
@@ -66,6 +68,7 @@ table, the targets (PASS / FAIL), then one JSON line per case.
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import time
 
@@ -234,7 +237,8 @@ def voronoi_case(n, bounds, seed=0):
                 x, y = f[2][:, 0], f[2][:, 1]
                 interfaces[(a, b)] = abs(float((x * np.roll(y, -1) - np.roll(x, -1) * y).sum()) / 2)
     exact = lambda res, grid: truth.exact_measures(grid)[res.classes]  # noqa: E731
-    return partition_case(f"voronoi 6 sites {n}^3", truth.labels, truth.boundary_distance, exact, interfaces, n, 3,
+    name = f"voronoi 6 sites {n}^3" + (f" #{seed}" if seed else "")
+    return partition_case(name, truth.labels, truth.boundary_distance, exact, interfaces, n, 3,
                           bounds)  # fmt: skip
 
 
@@ -366,6 +370,7 @@ def main():
     parser.add_argument("--all", action="store_true", help="every synthetic case")
     parser.add_argument("--prostate", action="store_true", help="add the prostate label volume")
     parser.add_argument("--no-fit", action="store_true", help="two-region boundaries as relaxed (fit=False)")
+    parser.add_argument("--seeds", type=int, default=1, help="run voronoi64 on the sites of seeds 0 to SEEDS - 1")
     args = parser.parse_args()
     global FIT
     FIT = not args.no_fit and "auto"
@@ -377,8 +382,12 @@ def main():
     if names:
         heads = " ".join(f"{c:>7s}" for c in ("mean", "p99", "max", "vol%", "area%"))
         print(f"{'case':24s} {'method':16s} {heads} {'|H|h':>6s} {'s':>7s}", flush=True)
-    for n in names:
-        row = table[n]()
+    jobs = [table[n] for n in names]
+    if "voronoi64" in names and args.seeds > 1:
+        at = names.index("voronoi64") + 1
+        jobs[at:at] = [functools.partial(voronoi_case, 64, ISO, seed=s) for s in range(1, args.seeds)]
+    for job in jobs:
+        row = job()
         rows.append(row)
         for m, v in row["methods"].items():
             cells = [fmt(v[k], (7, ".3f")) for k in ("mean", "p99", "max", "vol_pct", "area_pct")]
