@@ -58,7 +58,13 @@ STEP = 1.0
 #: Radius (h) about the curve of the sites each sample is fitted to.
 RADIUS = 5.0
 #: Half-thickness (h) of the slab about each sample's normal plane whose sites it reads.
-SLAB = 1.5
+#: A thin slab's cross-section of the sites shifts with where the curve crosses the grid,
+#: and its fits waver along the curve, by half a voxel on a straight curve at a slant to
+#: the voxels, beyond what the averaging after smooths; a thicker slab reads more of the
+#: labels at once, while a curve within it is near enough straight that its projection
+#: stays sharp (junction circles of 6 to 15 voxels, ``benchmarks/junction_circles.py``:
+#: both 1.5 h and 4 h left them farther from the truth than 3 h).
+SLAB = 3.0
 #: Passes of the (1, 2, 1) / 4 filter over the curve before it is sampled, and over the
 #: fitted centres and rays after.
 PASSES = 4
