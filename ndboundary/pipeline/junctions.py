@@ -37,7 +37,6 @@ places them (``benchmarks/regions.py``).
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 __all__ = [
@@ -133,35 +132,51 @@ def fit_ys(problems, margin=MARGIN, iterations=100):
     owner = np.repeat(np.arange(n), [len(p[0]) for p in problems])
     sector = np.concatenate([np.asarray(p[1], dtype=np.intp) for p in problems])
     following = (sector + 1) % 3
+    ray_slots = np.arange(2, 5)
 
     def terms(x, active):
         """The loss, gradient and Gauss-Newton matrix of each junction of ``active`` at its
         parameters ``x`` (one row each).
+
+        A site's distance to a ray depends on the centre and on that ray's angle only, so
+        each site adds to 6 of the matrix's 15 distinct entries: they are summed per
+        junction (and per ray, for the angles') by counting, not formed per site.
         """
         slot = np.full(n, -1)
         slot[active] = np.arange(active.size)
         mine = np.flatnonzero(slot[owner] >= 0)
         at, first, second = slot[owner[mine]], sector[mine], following[mine]
-        rows = np.arange(mine.size)
-        summed = sp.csr_matrix((np.ones(mine.size), (at, rows)), shape=(active.size, mine.size))  # sites -> junctions
+        k = active.size
         centre, angle = x[:, :2], x[:, 2:]
         rel = sites[mine] - centre[at]
-        a0, a1 = angle[at, first], angle[at, second]
-        left = np.stack([-np.sin(a0), np.cos(a0)], axis=1)  # left normal of each site's first ray
-        right = np.stack([np.sin(a1), -np.cos(a1)], axis=1)  # right normal of its second
-        k = active.size
         loss, grad, hess = np.zeros(k), np.zeros((k, 5)), np.zeros((k, 5, 5))
-        for normal, ray in ((left, 2 + first), (right, 2 + second)):
+
+        def summed(weights, bins=at, size=k):
+            return np.bincount(bins, weights, minlength=size)
+
+        for ray, sign in ((first, 1.0), (second, -1.0)):
+            a = angle[at, ray]
+            # the left normal of each site's first ray, the right normal of its second
+            normal = sign * np.stack([-np.sin(a), np.cos(a)], axis=1)
             dist = np.einsum("ij,ij->i", rel, normal)
             e, slope = _soft_exp(-dist / margin)
-            d = np.zeros((mine.size, 5))  # the distance's derivatives
-            d[:, :2] = -normal
-            d[rows, ray] = rel[:, 1] * normal[:, 0] - rel[:, 0] * normal[:, 1]  # turning the normal
-            loss += summed @ e
-            grad += summed @ ((-slope / margin)[:, None] * d)
-            hess += (summed @ ((slope / margin**2)[:, None] * (d[:, :, None] * d[:, None, :]).reshape(-1, 25))).reshape(
-                k, 5, 5
-            )
+            # the distance's derivatives: -normal by the centre, turn by the ray's angle
+            turn = rel[:, 1] * normal[:, 0] - rel[:, 0] * normal[:, 1]
+            pull, weight = slope / margin, slope / margin**2
+            by_ray = at * 3 + ray
+            loss += summed(e)
+            grad[:, 0] += summed(pull * normal[:, 0])
+            grad[:, 1] += summed(pull * normal[:, 1])
+            grad[:, 2:] -= summed(pull * turn, by_ray, 3 * k).reshape(k, 3)
+            w0, w1 = weight * normal[:, 0], weight * normal[:, 1]
+            hess[:, 0, 0] += summed(w0 * normal[:, 0])
+            hess[:, 0, 1] += summed(w0 * normal[:, 1])
+            hess[:, 1, 1] += summed(w1 * normal[:, 1])
+            hess[:, 0, 2:] -= summed(w0 * turn, by_ray, 3 * k).reshape(k, 3)
+            hess[:, 1, 2:] -= summed(w1 * turn, by_ray, 3 * k).reshape(k, 3)
+            hess[:, ray_slots, ray_slots] += summed(weight * turn * turn, by_ray, 3 * k).reshape(k, 3)
+        hess[:, 1, 0] = hess[:, 0, 1]
+        hess[:, 2:, :2] = hess[:, :2, 2:].transpose(0, 2, 1)
         return loss, grad, hess
 
     x = np.column_stack([np.zeros((n, 2)), np.array([np.asarray(p[2], dtype=np.float64) for p in problems])])
