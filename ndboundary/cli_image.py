@@ -149,11 +149,11 @@ def cmd_relax_image(args):
                 io.write_interfaces(next(rest), res)
         if args.region_surfaces:  # each written and let go: an atlas's would not fit in memory together
             paths = dict(zip(surfaces, rest, strict=True))
+            pieces = "triangles" if labels.ndim == 3 else "segments"
             for done, (r, boundary) in enumerate(res.each_region_boundary(surfaces), start=1):
                 io.write_level_set(paths[r], boundary)
                 closed[r] = boundary.is_closed()
                 if show:
-                    pieces = "triangles" if labels.ndim == 3 else "segments"
                     line = f"surface {done}/{len(surfaces)}: {names[r]}, {boundary.n_simplices} {pieces}"
                     print(f"[ndboundary] {line}", file=sys.stderr, flush=True)
     _report(args, image, labels, res, classes, closed)
