@@ -544,10 +544,8 @@ def _averaged(fitted, samples, h):
     for run in runs:
         raw_centres = np.array([fitted[k][0] for k in run])
         raw_angles = np.unwrap(np.array([fitted[k][1] for k in run]), axis=0)
-        centres, angles = raw_centres, raw_angles
-        if len(run) >= 3:
-            centres = _smoothed(raw_centres, False, PASSES)
-            angles = _smoothed(raw_angles, False, PASSES)
+        centres = _smoothed(raw_centres, False, PASSES)  # a copy, left as it is below 3 samples
+        angles = _smoothed(raw_angles, False, PASSES)
         widths = _straight_widths(np.array([samples[k][0] for k in run]) / h)
         for i in np.flatnonzero(widths):
             window = slice(i - widths[i], i + widths[i] + 1)
