@@ -295,6 +295,24 @@ def test_many_regions_of_an_image_band_partition_the_whole_image():
         assert result.region_boundary(r).measure() == pytest.approx(whole.region_boundary(r).measure(), rel=1e-10)
 
 
+def test_results_on_grids_and_grid_bands_survive_pickling():
+    """A result is sent to another process by pickle (joblib, dask): its grid, or the band
+    of a large image, is rebuilt there, and gives the same boundaries."""
+    import pickle
+
+    i, j = np.indices((20, 20))
+    disc = relax_image((i - 9.3) ** 2 + (j - 9.6) ** 2 < 30)
+    regions = relax_image(_voronoi((26, 28, 30), 4, (1.0, 1.0, 1.0)), band=4.0)
+    assert type(regions.domain).__name__ == "VoxelBand"
+    for result, boundary in ((disc, "level_set"), (regions, "interfaces")):
+        copy = pickle.loads(pickle.dumps(result))
+        assert type(copy.domain) is type(result.domain)
+        np.testing.assert_array_equal(getattr(copy, boundary)().points, getattr(result, boundary)().points)
+        np.testing.assert_allclose(copy.region_measures(), result.region_measures(), rtol=1e-12)
+    grid = ImageGrid((4, 3, 2), spacing=(1.0, 2.0, 0.5))
+    assert repr(pickle.loads(pickle.dumps(grid))) == repr(grid)
+
+
 def test_the_regions_of_a_2d_image_overlap_as_they_relax_in_turn(monkeypatch):
     """In 2-D each region of an image goes on while the last one's factor is built beside:
     the same functions, to the bit, as relaxing them one after another."""

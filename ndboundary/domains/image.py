@@ -220,8 +220,10 @@ class ImageGrid:
     integration_reach = property(_integration_reach)
     multigrid_sweeps = property(_multigrid_sweeps)
 
-    def __new__(cls, shape, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
-        """A :class:`PixelGrid` or :class:`VoxelGrid`, by the number of axes of ``shape``."""
+    def __new__(cls, shape=None, *, spacing=1.0, origin=0.0, direction=None, **kwargs):
+        """A :class:`PixelGrid` or :class:`VoxelGrid`, by the number of axes of ``shape``
+        (which a subclass, and unpickling, need not give).
+        """
         if cls is ImageGrid:
             shape = grid_geometry(shape, spacing, origin)[0]
             cls = PixelGrid if len(shape) == 2 else VoxelGrid
@@ -620,9 +622,13 @@ class GridBand:
     integration_reach = property(_integration_reach)
     multigrid_sweeps = property(_multigrid_sweeps)
 
-    def __new__(cls, shape, pixels, **kwargs):
-        """A :class:`PixelBand` or :class:`VoxelBand`, by the number of axes of ``shape``."""
+    def __new__(cls, shape=None, pixels=None, **kwargs):
+        """A :class:`PixelBand` or :class:`VoxelBand`, by the number of axes of ``shape``
+        (which a subclass, and unpickling, need not give).
+        """
         if cls is GridBand:
+            if shape is None or pixels is None:
+                raise TypeError("GridBand needs the grid's shape and the band's pixels")
             cls = PixelBand if len(tuple(shape)) == 2 else VoxelBand
         return object.__new__(cls)
 
