@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import sys
+import threading
 import time
 
 import numpy as np
@@ -18,7 +20,7 @@ from .pipeline.boundary import Boundary, element_boundary, zeta_facets
 from .pipeline.grid_band import corners_of, grid_mean_edge_length, image_band, region_band
 from .pipeline.integration import grid_scale_hint
 from .pipeline.params import DEFAULT_LAM, DEFAULT_MU, DEFAULT_RTOL, DEFAULT_SMOOTHING, check_params
-from .pipeline.relaxer import Relaxer, relax_in_turn
+from .pipeline.relaxer import Relaxer, relax_at_once, relax_in_turn
 from .pipeline.result import RegionsResult, fit_two_regions, keep_band, summed_timings
 from .pipeline import surface_fit
 from .solvers import FactorCache
@@ -253,8 +255,11 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
     solve = {k: p[k] for k in ("lam", "smoothing", "mu", "t", "form", "rtol", "solver")}
     index = np.int32 if domain.n_vertices < np.iinfo(np.int32).max else np.int64
 
-    def region(r, lines):
-        """Region ``r``'s relaxation on its own band: steps, as ``Relaxer._relax_steps``."""
+    def region(r, lines, gate=None):
+        """Region ``r``'s relaxation on its own band: steps, as ``Relaxer._relax_steps``
+        (within ``gate.held``, :func:`~ndboundary.pipeline.relaxer.relax_at_once`, once
+        its band is found).
+        """
         tick = time.perf_counter()
         box = tuple(
             slice(max(b.start - m, 0), min(b.stop + m, n)) for b, m, n in zip(boxes[r], reach, shape, strict=True)
@@ -269,10 +274,13 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         relaxer._vertex_pins = True
         if sectors.SECTOR_SMOOTHING:
             relaxer._sectors = (band_codes, r)
-        clock = [0.0]  # the seconds it waits for the next region's first steps
-        res = yield from relaxer._relax_steps(
-            labels, on="elements", pad=pad, verbose=lines, band=None, clock=clock, **solve
-        )
+        waited = time.perf_counter()
+        with contextlib.nullcontext() if gate is None else gate.held(band.n_vertices):
+            # the seconds it waits for its turn, and for the next region's first steps
+            clock = [time.perf_counter() - waited]
+            res = yield from relaxer._relax_steps(
+                labels, on="elements", pad=pad, verbose=lines, band=None, clock=clock, **solve
+            )
         if pixels is None:
             vertices, elements = band.corners, band_pixels
         else:
@@ -290,9 +298,12 @@ def _relax_regions(codes, classes, geometry, direction, pixels, h, width, pad, p
         return res
 
     # in 2-D each region goes on while the last one's factor is still built beside
-    # (benchmarks/factor_beside.py --cases image24); in 3-D the integration iterates after
-    # the pause, and the regions in turn measured no slower
-    results = relax_in_turn(classes.size, region, verbose, overlap=len(shape) == 2)
+    # (benchmarks/factor_beside.py --cases image24); in 3-D the regions' conjugate
+    # gradients hold no GIL, and several regions relax at once, one on each core
+    if len(shape) == 2:
+        results = relax_in_turn(classes.size, region, verbose)
+    else:
+        results = relax_at_once(classes.size, region, verbose)
     timings = summed_timings(results)
     timings["total"] = time.perf_counter() - t0
     params = {k: p[k] for k in ("on", "lam", "smoothing", "mu", "t", "form", "rtol", "solver", "band")}
@@ -308,10 +319,18 @@ class _OnFirstCall:
 
     def __init__(self, build):
         self._build, self._built = build, None
+        self._lock = threading.Lock()  # regions relaxed at once may call it together
+
+    def __getstate__(self):
+        return {"_build": self._build, "_built": self._built}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state, _lock=threading.Lock())
 
     def __call__(self, *args, **kwargs):
-        if self._built is None:
-            self._built = self._build()
+        with self._lock:
+            if self._built is None:
+                self._built = self._build()
         return self._built(*args, **kwargs)
 
 

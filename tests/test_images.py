@@ -336,6 +336,72 @@ def test_the_regions_of_a_2d_image_overlap_as_they_relax_in_turn(monkeypatch):
         np.testing.assert_array_equal(a.phi, b.phi)
 
 
+def test_the_regions_of_a_volume_relax_at_once_as_they_would_in_turn(monkeypatch):
+    """In 3-D the regions of an image relax two at a time, each on a thread of its own:
+    the same functions, to the bit, as one after another."""
+    from ndboundary import images as images_module
+    from ndboundary.pipeline import relaxer
+
+    monkeypatch.setattr(relaxer, "available_threads", lambda: 2)
+    labels = _voronoi((30, 32, 34), 5, (1.0, 1.0, 1.0))
+    together = relax_image(labels, band=4.0)
+    calls = []
+
+    def in_turn(count, start, verbose):
+        calls.append(count)
+        return relaxer.relax_in_turn(count, start, verbose, overlap=False)
+
+    monkeypatch.setattr(images_module, "relax_at_once", in_turn)
+    one_by_one = relax_image(labels, band=4.0)
+    assert calls == [5]
+    for a, b in zip(together.regions, one_by_one.regions, strict=True):
+        np.testing.assert_array_equal(a.phi, b.phi)
+    np.testing.assert_array_equal(together.interfaces().points, one_by_one.interfaces().points)
+
+
+def test_relax_at_once_runs_two_together_a_large_band_alone_and_prints_in_order(monkeypatch, capsys):
+    """Two relaxations run at once (both wait at one barrier, which would time out were
+    they in turn); a band above ALONE_MIN_VERTICES runs with no other beside it; the
+    results and each one's progress lines come out in order; an error is raised."""
+    import threading
+
+    from ndboundary.pipeline import relaxer
+
+    barrier = threading.Barrier(2, timeout=30)
+    inside, alone = [0], []
+    lock = threading.Lock()
+
+    def start(i, lines, gate):
+        large = i == 2
+        with gate.held(relaxer.ALONE_MIN_VERTICES + 1 if large else 10):
+            with lock:
+                inside[0] += 1
+                if large:
+                    alone.append(inside[0])
+            if i < 2:
+                barrier.wait()  # regions 0 and 1 together
+            for step in ("heat", "integration"):
+                relaxer._say(lines, f"{step}-{i}", 0.0)
+            yield from ()
+            with lock:
+                inside[0] -= 1
+        return i * 10
+
+    assert relaxer.relax_at_once(5, start, True, threads=2) == [0, 10, 20, 30, 40]
+    assert alone == [1]
+    printed = [line.split()[1] for line in capsys.readouterr().err.splitlines()]
+    assert printed == [f"{step}-{i}" for i in range(5) for step in ("heat", "integration")]
+
+    def failing(i, lines, gate):
+        if i == 3:
+            raise ValueError("region 3 failed")
+        yield from ()
+        return i
+
+    with pytest.raises(ValueError, match="region 3 failed"):
+        relaxer.relax_at_once(5, failing, False, threads=2)
+
+
 @pytest.mark.parametrize(
     ("shape", "spacing", "band"),
     [((30, 34, 28), (1.0, 1.2, 0.9), 4.3), ((60, 70), (1.0, 1.0), 5.3), ((20, 22, 18), (1.0, 1.0, 1.0), 10.3)],

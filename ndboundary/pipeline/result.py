@@ -835,7 +835,8 @@ def _near_junctions(points, simplices, values, lead, radius):
     seeds = np.flatnonzero((np.diff(lead, axis=1) != 0).sum(axis=1) >= 2)
     if seeds.size == 0:
         return None
-    near = cKDTree(points[unique_values(simplices[seeds])]).query(points, distance_upper_bound=radius)[0] < np.inf
+    tree = cKDTree(points[unique_values(simplices[seeds])])
+    near = tree.query(points, distance_upper_bound=radius, workers=available_threads())[0] < np.inf
     kept = simplices[near[simplices].all(axis=1)]
     used = unique_values(kept)
     return points[used], np.searchsorted(used, kept), values[used]
