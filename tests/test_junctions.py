@@ -50,6 +50,28 @@ def test_fit_y_finds_the_centre_of_labelled_sites(seed):
         assert np.abs(fitted - angles).max() < np.radians(8)
 
 
+def test_many_junctions_are_fitted_on_every_core_as_on_one(monkeypatch):
+    """Beyond SPLIT_MIN_SITES sites the junctions are split between threads: each fit is
+    its own, and comes out the same to the bit, in the same order."""
+    rng = np.random.default_rng(0)
+    problems = []
+    for _ in range(7):
+        centre, angles = rng.uniform(-0.5, 0.5, 2), np.radians([20.0, 150.0, 260.0]) + rng.uniform(-0.3, 0.3, 3)
+        sites = rng.uniform(-6, 6, (rng.integers(50, 300), 2))
+        problems.append((sites, sectors_of(sites, centre, angles), angles + rng.uniform(-0.2, 0.2, 3)))
+    alone = junctions.fit_ys(problems)
+    monkeypatch.setattr(junctions, "available_threads", lambda: 3)
+    monkeypatch.setattr(junctions, "SPLIT_MIN_SITES", 0)
+    runs = []
+    single = junctions._fit_ys
+    monkeypatch.setattr(junctions, "_fit_ys", lambda run, *args: runs.append(len(run)) or single(run, *args))
+    split = junctions.fit_ys(problems)
+    assert sorted(runs) != [7] and sum(runs) == 7
+    for a, b in zip(alone, split, strict=True):
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+
+
 def voronoi_junctions(mesh, sites, on="elements", fit=True, monkeypatch=None, interfaces=False):
     """Relax the Voronoi labels of ``sites``, the junctions fitted or not (``fit``), the
     interfaces and the junctions with them not fitted unless ``interfaces``; the distance

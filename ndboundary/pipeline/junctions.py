@@ -39,6 +39,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._threads import available_threads, shared_pool
+
 __all__ = [
     "JUNCTION_FIT",
     "PAIR_LINES",
@@ -117,6 +119,13 @@ def fit_y(sites, sector, angles, margin=MARGIN):
     return fit_ys([(sites, sector, angles)], margin)[0]
 
 
+#: Junctions of more sites than this in all are fitted in :func:`fit_ys` on every core, a
+#: share of them on each thread (each junction's fit is its own, the same to the bit): the
+#: 2 848 cross-sections of a 192^3 Voronoi partition's junction curves, 1.3 M sites, took
+#: 1.5 s on two threads against 2.8 s on one.
+SPLIT_MIN_SITES = 100_000
+
+
 def fit_ys(problems, margin=MARGIN, iterations=100):
     """:func:`fit_y` of several junctions ``(sites, sector, angles)`` at once.
 
@@ -125,8 +134,20 @@ def fit_ys(problems, margin=MARGIN, iterations=100):
     sites, and keeps it for the junctions whose loss it lowers (raising their damping for
     the others), so that a few array passes serve every junction. A junction whose step
     falls below 1e-7, or whose damping passes 1e12, is done: the passes after read only
-    the sites of the others.
+    the sites of the others. Beyond :data:`SPLIT_MIN_SITES` sites, the junctions are
+    split into runs of about as many sites, one per thread.
     """
+    sizes = np.cumsum([len(p[0]) for p in problems])
+    threads = min(available_threads(), len(problems))
+    if threads < 2 or sizes[-1] < SPLIT_MIN_SITES:
+        return _fit_ys(problems, margin, iterations)
+    cuts = np.searchsorted(sizes, sizes[-1] * np.arange(1, threads) / threads)
+    runs = [problems[a:b] for a, b in zip([0, *cuts], [*cuts, len(problems)], strict=True) if b > a]
+    return [fit for fits in shared_pool().map(lambda run: _fit_ys(run, margin, iterations), runs) for fit in fits]
+
+
+def _fit_ys(problems, margin, iterations):
+    """:func:`fit_ys` on this thread."""
     n = len(problems)
     sites = np.concatenate([np.asarray(p[0], dtype=np.float64) for p in problems])
     owner = np.repeat(np.arange(n), [len(p[0]) for p in problems])

@@ -640,14 +640,15 @@ def relax_in_turn(count, start, verbose, overlap=True):
     return results
 
 
-def relax_at_once(count, start, verbose, threads=None):
+def relax_at_once(count, start, verbose, threads=None, order=None):
     """The results of ``count`` relaxations, in order, run ``threads`` at a time
     (:func:`~ndboundary._threads.available_threads` by default), each on a thread of its
     own: ``start(i, lines, gate)`` returns the steps of the i-th (a generator, as
     :meth:`Relaxer._relax_steps`), which run within ``gate.held(n_vertices)`` once their
     band is known (:class:`_Gate`: a band of more than :data:`ALONE_MIN_VERTICES`
-    vertices relaxes alone). The progress lines of each are held until the one before it
-    has printed its own.
+    vertices relaxes alone). They start in ``order`` (by index by default): the largest
+    first, the threads end together. The progress lines of each are held until the one
+    before it has printed its own.
 
     The relaxations share nothing they write, and each gives the same functions, to the
     bit, as relaxed one after another. Their solves spend most of their time in sparse
@@ -663,7 +664,9 @@ def relax_at_once(count, start, verbose, threads=None):
     pool = ThreadPoolExecutor(min(threads, count), thread_name_prefix="ndboundary-relax")
     # every thread's BLAS limited from this one, which waits for them all (blas_threads)
     with blas_threads(1):
-        futures = [pool.submit(lambda i: _run(start(i, lines[i], gate)), i) for i in range(count)]
+        futures = [None] * count
+        for i in range(count) if order is None else order:
+            futures[i] = pool.submit(lambda i: _run(start(i, lines[i], gate)), i)
         try:
             results = []
             for i, future in enumerate(futures):
