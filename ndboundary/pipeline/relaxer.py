@@ -652,9 +652,9 @@ def relax_at_once(count, start, verbose, threads=None, order=None):
 
     The relaxations share nothing they write, and each gives the same functions, to the
     bit, as relaxed one after another. Their solves spend most of their time in sparse
-    products, sweeps and compiled passes that hold no GIL, on one core each: two regions
-    of a 192^3 Voronoi partition at once relaxed it in four fifths of the time
-    (``benchmarks/images_speed.py``).
+    products, sweeps and compiled passes that hold no GIL, on one core each: two at once
+    relaxed the 16 regions of a 192^3 Voronoi partition in three quarters of the time
+    (``benchmarks/images_speed.py 192 --regions 16``).
     """
     threads = available_threads() if threads is None else threads
     gate = _Gate(threads)
