@@ -102,7 +102,9 @@ def relax_image(labels, *, spacing=None, origin=None, direction=None, background
         count the pixels outside the band whole. With three labels or more, each region
         relaxes on its own band of that width, cut from a box around it (no region reads
         the whole image, so that hundreds of labels cost what their bands cost), as
-        :func:`~ndboundary.relax` would relax it on the grid with ``band=width``.
+        :func:`~ndboundary.relax` would relax it on the grid with ``band=width``; in 3-D
+        the regions relax several at a time, one on each core
+        (:func:`~ndboundary.pipeline.relaxer.relax_at_once`), to the same functions.
 
     Raises
     ------
