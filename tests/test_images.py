@@ -753,6 +753,23 @@ def test_a_junction_curve_the_relaxation_misplaces_is_moved_onto_its_line(monkey
     _fitted_and_relaxed(monkeypatch, labels, off_line, 0.1, 0.25)
 
 
+def test_a_straight_curve_waving_with_the_voxels_is_averaged_over_the_widest_windows():
+    """A straight junction curve's relaxed samples wave about its line with the voxels (a
+    quarter of a voxel over 25 samples): its curvature, read over CURVATURE_REACH samples,
+    lets its middle average its fits over WIDE samples either side; circles of 8 to 60
+    voxels are not averaged so."""
+    from ndboundary.pipeline import junction_curves
+
+    s = np.arange(60.0)
+    wavy = np.column_stack([0.6 * s, 0.8 * s, 0.25 * np.sin(2 * np.pi * s / 25)])
+    widths = junction_curves._straight_widths(wavy)
+    assert np.all(widths[20:41] == junction_curves.WIDE)
+    for radius in (8.0, 29.0, 60.0):
+        t = np.arange(80.0) / radius
+        circle = np.column_stack([radius * np.cos(t), radius * np.sin(t), 0 * t])
+        assert junction_curves._straight_widths(circle).max() == 0
+
+
 def test_the_fits_along_a_straight_junction_curve_are_averaged_over_its_length(monkeypatch):
     """Three regions (sectors of 75, 140 and 145 degrees) meet along straight lines at
     three slants to the voxels. Each cross-section's fit wavers with where its slab meets
