@@ -342,13 +342,10 @@ def _facet_counts(codes, n):
     follows.
     """
     counts = np.zeros(n, dtype=np.int64)
-    for axis in range(codes.ndim):
-        lo = [slice(None)] * codes.ndim
-        hi = [slice(None)] * codes.ndim
-        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-        a, b = codes[tuple(lo)], codes[tuple(hi)]
-        apart = a != b
-        counts += np.bincount(a[apart], minlength=n) + np.bincount(b[apart], minlength=n)
+    for a in range(codes.ndim):  # the faces between pixels i and i + 1 along a
+        low, high = codes[(slice(None),) * a + (slice(None, -1),)], codes[(slice(None),) * a + (slice(1, None),)]
+        apart = low != high
+        counts += np.bincount(low[apart], minlength=n) + np.bincount(high[apart], minlength=n)
     return counts
 
 

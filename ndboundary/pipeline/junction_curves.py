@@ -474,25 +474,21 @@ def _sites_near(domain, codes, on, centres, reach):
     is that near. Only the vertices of a tube about the curves are searched again, and
     only the elements at them read.
     """
-    d = cKDTree(centres).query(domain.points, distance_upper_bound=reach, workers=available_threads())[0]
+    workers = available_threads()
+    d = cKDTree(centres).query(domain.points, distance_upper_bound=reach, workers=workers)[0]
     close = np.flatnonzero(np.isfinite(d))
     if close.size == 0:
         return [], None, None, []
     tree = cKDTree(domain.points[close])
-    near = [
-        close[np.asarray(ids, dtype=np.intp)]
-        for ids in tree.query_ball_point(centres, reach, workers=available_threads())
-    ]
+    near = [close[np.asarray(ids, dtype=np.intp)] for ids in tree.query_ball_point(centres, reach, workers=workers)]
     if on == "vertices":
         return near, domain.points, np.asarray(codes), near
     mask = np.zeros(domain.n_vertices, dtype=bool)
     mask[close] = True
     elements = np.flatnonzero(domain.elements_at(mask))
     sites = domain.centroids_of(elements)
-    site_near = [
-        np.asarray(ids, dtype=np.intp)
-        for ids in cKDTree(sites).query_ball_point(centres, reach, workers=available_threads())
-    ]
+    found = cKDTree(sites).query_ball_point(centres, reach, workers=workers)
+    site_near = [np.asarray(ids, dtype=np.intp) for ids in found]
     return near, sites, np.asarray(codes)[elements], site_near
 
 

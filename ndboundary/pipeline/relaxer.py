@@ -673,10 +673,8 @@ def relax_at_once(count, start, verbose, threads=None, order=None):
                 results.append(future.result())
                 if verbose and i + 1 < count:
                     lines[i + 1].release()
-        except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)  # the regions under way end first
-            raise
-        pool.shutdown()
+        finally:  # after an error, the regions not started are dropped and those under way end
+            pool.shutdown(cancel_futures=True)
     return results
 
 
