@@ -1032,6 +1032,32 @@ def test_every_regions_boundary_at_once_is_each_regions_boundary(monkeypatch):
         at_once.region_boundary(-1)
 
 
+def test_the_junctions_of_a_volume_are_found_refining_the_elements_near_them_only():
+    """The mixed elements near those where three regions lead, refined alone, give the
+    same complex near the junctions as the refinement of every mixed element: the same
+    simplices, point for point, with the same largest function."""
+    from ndboundary.pipeline import result as result_module
+
+    labels = _voronoi((18, 20, 22), 7, (1.0, 1.0, 1.0), seed=4)
+    result = relax_image(labels)
+    values = result._relaxed_values()
+    lead = result_module._argmax_rows(values)
+    h = result.domain.mean_edge_length()
+    full = result_module._mixed_of(result.domain, values, lead)[0]
+    expected = result_module._near_junctions(*full, result_module._argmax_rows(full[2]), 5.0 * h)
+    near, cut_size = result_module._near_junction_elements(result.domain, values, lead, 5.0 * h)
+    assert cut_size == full[1].shape[0]  # voxels refine alike: the estimate is exact
+    assert near[1].shape[0] == expected[1].shape[0]
+
+    def simplices(points, simplices, values):
+        corners = np.sort(points[simplices].reshape(len(simplices), -1).round(9), axis=1)
+        order = np.lexsort(corners.T)
+        return corners[order], result_module._argmax_rows(values)[simplices][order]
+
+    for got, want in zip(simplices(*near), simplices(*expected), strict=True):
+        np.testing.assert_array_equal(got, want)
+
+
 def test_a_large_bands_integration_terms_after_its_field_change_nothing(monkeypatch):
     """A band beyond BESIDE_MAX_VERTICES builds its integration terms after its field, its
     own stiffness let go first, not beside it: the same functions, to the bit."""

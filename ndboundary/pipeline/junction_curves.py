@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._arrays import unique_values
+from .._arrays import row_groups, unique_values
 from .._threads import available_threads
 from .interface_fit import _smoothed, polylines, resample
 from .junctions import MARGIN, MAX_MOVE, _imposed_linear, _separating, fit_ys, stored_values, y_gradients
@@ -214,10 +214,13 @@ def _curve_fixes(domain, codes, on, values, faces, junctions, h, lead, unit, tak
     moved = np.array([fitted[k][0] for k in keys])
     candidates = unique_values(np.concatenate([near[k] for k in keys]))
     d, nearest = cKDTree(moved).query(domain.points[candidates], distance_upper_bound=BLEND * h)
+    candidates, nearest = candidates[np.isfinite(d)], nearest[np.isfinite(d)]
+    order = np.argsort(nearest, kind="stable")  # each sample's vertices, increasing
+    bounds = np.searchsorted(nearest[order], np.arange(len(keys) + 1))
     fixes = []
     for i, k in enumerate(keys):
         centre, angles, owners = fitted[k]
-        vertices = candidates[(nearest == i) & np.isfinite(d)]
+        vertices = candidates[order[bounds[i] : bounds[i + 1]]]
         vertices = vertices[np.isin(lead[vertices], owners) & ~taken[vertices]]
         if vertices.size < 3:
             continue
@@ -498,9 +501,12 @@ def _pair_points(faces):
     """
     out = {}
     pairs = np.sort(faces.pairs, axis=1)
-    for pair in np.unique(pairs, axis=0):
-        ids = unique_values(faces.simplices[(pairs[:, 0] == pair[0]) & (pairs[:, 1] == pair[1])])
-        out[(int(pair[0]), int(pair[1]))] = cKDTree(faces.points[ids]), faces.points[ids]
+    ids, first = row_groups(pairs)
+    order = np.argsort(ids, kind="stable")
+    bounds = np.searchsorted(ids[order], np.arange(first.size + 1))
+    for g, f in enumerate(first):
+        at = unique_values(faces.simplices[order[bounds[g] : bounds[g + 1]]])
+        out[(int(pairs[f, 0]), int(pairs[f, 1]))] = cKDTree(faces.points[at]), faces.points[at]
     return out
 
 

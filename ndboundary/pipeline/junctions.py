@@ -39,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._arrays import expand_ranges
 from .._threads import available_threads, shared_pool
 
 __all__ = [
@@ -824,9 +825,18 @@ def stored_values(values, vertices, regions):
     """
     if not hasattr(values, "tocsr"):
         return np.asarray(values)[np.ix_(vertices, regions)]
-    sub = values.tocsr()[vertices][:, regions].tocoo()
+    values = values.tocsr()  # the same matrix when it is one: its rows are read in place
+    vertices, regions = np.asarray(vertices), np.asarray(regions)
+    starts = values.indptr[vertices]
+    lengths = values.indptr[vertices + 1] - starts
+    at = expand_ranges(starts, lengths)  # every entry stored in the vertices' rows
+    column = np.full(values.shape[1], -1)
+    column[regions] = np.arange(regions.size)
+    row = np.repeat(np.arange(vertices.size), lengths)
+    wanted = column[values.indices[at]]
+    kept = wanted >= 0
     out = np.full((vertices.size, regions.size), np.nan)
-    out[sub.row, sub.col] = sub.data
+    out[row[kept], wanted[kept]] = values.data[at[kept]]
     return out
 
 

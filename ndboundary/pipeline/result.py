@@ -734,17 +734,24 @@ class RegionsResult(_RegionMethods):
             return False
         tick = time.perf_counter()
         lead = _argmax_rows(values)
-        mixed = _mixed_of(self.domain, values, lead)
-        if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
-            self.__dict__["_mixed_cache"] = mixed  # the partition's, not built twice
-            return False  # the whole cut would not fit in memory: see _RegionCuts
         h = self.params.get("h") or self.domain.mean_edge_length()
-        complex_ = _complex(self.domain, values) if mixed[0] is None else mixed[0]
-        complex_lead = _argmax_rows(complex_[2])
-        near = _near_junctions(*complex_, complex_lead, 5.0 * h)
-        faces = None if near is None else partition(*near).interfaces()
-        crossings = _border_crossings(*complex_, complex_lead)
         on = self.params.get("on", "elements")
+        mixed = None
+        if self.domain.element_dim == 3 and can_cut(self.domain):  # only the mixed elements near junctions refined
+            near, cut_size = _near_junction_elements(self.domain, values, lead, 5.0 * h)
+            if cut_size > PARTITION_BY_REGION_SIMPLICES:
+                return False  # the whole cut would not fit in memory: see _RegionCuts
+            crossings = np.zeros((0, 3)), np.zeros((0, 2), dtype=np.int64)
+        else:
+            mixed = _mixed_of(self.domain, values, lead)
+            if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
+                self.__dict__["_mixed_cache"] = mixed  # the partition's, not built twice
+                return False  # the whole cut would not fit in memory: see _RegionCuts
+            complex_ = _complex(self.domain, values) if mixed[0] is None else mixed[0]
+            complex_lead = _argmax_rows(complex_[2])
+            near = _near_junctions(*complex_, complex_lead, 5.0 * h)
+            crossings = _border_crossings(*complex_, complex_lead)
+        faces = None if near is None else partition(*near).interfaces()
         if faces is not None and faces.simplices.shape[1] == 3:  # surfaces in a volume
             self._junction_values = junction_curves.curve_corrections(
                 self.domain, self._codes, on, values, faces, h, lead
@@ -757,7 +764,8 @@ class RegionsResult(_RegionMethods):
         self.params["fitted_junctions"] = len(self._junction_values)
         self.timings["junctions"] = time.perf_counter() - tick
         if not self._junction_values:
-            self.__dict__["_mixed_cache"] = mixed
+            if mixed is not None:
+                self.__dict__["_mixed_cache"] = mixed
             return False
         return True
 
@@ -840,6 +848,49 @@ def _near_junctions(points, simplices, values, lead, radius):
     kept = simplices[near[simplices].all(axis=1)]
     used = unique_values(kept)
     return points[used], np.searchsorted(used, kept), values[used]
+
+
+def _near_junction_elements(domain, values, lead, radius):
+    """:func:`_near_junctions` of the refinement of the mixed elements near those whose
+    vertices lead (``lead``) with three or more regions, without refining the others:
+    the complex (None when there is none), and the number of simplices the refinement of
+    every mixed element would hold, estimated from those refined.
+
+    The elements refined are the mixed ones whose centroids lie within ``radius`` and
+    twice the farthest vertex from a mixed element's centroid of one whose vertices lead
+    with three regions: every simplex within ``radius`` of a simplex whose points lead with
+    three regions lies in one of them, as long as three regions lead at the vertices of
+    the element that simplex lies in, or of another within that reach. The junctions of a
+    volume's partition lie where three interfaces meet, among a small share of the
+    elements the interfaces cross (a fifth of them for a partition of 16 regions on 192^3
+    voxels).
+    """
+    mixed = domain.mixed_elements(lead)[0]
+    ids = np.flatnonzero(mixed)
+    if ids.size == 0:
+        return None, 0
+    sub, vertices = domain.subdomain(mixed)
+    by_element = sub.incidence.T.tocsr()
+    owner = np.repeat(np.arange(ids.size), np.diff(by_element.indptr))
+    L = values.shape[1]
+    keys = unique_values(owner * L + lead[vertices][by_element.indices])
+    three = np.bincount(keys // L, minlength=ids.size) >= 3
+    if not three.any():
+        return None, 0
+    centroids = sub.centroids_of(np.arange(ids.size))
+    spread = float(np.linalg.norm(sub.points[by_element.indices] - centroids[owner], axis=1).max())
+    reach = radius + 2.0 * spread
+    d = cKDTree(centroids[three]).query(centroids, distance_upper_bound=reach, workers=available_threads())[0]
+    del sub, by_element, owner, keys, centroids
+    keep = np.zeros(domain.n_elements, dtype=bool)
+    keep[ids[np.isfinite(d)]] = True
+    part, vertices = domain.subdomain(keep)
+    local = values[vertices]
+    if sp.issparse(local):
+        local = _within_reach(part, local)
+    points, simplices, local = _complex(part, local)
+    estimate = ids.size * simplices.shape[0] / part.n_elements
+    return _near_junctions(points, simplices, local, _argmax_rows(local), radius), estimate
 
 
 def _border_crossings(points, simplices, values, lead):
