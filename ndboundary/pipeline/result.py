@@ -726,8 +726,11 @@ class RegionsResult(_RegionMethods):
         (:mod:`~ndboundary.pipeline.junction_curves`); whether any was fitted.
 
         The junctions are found by cutting the complex near them only
-        (:func:`_near_junctions`); the mixed elements of the relaxed functions are kept
-        for the partition when no junction was fitted.
+        (:func:`_near_junctions`). In the plane and on surfaces that complex is cut from
+        the refinement of every mixed element, which is kept for the partition when no
+        junction was fitted; in volumes only the mixed elements near the junctions are
+        refined (:func:`_near_junction_elements`), and the partition refines the mixed
+        elements of the fitted functions.
         """
         self._junction_values = []
         if self._codes is None or not junctions.JUNCTION_FIT or self.classes.size < 3:
