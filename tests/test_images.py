@@ -1045,8 +1045,9 @@ def test_the_junctions_of_a_volume_are_found_refining_the_elements_near_them_onl
     h = result.domain.mean_edge_length()
     full = result_module._mixed_of(result.domain, values, lead)[0]
     expected = result_module._near_junctions(*full, result_module._argmax_rows(full[2]), 5.0 * h)
-    near, cut_size = result_module._near_junction_elements(result.domain, values, lead, 5.0 * h)
+    near, cut_size = result_module._near_junction_elements(result.domain, values, lead, 5.0 * h, np.inf)
     assert cut_size == full[1].shape[0]  # voxels refine alike: the estimate is exact
+    assert result_module._near_junction_elements(result.domain, values, lead, 5.0 * h, cut_size - 1) == (None, cut_size)
     assert near[1].shape[0] == expected[1].shape[0]
 
     def simplices(points, simplices, values):

@@ -319,6 +319,10 @@ def _on_threads(fn, items):
 #: cost about twice the time (16 s there; each simplex is cut once for every region stored
 #: at its points), in memory that follows one region.
 PARTITION_BY_REGION_SIMPLICES = 10_000_000
+
+#: How many of the mixed elements of a volume are refined to estimate the size of the
+#: refinement of them all (:func:`_near_junction_elements`), before any is cut.
+REFINEMENT_SAMPLE = 512
 #: :meth:`RegionsResult.each_region_boundary` cuts this many regions per thread at a time.
 BOUNDARIES_AT_ONCE = 4
 
@@ -741,7 +745,7 @@ class RegionsResult(_RegionMethods):
         on = self.params.get("on", "elements")
         mixed = None
         if self.domain.element_dim == 3 and can_cut(self.domain):  # only the mixed elements near junctions refined
-            near, cut_size = _near_junction_elements(self.domain, values, lead, 5.0 * h)
+            near, cut_size = _near_junction_elements(self.domain, values, lead, 5.0 * h, PARTITION_BY_REGION_SIMPLICES)
             if cut_size > PARTITION_BY_REGION_SIMPLICES:
                 return False  # the whole cut would not fit in memory: see _RegionCuts
             crossings = np.zeros((0, 3)), np.zeros((0, 2), dtype=np.int64)
@@ -853,11 +857,13 @@ def _near_junctions(points, simplices, values, lead, radius):
     return points[used], np.searchsorted(used, kept), values[used]
 
 
-def _near_junction_elements(domain, values, lead, radius):
+def _near_junction_elements(domain, values, lead, radius, limit):
     """:func:`_near_junctions` of the refinement of the mixed elements near those whose
     vertices lead (``lead``) with three or more regions, without refining the others:
     the complex (None when there is none), and the number of simplices the refinement of
-    every mixed element would hold, estimated from those refined.
+    every mixed element would hold, estimated from a sample of them
+    (:data:`REFINEMENT_SAMPLE` elements spread over them; exact where the elements are
+    alike). Beyond ``limit`` simplices, the complex is not built.
 
     The elements refined are the mixed ones whose centroids lie within ``radius`` and
     twice the farthest vertex from a mixed element's centroid of one whose vertices lead
@@ -872,6 +878,12 @@ def _near_junction_elements(domain, values, lead, radius):
     ids = np.flatnonzero(mixed)
     if ids.size == 0:
         return None, 0
+    sample = np.zeros(domain.n_elements, dtype=bool)
+    sample[ids[:: max(1, ids.size // REFINEMENT_SAMPLE)]] = True
+    part = domain.subdomain(sample)[0]
+    estimate = ids.size * part._refinement[1].shape[0] / part.n_elements
+    if estimate > limit:
+        return None, estimate
     sub, vertices = domain.subdomain(mixed)
     by_element = sub.incidence.T.tocsr()
     owner = np.repeat(np.arange(ids.size), np.diff(by_element.indptr))
@@ -879,7 +891,7 @@ def _near_junction_elements(domain, values, lead, radius):
     keys = unique_values(owner * L + lead[vertices][by_element.indices])
     three = np.bincount(keys // L, minlength=ids.size) >= 3
     if not three.any():
-        return None, 0
+        return None, estimate
     centroids = sub.centroids_of(np.arange(ids.size))
     spread = float(np.linalg.norm(sub.points[by_element.indices] - centroids[owner], axis=1).max())
     reach = radius + 2.0 * spread
@@ -892,7 +904,6 @@ def _near_junction_elements(domain, values, lead, radius):
     if sp.issparse(local):
         local = _within_reach(part, local)
     points, simplices, local = _complex(part, local)
-    estimate = ids.size * simplices.shape[0] / part.n_elements
     return _near_junctions(points, simplices, local, _argmax_rows(local), radius), estimate
 
 
