@@ -1045,9 +1045,10 @@ def test_the_junctions_of_a_volume_are_found_refining_the_elements_near_them_onl
     h = result.domain.mean_edge_length()
     full = result_module._mixed_of(result.domain, values, lead)[0]
     expected = result_module._near_junctions(*full, result_module._argmax_rows(full[2]), 5.0 * h)
-    near, cut_size = result_module._near_junction_elements(result.domain, values, lead, 5.0 * h, np.inf)
+    near, cut_size, _ = result_module._near_junction_elements(result.domain, values, lead, 5.0 * h, np.inf)
     assert cut_size == full[1].shape[0]  # voxels refine alike: the estimate is exact
-    assert result_module._near_junction_elements(result.domain, values, lead, 5.0 * h, cut_size - 1) == (None, cut_size)
+    limited = result_module._near_junction_elements(result.domain, values, lead, 5.0 * h, cut_size - 1)
+    assert limited == (None, cut_size, None)
     assert near[1].shape[0] == expected[1].shape[0]
 
     def simplices(points, simplices, values):
@@ -1057,6 +1058,40 @@ def test_the_junctions_of_a_volume_are_found_refining_the_elements_near_them_onl
 
     for got, want in zip(simplices(*near), simplices(*expected), strict=True):
         np.testing.assert_array_equal(got, want)
+
+
+def test_the_interfaces_far_from_junctions_cut_beside_their_fit_join_the_others(monkeypatch):
+    """The mixed voxels far from every junction are cut while the junctions are fitted,
+    the others after: the regions' boundaries are the same surfaces, watertight where the
+    regions do not meet the image's border, with the same measures, as one partition of
+    every mixed voxel."""
+    from ndboundary.pipeline import result as result_module
+
+    labels = _voronoi((40, 44, 48), 5, (1.0, 1.0, 1.0), seed=3)
+    joined = relax_image(labels)
+    joined.region_values()
+    assert "_cut_beside" in joined.__dict__  # some mixed voxels lie far from the junctions
+    assert isinstance(joined._cut()[0], result_module._JoinedCut)
+    monkeypatch.setattr(result_module, "BESIDE_FIT_REACH", np.inf)
+    one = relax_image(labels)
+    assert not isinstance(one._cut()[0], result_module._JoinedCut)
+    np.testing.assert_allclose(joined.region_measures(), one.region_measures(), rtol=1e-12)
+    assert joined.region_measures().sum() == pytest.approx(labels.size, rel=1e-12)
+    lo, hi = np.zeros(3) - 0.5, np.array(labels.shape) - 0.5
+    for r in range(joined.classes.size):
+        a, b = joined.region_boundary(r), one.region_boundary(r)
+        assert a.simplices.shape == b.simplices.shape
+        assert a.measure() == pytest.approx(b.measure(), rel=1e-12)
+        T = a.simplices
+        edges = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        assert counts.max() == 2  # no edge is shared by more than two triangles
+        rim = np.unique(edges, axis=0)[counts == 1]
+        x = a.points[rim.ravel()]
+        assert (np.isclose(x, lo) | np.isclose(x, hi)).any(axis=1).all()  # open only on the image's border
+    faces = joined.interfaces()
+    assert len(faces) == len(one.interfaces())
+    assert faces.measure() == pytest.approx(one.interfaces().measure(), rel=1e-12)
 
 
 def test_a_large_bands_integration_terms_after_its_field_change_nothing(monkeypatch):

@@ -145,7 +145,16 @@ class _RegionMethods:
         values = self.region_values()  # may leave the cut of its junctions' fit here
         cached = self.__dict__.get("_mixed_cache")
         if cached is None:
-            cached = self.__dict__["_mixed_cache"] = _mixed_of(self.domain, values)
+            beside = self.__dict__.pop("_cut_beside", None)
+            if beside is not None and not _still_mixed(self.domain, values, *beside):
+                beside = None
+            if beside is None:
+                cached = _mixed_of(self.domain, values)
+            else:  # the elements cut beside the fit are left out, and joined to the rest's cut
+                far, far_part, shift = beside
+                cached = _mixed_of(self.domain, values, skip=far, shift=shift)
+                self.__dict__["_far_part"] = far_part, shift
+            self.__dict__["_mixed_cache"] = cached
         return cached
 
     def _cut(self):
@@ -155,7 +164,12 @@ class _RegionMethods:
         cached = self.__dict__.get("_cut_cache")
         if cached is None:
             complex_, whole = self._mixed()
-            cut = self.partition() if complex_ is None else partition(*complex_)
+            far = self.__dict__.pop("_far_part", None)
+            if far is not None:
+                far_part, shift = far
+                cut = _JoinedCut([far_part] + ([] if complex_ is None else [_shifted_partition(*complex_, shift)]))
+            else:
+                cut = self.partition() if complex_ is None else partition(*complex_)
             cached = self.__dict__["_cut_cache"] = (cut, whole)
             self.__dict__.pop("_region_cuts", None)  # the whole partition serves every region now
         return cached
@@ -167,6 +181,8 @@ class _RegionMethods:
         if "_cut_cache" in self.__dict__:
             return None
         complex_ = self._mixed()[0]
+        if "_far_part" in self.__dict__:  # the rest of the mixed elements, cut beside the fit
+            return None
         if complex_ is None or not sp.issparse(complex_[2]) or complex_[1].shape[0] <= PARTITION_BY_REGION_SIMPLICES:
             return None
         cached = self.__dict__.get("_region_cuts")
@@ -323,6 +339,13 @@ PARTITION_BY_REGION_SIMPLICES = 10_000_000
 #: How many of the mixed elements of a volume are refined to estimate the size of the
 #: refinement of them all (:func:`_near_junction_elements`), before any is cut.
 REFINEMENT_SAMPLE = 512
+#: The mixed elements of a volume farther than this (h, and twice the elements' spread)
+#: from every element whose vertices lead with three regions are cut while the junctions
+#: are fitted (:func:`_far_cut`), on a thread of their own: no fit moves a vertex of them
+#: (the fits move vertices within 4.6 h of such elements in a partition of 16 regions on
+#: 192^3 voxels; one that moves another leaves every mixed element to the partition after
+#: the fit).
+BESIDE_FIT_REACH = 8.0
 #: :meth:`RegionsResult.each_region_boundary` cuts this many regions per thread at a time.
 BOUNDARIES_AT_ONCE = 4
 
@@ -743,12 +766,20 @@ class RegionsResult(_RegionMethods):
         lead = _argmax_rows(values)
         h = self.params.get("h") or self.domain.mean_edge_length()
         on = self.params.get("on", "elements")
-        mixed = None
+        mixed, pool = None, None
         if self.domain.element_dim == 3 and can_cut(self.domain):  # only the mixed elements near junctions refined
-            near, cut_size = _near_junction_elements(self.domain, values, lead, 5.0 * h, PARTITION_BY_REGION_SIMPLICES)
+            near, cut_size, far = _near_junction_elements(
+                self.domain, values, lead, 5.0 * h, PARTITION_BY_REGION_SIMPLICES, BESIDE_FIT_REACH * h
+            )
             if cut_size > PARTITION_BY_REGION_SIMPLICES:
                 return False  # the whole cut would not fit in memory: see _RegionCuts
             crossings = np.zeros((0, 3)), np.zeros((0, 2), dtype=np.int64)
+            if near is not None and far is not None and sp.issparse(values):
+                # the mixed elements far from every junction, which no fit reaches, are cut
+                # while the junctions are fitted: their compiled passes hold no GIL
+                shift = 1.0 - float(values.data.min())
+                pool = ThreadPoolExecutor(1, thread_name_prefix="ndboundary-beside")
+                far_cut = pool.submit(_far_cut, self.domain, values, far, shift)
         else:
             mixed = _mixed_of(self.domain, values, lead)
             if mixed[0] is not None and mixed[0][1].shape[0] > PARTITION_BY_REGION_SIMPLICES:
@@ -758,16 +789,27 @@ class RegionsResult(_RegionMethods):
             complex_lead = _argmax_rows(complex_[2])
             near = _near_junctions(*complex_, complex_lead, 5.0 * h)
             crossings = _border_crossings(*complex_, complex_lead)
-        faces = None if near is None else partition(*near).interfaces()
-        if faces is not None and faces.simplices.shape[1] == 3:  # surfaces in a volume
-            self._junction_values = junction_curves.curve_corrections(
-                self.domain, self._codes, on, values, faces, h, lead
-            )
-        elif faces is not None or len(crossings[0]):
-            crossings = (*crossings, lead)
-            self._junction_values = junctions.junction_corrections(
-                self.domain, self._codes, on, values, faces, h, crossings
-            )
+        try:
+            faces = None if near is None else partition(*near).interfaces()
+            if faces is not None and faces.simplices.shape[1] == 3:  # surfaces in a volume
+                self._junction_values = junction_curves.curve_corrections(
+                    self.domain, self._codes, on, values, faces, h, lead
+                )
+            elif faces is not None or len(crossings[0]):
+                crossings = (*crossings, lead)
+                self._junction_values = junctions.junction_corrections(
+                    self.domain, self._codes, on, values, faces, h, crossings
+                )
+        finally:
+            if pool is not None:
+                pool.shutdown(wait=True)
+        if pool is not None:
+            far_part, far_vertices = far_cut.result()
+            moved = np.zeros(self.domain.n_vertices, dtype=bool)
+            for vertices, _, _ in self._junction_values:
+                moved[vertices] = True
+            if not moved[far_vertices].any():  # else the partition cuts every mixed element
+                self.__dict__["_cut_beside"] = far, far_part, shift
         self.params["fitted_junctions"] = len(self._junction_values)
         self.timings["junctions"] = time.perf_counter() - tick
         if not self._junction_values:
@@ -857,13 +899,16 @@ def _near_junctions(points, simplices, values, lead, radius):
     return points[used], np.searchsorted(used, kept), values[used]
 
 
-def _near_junction_elements(domain, values, lead, radius, limit):
+def _near_junction_elements(domain, values, lead, radius, limit, beside=np.inf):
     """:func:`_near_junctions` of the refinement of the mixed elements near those whose
     vertices lead (``lead``) with three or more regions, without refining the others:
     the complex (None when there is none), and the number of simplices the refinement of
     every mixed element would hold, estimated from a sample of them
     (:data:`REFINEMENT_SAMPLE` elements spread over them; exact where the elements are
-    alike). Beyond ``limit`` simplices, the complex is not built.
+    alike). Beyond ``limit`` simplices, the complex is not built. Third, the mixed
+    elements farther than ``beside`` (and twice the spread below) from every element whose
+    vertices lead with three regions, which :func:`_far_cut` cuts beside the junctions'
+    fit (None when there is none, or no complex).
 
     The elements refined are the mixed ones whose centroids lie within ``radius`` and
     twice the farthest vertex from a mixed element's centroid of one whose vertices lead
@@ -877,13 +922,13 @@ def _near_junction_elements(domain, values, lead, radius, limit):
     mixed = domain.mixed_elements(lead)[0]
     ids = np.flatnonzero(mixed)
     if ids.size == 0:
-        return None, 0
+        return None, 0, None
     sample = np.zeros(domain.n_elements, dtype=bool)
     sample[ids[:: max(1, ids.size // REFINEMENT_SAMPLE)]] = True
     part = domain.subdomain(sample)[0]
     estimate = ids.size * part._refinement[1].shape[0] / part.n_elements
     if estimate > limit:
-        return None, estimate
+        return None, estimate, None
     sub, vertices = domain.subdomain(mixed)
     by_element = sub.incidence.T.tocsr()
     owner = np.repeat(np.arange(ids.size), np.diff(by_element.indptr))
@@ -891,20 +936,27 @@ def _near_junction_elements(domain, values, lead, radius, limit):
     keys = unique_values(owner * L + lead[vertices][by_element.indices])
     three = np.bincount(keys // L, minlength=ids.size) >= 3
     if not three.any():
-        return None, estimate
+        return None, estimate, None
     centroids = sub.centroids_of(np.arange(ids.size))
     spread = float(np.linalg.norm(sub.points[by_element.indices] - centroids[owner], axis=1).max())
     reach = radius + 2.0 * spread
-    d = cKDTree(centroids[three]).query(centroids, distance_upper_bound=reach, workers=available_threads())[0]
+    d = cKDTree(centroids[three]).query(
+        centroids, distance_upper_bound=max(reach, beside + 2.0 * spread), workers=available_threads()
+    )[0]
     del sub, by_element, owner, keys, centroids
     keep = np.zeros(domain.n_elements, dtype=bool)
-    keep[ids[np.isfinite(d)]] = True
+    keep[ids[d <= reach]] = True
+    far = None
+    if np.isinf(d).any():
+        far = np.zeros(domain.n_elements, dtype=bool)
+        far[ids[np.isinf(d)]] = True
     part, vertices = domain.subdomain(keep)
     local = values[vertices]
     if sp.issparse(local):
         local = _within_reach(part, local)
     points, simplices, local = _complex(part, local)
-    return _near_junctions(points, simplices, local, _argmax_rows(local), radius), estimate
+    near = _near_junctions(points, simplices, local, _argmax_rows(local), radius)
+    return near, estimate, None if near is None else far
 
 
 def _border_crossings(points, simplices, values, lead):
@@ -960,22 +1012,114 @@ def _written(values, fitted):
     return out
 
 
-def _mixed_of(domain, values, lead=None):
+def _mixed_of(domain, values, lead=None, skip=None, shift=None):
     """:meth:`_RegionMethods._mixed` of the region functions ``values`` on ``domain``
     (``lead``: each vertex's largest function, when known).
+
+    ``skip``: mixed elements left out of the complex (cut beside the junctions' fit,
+    :func:`_far_cut`), and None for it when they are all the mixed ones; ``shift``: the
+    shift of the sparse values while averaged (:func:`_complex`).
     """
     mixed, lowest = domain.mixed_elements(_argmax_rows(values) if lead is None else lead)
     if not can_cut(domain) or mixed.all() or not mixed.any():
         return None, np.zeros(values.shape[1])
+    whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
+    if skip is not None:
+        mixed = mixed & ~skip
+        if not mixed.any():
+            return None, whole
     sub, vertices = domain.subdomain(mixed)
     local = values[vertices]
     if sp.issparse(local):
         local = _within_reach(sub, local)
-    whole = np.bincount(lowest[~mixed], weights=np.asarray(domain.A)[~mixed], minlength=values.shape[1])
-    points, simplices, local = _complex(sub, local)
+    points, simplices, local = _complex(sub, local, shift)
     if points.shape[0] < np.iinfo(np.int32).max:  # held until the partition: half the bytes
         simplices = simplices.astype(np.int32)
     return (points, simplices, local), whole
+
+
+def _far_cut(domain, values, far, shift):
+    """The partition of the mixed elements ``far`` (:func:`_near_junction_elements`) by
+    the sparse region functions ``values``, its interfaces found, and the vertices of those
+    elements: the part of the partition that the junctions' fit, which moves no vertex of
+    them, leaves as it is. Made beside the fit (:meth:`RegionsResult._fit_junctions`),
+    ``values`` shifted by ``shift`` as the rest will be (:func:`_shifted_partition`).
+    """
+    sub, vertices = domain.subdomain(far)
+    local = _within_reach(sub, values[vertices])
+    part = _shifted_partition(*_complex(sub, local, shift), shift)
+    part.interfaces()
+    return part, vertices
+
+
+def _shifted_partition(points, simplices, values, shift):
+    """:func:`~ndboundary.partition.partition` of a complex with sparse ``values``, shifted
+    by ``shift`` (every value above 0 once shifted) instead of to a lowest value of 1:
+    two complexes cut with the same shift compute the same points where they meet, to the
+    bit, as one complex holding both does, so that their interfaces join.
+    """
+    values = sp.csr_matrix(values, dtype=np.float64)
+    values.sum_duplicates()
+    shifted = values.copy()
+    shifted.data = shifted.data + shift
+    X, S, regions, parents = sweep_sparse(np.asarray(points, dtype=np.float64), np.asarray(simplices, dtype=np.int64),
+                                          shifted)  # fmt: skip
+    measure = lambda: float(simplex_measures(points, simplices).sum())  # noqa: E731
+    return Partition(Cells(X, S, regions, None, parents), values.shape[1], measure)
+
+
+def _still_mixed(domain, values, far, far_part, shift):
+    """Whether the elements ``far`` cut beside the junctions' fit are still all mixed by
+    the fitted ``values`` (sparse), and ``shift`` keeps every value above 0: then the cut of
+    the others joins theirs.
+    """
+    if not sp.issparse(values) or not float(values.data.min()) + shift > 0.0:
+        return False
+    mixed = domain.mixed_elements(_argmax_rows(values))[0]
+    return not (far & ~mixed).any()
+
+
+class _JoinedCut:
+    """The partition of the mixed elements as the partitions of two parts of them (the
+    elements cut beside the junctions' fit and the others), both shifted alike
+    (:func:`_shifted_partition`): the interfaces of both, joined where they meet by the
+    points' coordinates (as :class:`_RegionCuts` joins its regions' pieces), and the
+    regions' measures summed. The ``edges`` of a region's boundary hold each point's
+    parent pair in the part it comes from.
+    """
+
+    def __init__(self, parts):
+        self.parts = parts
+        self._interfaces = None
+        self._parents = None
+
+    def region_measures(self):
+        """Every region's measure within the mixed elements."""
+        return sum(part.region_measures() for part in self.parts)
+
+    def interfaces(self):
+        """The interfaces of both parts as one (built once)."""
+        if self._interfaces is None:
+            pieces = []
+            for part in self.parts:
+                f = part.interfaces()
+                pieces.append((f.points, f.simplices, f.pairs, part.cells.parents[f.point_ids]))
+            points, simplices, pairs, self._parents = _merged(pieces)
+            self._interfaces = Interfaces(points, simplices, pairs, None, None)
+        return self._interfaces
+
+    def region_boundary(self, r):
+        """Region ``r``'s boundary, oriented outward (as
+        :meth:`~ndboundary.partition.Partition.region_boundary`).
+        """
+        f = self.interfaces()
+        mine = f.of_region(r)
+        T = f.simplices[mine]
+        flip = f.pairs[mine, 1] == r
+        if T.shape[1] >= 2:
+            T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
+        used, remap = used_vertices(T, f.points.shape[0])
+        return LevelSet(f.points[used], remap[T], self._parents[used], 0.0)
 
 
 def _argmax_rows(values):
@@ -992,10 +1136,13 @@ def _argmax_rows(values):
     return np.minimum.reduceat(at_top, starts)
 
 
-def _complex(domain, values):
+def _complex(domain, values, shift=None):
     """``domain.level_set_complex(values)``, for sparse values too: a point the
     refinement adds stores a region when each vertex it averages stores it (elsewhere the
-    region stays below the functions that compete there, as at those vertices).
+    region stays below the functions that compete there, as at those vertices). The
+    sparse values are averaged shifted by ``shift`` (by default, so that the lowest is 1),
+    and two complexes averaged with the same shift give the points they share the same
+    values, to the bit.
     """
     if not sp.issparse(values):
         return domain.level_set_complex(values)
@@ -1004,7 +1151,8 @@ def _complex(domain, values):
         return points, simplices, values
     R = sp.csr_matrix(R)
     stored = sp.csr_matrix((np.ones(values.nnz), values.indices, values.indptr), shape=values.shape)
-    shift = 1.0 - values.data.min()  # every stored value above 0: none cancels in the averages
+    if shift is None:
+        shift = 1.0 - values.data.min()  # every stored value above 0: none cancels in the averages
     shifted = sp.csr_matrix((values.data + shift, values.indices, values.indptr), shape=values.shape)
     mean = (R @ shifted).tocsr()
     count = (abs(R).sign() @ stored).tocsr()
