@@ -1098,13 +1098,27 @@ class _JoinedCut:
         return sum(part.region_measures() for part in self.parts)
 
     def interfaces(self):
-        """The interfaces of both parts as one (built once)."""
+        """The interfaces of both parts as one (built once): the first part's points, then
+        those of the second that the first does not hold.
+        """
         if self._interfaces is None:
-            pieces = []
-            for part in self.parts:
-                f = part.interfaces()
-                pieces.append((f.points, f.simplices, f.pairs, part.cells.parents[f.point_ids]))
-            points, simplices, pairs, self._parents = _merged(pieces)
+            faces = [part.interfaces() for part in self.parts]
+            parents = [part.cells.parents[f.point_ids] for part, f in zip(self.parts, faces, strict=True)]
+            if len(faces) == 1:
+                f = faces[0]
+                self._interfaces = Interfaces(f.points, f.simplices, f.pairs, None, None)
+                self._parents = parents[0]
+                return self._interfaces
+            first, second = faces
+            shared = _same_points(first.points, second.points)  # -1 where the first has no such point
+            new = shared < 0
+            number = np.empty(second.points.shape[0], dtype=np.int64)
+            number[new] = first.points.shape[0] + np.arange(int(new.sum()))
+            number[~new] = shared[~new]
+            points = np.concatenate([first.points, second.points[new]])
+            simplices = np.concatenate([first.simplices, number[second.simplices]])
+            pairs = np.concatenate([first.pairs, second.pairs])
+            self._parents = np.concatenate([parents[0], parents[1][new]])
             self._interfaces = Interfaces(points, simplices, pairs, None, None)
         return self._interfaces
 
@@ -1120,6 +1134,31 @@ class _JoinedCut:
             T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
         used, remap = used_vertices(T, f.points.shape[0])
         return LevelSet(f.points[used], remap[T], self._parents[used], 0.0)
+
+
+def _same_points(a, b):
+    """For each point of ``b``, the index of a point of ``a`` with the same coordinates, to
+    the bit, or -1: a sort of a hash of the coordinates' bits, each match then checked.
+    """
+
+    def keys(points):
+        bits = np.ascontiguousarray(points, dtype=np.float64).view(np.uint64)
+        out = np.zeros(bits.shape[0], dtype=np.uint64)
+        for c in range(bits.shape[1]):
+            out = (out ^ bits[:, c]) * np.uint64(0x9E3779B97F4A7C15)  # a multiplicative hash
+        return out
+
+    out = np.full(b.shape[0], -1, dtype=np.int64)
+    if a.shape[0] == 0 or b.shape[0] == 0:
+        return out
+    ka = keys(a)
+    order = np.argsort(ka)
+    sorted_keys = ka[order]
+    at = np.minimum(np.searchsorted(sorted_keys, keys(b)), order.size - 1)
+    candidate = order[at]
+    same = (a[candidate] == b).all(axis=1)
+    out[same] = candidate[same]
+    return out
 
 
 def _argmax_rows(values):
