@@ -1092,6 +1092,13 @@ def test_the_interfaces_far_from_junctions_cut_beside_their_fit_join_the_others(
     faces = joined.interfaces()
     assert len(faces) == len(one.interfaces())
     assert faces.measure() == pytest.approx(one.interfaces().measure(), rel=1e-12)
+    # elements so near the junctions that their fit moves vertices of them: cut after it
+    monkeypatch.setattr(result_module, "BESIDE_FIT_REACH", -1.7)  # all but the elements at the junctions
+    near = relax_image(labels)
+    near.region_values()
+    assert "_cut_beside" not in near.__dict__
+    assert not isinstance(near._cut()[0], result_module._JoinedCut)
+    np.testing.assert_allclose(near.region_measures(), one.region_measures(), rtol=1e-12)
 
 
 def test_a_large_bands_integration_terms_after_its_field_change_nothing(monkeypatch):

@@ -947,9 +947,10 @@ def _near_junction_elements(domain, values, lead, radius, limit, beside=np.inf):
     keep = np.zeros(domain.n_elements, dtype=bool)
     keep[ids[d <= reach]] = True
     far = None
-    if np.isinf(d).any():
+    beyond = ~(d <= beside + 2.0 * spread)
+    if beyond.any():
         far = np.zeros(domain.n_elements, dtype=bool)
-        far[ids[np.isinf(d)]] = True
+        far[ids[beyond]] = True
     part, vertices = domain.subdomain(keep)
     local = values[vertices]
     if sp.issparse(local):
