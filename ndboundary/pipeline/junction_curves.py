@@ -156,25 +156,34 @@ def curve_corrections(domain, codes, on, values, faces, h, lead):
         return []
     n_sites = domain.n_vertices if on == "vertices" else domain.n_elements
     unit = float(np.cbrt(np.asarray(domain.A).sum() / n_sites))  # the sites' spacing
-    corners = _corner_fixes(domain, codes, on, values, junctions, h, lead, unit)
-    taken = np.zeros(domain.n_vertices, dtype=bool)
-    for vertices, _, _ in corners:
-        taken[vertices] = True
-    return corners + _curve_fixes(domain, codes, on, values, faces, junctions, h, lead, unit, taken)
-
-
-def _curve_fixes(domain, codes, on, values, faces, junctions, h, lead, unit, taken):
-    """The junction curves' samples fitted and imposed, as the module describes, on the
-    vertices that no corner's fit took (``taken``).
-    """
-    samples = _samples(junctions, h)
-    if not samples:
+    corners, samples = _corners(junctions, h), _samples(junctions, h)
+    if not corners and not samples:
         return []
-    centres = np.array([s[0] for s in samples])
-    reach = float(np.hypot(RADIUS, SLAB)) * h
+    # the vertices and sites about every corner and sample, found at once
+    corner_reach = CORNER_RADIUS * h + max((half for _, _, half in corners), default=0.0)
+    reach = np.r_[np.full(len(corners), corner_reach), np.full(len(samples), float(np.hypot(RADIUS, SLAB)) * h)]
+    centres = np.array([c for c, _, _ in corners] + [s[0] for s in samples])
     near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, reach)
     if not near:
         return []
+    k = len(corners)
+    found = (near[:k], sites, site_codes, site_near[:k])
+    fixes = _corner_fixes(domain, values, corners, found, h, lead, unit) if corners else []
+    taken = np.zeros(domain.n_vertices, dtype=bool)
+    for vertices, _, _ in fixes:
+        taken[vertices] = True
+    if not samples:
+        return fixes
+    found = (near[k:], sites, site_codes, site_near[k:])
+    return fixes + _curve_fixes(domain, values, faces, samples, found, h, lead, unit, taken)
+
+
+def _curve_fixes(domain, values, faces, samples, found, h, lead, unit, taken):
+    """The junction curves' ``samples`` (:func:`_samples`) fitted and imposed, as the
+    module describes, on the vertices that no corner's fit took (``taken``); ``found``:
+    :func:`_sites_near` of the samples.
+    """
+    near, sites, site_codes, site_near = found
     pieces = _pair_points(faces)
     expected = np.pi * RADIUS**2 * 2.0 * SLAB * (h / unit) ** 3  # the sites of a whole slab
     problems = []
@@ -311,17 +320,13 @@ def fit_corner(sites, region, linear, margin=MARGIN, iterations=100):
     return np.vstack([np.zeros(width), p.reshape(m - 1, width)])
 
 
-def _corner_fixes(domain, codes, on, values, junctions, h, lead, unit):
-    """The corners of the junction curves (points where four regions meet) fitted
-    (:func:`fit_corner`) and imposed on the four regions' functions: a list of
-    ``(vertices, regions, new)``, no two sharing a vertex.
+def _corner_fixes(domain, values, corners, found, h, lead, unit):
+    """The ``corners`` of the junction curves (:func:`_corners`: points where four regions
+    meet) fitted (:func:`fit_corner`) and imposed on the four regions' functions: a list of
+    ``(vertices, regions, new)``, no two sharing a vertex; ``found``: :func:`_sites_near`
+    of the corners.
     """
-    corners = _corners(junctions, h)
-    if not corners:
-        return []
-    centres = np.array([c for c, _, _ in corners])
-    reach = CORNER_RADIUS * h + max(r for _, _, r in corners)
-    near, sites, site_codes, site_near = _sites_near(domain, codes, on, centres, reach)
+    near, sites, site_codes, site_near = found
     fixes, taken = [], np.zeros(domain.n_vertices, dtype=bool)
     for (centre, owners, half), vertices, around in zip(corners, near, site_near, strict=True):
         vertices = vertices[np.linalg.norm(domain.points[vertices] - centre, axis=1) <= CORNER_RADIUS * h + half]
@@ -471,14 +476,14 @@ def _samples(junctions, h):
 
 
 def _sites_near(domain, codes, on, centres, reach):
-    """For each sample at ``centres``: the domain's vertices within ``reach`` of it, and
-    the labelled sites there (element centroids, or vertices): ``(near, sites,
-    site_codes, site_near)``, ``site_near`` indexing ``sites``; empty lists when no vertex
-    is that near. Only the vertices of a tube about the curves are searched again, and
-    only the elements at them read.
+    """For each sample at ``centres``: the domain's vertices within ``reach`` (one for
+    each, or one for all) of it, and the labelled sites there (element centroids, or
+    vertices): ``(near, sites, site_codes, site_near)``, ``site_near`` indexing ``sites``;
+    empty lists when no vertex is that near. Only the vertices of a tube about the curves
+    are searched again, and only the elements at them read.
     """
     workers = available_threads()
-    d = cKDTree(centres).query(domain.points, distance_upper_bound=reach, workers=workers)[0]
+    d = cKDTree(centres).query(domain.points, distance_upper_bound=float(np.max(reach)), workers=workers)[0]
     close = np.flatnonzero(np.isfinite(d))
     if close.size == 0:
         return [], None, None, []
