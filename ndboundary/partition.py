@@ -185,6 +185,26 @@ class Interfaces:
             return order[:0]
         return order[start[r] : start[r + 1]]
 
+    def bounding(self, r):
+        """The simplices bounding region ``r``, oriented outward from it, over the points
+        they use: ``(used, simplices)``, ``used`` the indices of those points in
+        :attr:`points`, increasing, and ``simplices`` numbering them.
+
+        Examples
+        --------
+        >>> from ndboundary.partition import partition, _y_example
+        >>> used, simplices = partition(*_y_example()).interfaces().bounding(0)
+        >>> simplices.shape, bool(simplices.max() < used.size)
+        ((5, 2), True)
+        """
+        mine = self.of_region(r)
+        T = self.simplices[mine]
+        flip = self.pairs[mine, 1] == r
+        if T.shape[1] >= 2:
+            T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
+        used, remap = used_vertices(T, self.points.shape[0])
+        return used, remap[T]
+
     def simplex_measures(self) -> np.ndarray:
         """Length / area / volume of each interface simplex (ones for k = 1)."""
         if self.simplices.shape[1] == 1:
@@ -307,15 +327,8 @@ class Partition:
         (LevelSet(value=0.0, n_points=6, n_simplices=5), False)
         """
         f = self.interfaces()
-        mine = f.of_region(r)
-        T = f.simplices[mine]
-        flip = f.pairs[mine, 1] == r
-        if T.shape[1] >= 2:
-            T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
-        used, remap = used_vertices(T, f.points.shape[0])
-        simp = remap[T]
-        ids = f.point_ids[used]
-        return LevelSet(f.points[used], simp, self.cells.parents[ids], 0.0)
+        used, simp = f.bounding(r)
+        return LevelSet(f.points[used], simp, self.cells.parents[f.point_ids[used]], 0.0)
 
     def __repr__(self):
         return f"Partition(n_regions={self.n_regions}, n_cells={len(self.cells)})"

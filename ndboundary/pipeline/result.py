@@ -1128,13 +1128,8 @@ class _JoinedCut:
         :meth:`~ndboundary.partition.Partition.region_boundary`).
         """
         f = self.interfaces()
-        mine = f.of_region(r)
-        T = f.simplices[mine]
-        flip = f.pairs[mine, 1] == r
-        if T.shape[1] >= 2:
-            T[flip, 0], T[flip, 1] = T[flip, 1].copy(), T[flip, 0].copy()
-        used, remap = used_vertices(T, f.points.shape[0])
-        return LevelSet(f.points[used], remap[T], self._parents[used], 0.0)
+        used, simp = f.bounding(r)
+        return LevelSet(f.points[used], simp, self._parents[used], 0.0)
 
 
 def _same_points(a, b):
