@@ -299,6 +299,12 @@ class Partition:
             self._input_measure = self._input_measure()
         return float(self._input_measure)
 
+    def __getstate__(self):
+        # the input's measure is computed before pickling: its function holds the input
+        state = dict(self.__dict__)
+        state["_input_measure"] = self.input_measure
+        return state
+
     def region_measures(self) -> np.ndarray:
         """Length / area / volume of each region, shape (L,): the cell measures summed."""
         return np.bincount(self.cells.regions, weights=self.cells.measures(), minlength=self.n_regions)

@@ -309,6 +309,13 @@ def test_results_on_grids_and_grid_bands_survive_pickling():
         assert type(copy.domain) is type(result.domain)
         np.testing.assert_array_equal(getattr(copy, boundary)().points, getattr(result, boundary)().points)
         np.testing.assert_allclose(copy.region_measures(), result.region_measures(), rtol=1e-12)
+        again = pickle.loads(pickle.dumps(result))  # its partition built, and cut beside the fit
+        np.testing.assert_array_equal(getattr(again, boundary)().points, getattr(result, boundary)().points)
+    values_only = relax_image(_voronoi((40, 44, 48), 5, (1.0, 1.0, 1.0), seed=3))
+    values_only.region_values()
+    assert "_cut_beside" in values_only.__dict__
+    copy = pickle.loads(pickle.dumps(values_only))
+    np.testing.assert_array_equal(copy.interfaces().simplices, values_only.interfaces().simplices)
     grid = ImageGrid((4, 3, 2), spacing=(1.0, 2.0, 0.5))
     assert repr(pickle.loads(pickle.dumps(grid))) == repr(grid)
 

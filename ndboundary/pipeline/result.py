@@ -146,14 +146,15 @@ class _RegionMethods:
         cached = self.__dict__.get("_mixed_cache")
         if cached is None:
             beside = self.__dict__.pop("_cut_beside", None)
-            if beside is not None and not _still_mixed(self.domain, values, *beside):
-                beside = None
-            if beside is None:
-                cached = _mixed_of(self.domain, values)
-            else:  # the elements cut beside the fit are left out, and joined to the rest's cut
+            if beside is not None:
                 far, far_part, shift = beside
-                cached = _mixed_of(self.domain, values, skip=far, shift=shift)
-                self.__dict__["_far_part"] = far_part, shift
+                lead = _argmax_rows(values)
+                if _still_mixed(self.domain, values, lead, far, shift):
+                    # the elements cut beside the fit are left out, and joined to the rest's cut
+                    cached = _mixed_of(self.domain, values, lead, skip=far, shift=shift)
+                    self.__dict__["_far_part"] = far_part, shift
+            if cached is None:
+                cached = _mixed_of(self.domain, values)
             self.__dict__["_mixed_cache"] = cached
         return cached
 
@@ -1069,15 +1070,14 @@ def _shifted_partition(points, simplices, values, shift):
     return Partition(Cells(X, S, regions, None, parents), values.shape[1], measure)
 
 
-def _still_mixed(domain, values, far, far_part, shift):
+def _still_mixed(domain, values, lead, far, shift):
     """Whether the elements ``far`` cut beside the junctions' fit are still all mixed by
-    the fitted ``values`` (sparse), and ``shift`` keeps every value above 0: then the cut of
-    the others joins theirs.
+    the fitted ``values`` (sparse; ``lead``, each vertex's largest), and ``shift`` keeps
+    every value above 0: then the cut of the others joins theirs.
     """
     if not sp.issparse(values) or not float(values.data.min()) + shift > 0.0:
         return False
-    mixed = domain.mixed_elements(_argmax_rows(values))[0]
-    return not (far & ~mixed).any()
+    return not (far & ~domain.mixed_elements(lead)[0]).any()
 
 
 class _JoinedCut:
