@@ -407,8 +407,17 @@ def partition(points, simplices, values) -> Partition:
     empty = np.flatnonzero(np.diff(values.indptr) == 0)
     if empty.size:
         raise ValueError(f"values store no region at vertex {int(empty[0])}: every vertex needs one")
-    shifted = values.copy()  # at least 1, so that 0 is below every stored value
-    if shifted.nnz:
-        shifted.data = shifted.data - shifted.data.min() + 1.0
+    return _sparse_partition(points, simplices, values, 1.0 - values.data.min() if values.nnz else 0.0)
+
+
+def _sparse_partition(points, simplices, values, shift):
+    """:func:`partition` of checked sparse ``values`` (CSR, summed), shifted by ``shift``
+    first: every stored value above 0 once shifted, so that 0 is below each (the default
+    shift makes the lowest 1). Two complexes cut with the same shift compute the same
+    points where they meet, to the bit, as one complex holding both does.
+    """
+    shifted = values.copy()
+    shifted.data = shifted.data + shift
     X, S, regions, parents = sweep_sparse(points, simplices, shifted)
+    measure = lambda: float(simplex_measures(points, simplices).sum())  # noqa: E731
     return Partition(Cells(X, S, regions, None, parents), values.shape[1], measure)

@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._arrays import row_groups, unique_values
+from .._arrays import counting_sort, row_groups, unique_values
 from .._threads import available_threads
 from .interface_fit import _smoothed, polylines, resample
 from .junctions import MARGIN, MAX_MOVE, _imposed_linear, _separating, fit_ys, stored_values, y_gradients
@@ -224,8 +224,7 @@ def _curve_fixes(domain, values, faces, samples, found, h, lead, unit, taken):
     candidates = unique_values(np.concatenate([near[k] for k in keys]))
     d, nearest = cKDTree(moved).query(domain.points[candidates], distance_upper_bound=BLEND * h)
     candidates, nearest = candidates[np.isfinite(d)], nearest[np.isfinite(d)]
-    order = np.argsort(nearest, kind="stable")  # each sample's vertices, increasing
-    bounds = np.searchsorted(nearest[order], np.arange(len(keys) + 1))
+    order, bounds = counting_sort(nearest, len(keys))  # each sample's vertices, increasing
     fixes = []
     for i, k in enumerate(keys):
         centre, angles, owners = fitted[k]
@@ -507,8 +506,7 @@ def _pair_points(faces):
     out = {}
     pairs = np.sort(faces.pairs, axis=1)
     ids, first = row_groups(pairs)
-    order = np.argsort(ids, kind="stable")
-    bounds = np.searchsorted(ids[order], np.arange(first.size + 1))
+    order, bounds = counting_sort(ids, first.size)
     for g, f in enumerate(first):
         at = unique_values(faces.simplices[order[bounds[g] : bounds[g + 1]]])
         out[(int(pairs[f, 0]), int(pairs[f, 1]))] = cKDTree(faces.points[at]), faces.points[at]

@@ -20,7 +20,7 @@ from .._threads import available_threads
 from ..domains.image import GridBand
 from ..domains.pointcloud_operators import StencilDomain
 from ..levelset import LevelSet, marching_simplices, simplex_measures
-from ..partition import Cells, Interfaces, Partition, partition
+from ..partition import Cells, Interfaces, Partition, _sparse_partition, partition
 from ..partition_clip import sweep_sparse
 from . import interface_fit, junction_curves, junctions
 from .band import can_cut, extend_outside
@@ -168,7 +168,7 @@ class _RegionMethods:
             far = self.__dict__.pop("_far_part", None)
             if far is not None:
                 far_part, shift = far
-                cut = _JoinedCut([far_part] + ([] if complex_ is None else [_shifted_partition(*complex_, shift)]))
+                cut = far_part if complex_ is None else _JoinedCut(far_part, _shifted_cut(*complex_, shift))
             else:
                 cut = self.partition() if complex_ is None else partition(*complex_)
             cached = self.__dict__["_cut_cache"] = (cut, whole)
@@ -1045,29 +1045,22 @@ def _far_cut(domain, values, far, shift):
     the sparse region functions ``values``, its interfaces found, and the vertices of those
     elements: the part of the partition that the junctions' fit, which moves no vertex of
     them, leaves as it is. Made beside the fit (:meth:`RegionsResult._fit_junctions`),
-    ``values`` shifted by ``shift`` as the rest will be (:func:`_shifted_partition`).
+    ``values`` shifted by ``shift`` as the rest will be (:func:`_shifted_cut`).
     """
     sub, vertices = domain.subdomain(far)
     local = _within_reach(sub, values[vertices])
-    part = _shifted_partition(*_complex(sub, local, shift), shift)
+    part = _shifted_cut(*_complex(sub, local, shift), shift)
     part.interfaces()
     return part, vertices
 
 
-def _shifted_partition(points, simplices, values, shift):
-    """:func:`~ndboundary.partition.partition` of a complex with sparse ``values``, shifted
-    by ``shift`` (every value above 0 once shifted) instead of to a lowest value of 1:
-    two complexes cut with the same shift compute the same points where they meet, to the
-    bit, as one complex holding both does, so that their interfaces join.
+def _shifted_cut(points, simplices, values, shift):
+    """The partition of a complex of sparse ``values`` (as :func:`_complex` gives them),
+    shifted by ``shift`` (:func:`~ndboundary.partition._sparse_partition`).
     """
     values = sp.csr_matrix(values, dtype=np.float64)
     values.sum_duplicates()
-    shifted = values.copy()
-    shifted.data = shifted.data + shift
-    X, S, regions, parents = sweep_sparse(np.asarray(points, dtype=np.float64), np.asarray(simplices, dtype=np.int64),
-                                          shifted)  # fmt: skip
-    measure = lambda: float(simplex_measures(points, simplices).sum())  # noqa: E731
-    return Partition(Cells(X, S, regions, None, parents), values.shape[1], measure)
+    return _sparse_partition(np.asarray(points, dtype=np.float64), np.asarray(simplices, dtype=np.int64), values, shift)
 
 
 def _still_mixed(domain, values, lead, far, shift):
@@ -1081,45 +1074,38 @@ def _still_mixed(domain, values, lead, far, shift):
 
 
 class _JoinedCut:
-    """The partition of the mixed elements as the partitions of two parts of them (the
-    elements cut beside the junctions' fit and the others), both shifted alike
-    (:func:`_shifted_partition`): the interfaces of both, joined where they meet by the
-    points' coordinates (as :class:`_RegionCuts` joins its regions' pieces), and the
-    regions' measures summed. The ``edges`` of a region's boundary hold each point's
-    parent pair in the part it comes from.
+    """The partition of the mixed elements as the partitions of two parts of them, the
+    elements cut beside the junctions' fit (``first``) and the others (``second``), both
+    shifted alike (:func:`_shifted_cut`): the interfaces of both, joined where they meet by
+    the points' coordinates, and the regions' measures summed. The ``edges`` of a region's
+    boundary hold each point's parent pair in the part it comes from.
     """
 
-    def __init__(self, parts):
-        self.parts = parts
+    def __init__(self, first, second):
+        self.first, self.second = first, second
         self._interfaces = None
         self._parents = None
 
     def region_measures(self):
         """Every region's measure within the mixed elements."""
-        return sum(part.region_measures() for part in self.parts)
+        return self.first.region_measures() + self.second.region_measures()
 
     def interfaces(self):
         """The interfaces of both parts as one (built once): the first part's points, then
         those of the second that the first does not hold.
         """
         if self._interfaces is None:
-            faces = [part.interfaces() for part in self.parts]
-            parents = [part.cells.parents[f.point_ids] for part, f in zip(self.parts, faces, strict=True)]
-            if len(faces) == 1:
-                f = faces[0]
-                self._interfaces = Interfaces(f.points, f.simplices, f.pairs, None, None)
-                self._parents = parents[0]
-                return self._interfaces
-            first, second = faces
+            first, second = self.first.interfaces(), self.second.interfaces()
             shared = _same_points(first.points, second.points)  # -1 where the first has no such point
             new = shared < 0
-            number = np.empty(second.points.shape[0], dtype=np.int64)
+            number = shared.copy()
             number[new] = first.points.shape[0] + np.arange(int(new.sum()))
-            number[~new] = shared[~new]
             points = np.concatenate([first.points, second.points[new]])
             simplices = np.concatenate([first.simplices, number[second.simplices]])
             pairs = np.concatenate([first.pairs, second.pairs])
-            self._parents = np.concatenate([parents[0], parents[1][new]])
+            self._parents = np.concatenate(
+                [self.first.cells.parents[first.point_ids], self.second.cells.parents[second.point_ids[new]]]
+            )
             self._interfaces = Interfaces(points, simplices, pairs, None, None)
         return self._interfaces
 
