@@ -20,7 +20,7 @@ import numpy as np
 
 from ._kernels import kernel
 
-__all__ = ["oriented_region_facets", "point_simplices", "sweep_sparse_compiled"]
+__all__ = ["beaten_simplices", "oriented_region_facets", "point_simplices", "sweep_sparse_compiled"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -571,3 +571,70 @@ def sweep_sparse_compiled(points, simplices, values, tables):
         slots,
         side,
     )
+
+
+@numba.njit(cache=True, nogil=True)
+def _stored(indptr, indices, data, p, c):  # pragma: no cover - compiled
+    """Region ``c``'s value at point ``p`` of the CSR (sorted indices), 0 where not stored."""
+    lo, hi = indptr[p], indptr[p + 1]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if indices[mid] < c:
+            lo = mid + 1
+        else:
+            hi = mid
+    return data[lo] if lo < indptr[p + 1] and indices[lo] == c else 0.0
+
+
+@kernel(
+    "b1[::1](i8[:, ::1], f8[::1], i4[::1], i4[::1], f8[::1], i8)",
+    "b1[::1](i8[:, ::1], f8[::1], i8[::1], i4[::1], f8[::1], i8)",
+    "b1[::1](i8[:, ::1], f8[::1], i8[::1], i8[::1], f8[::1], i8)",
+)
+@numba.njit(cache=True, nogil=True)
+def _beaten(simplices, mine, indptr, indices, data, r):  # pragma: no cover - compiled
+    n, k = simplices.shape
+    out = np.zeros(n, dtype=np.bool_)
+    for s in range(n):
+        top = 0.0  # region r's largest value at the simplex's points (``mine``: r's values)
+        for a in range(k):
+            top = max(top, mine[simplices[s, a]])
+        bound = top + 1e-9 * (1.0 + top)  # beaten by a margin no rounding of a cut reaches
+        # the region leading at the first point, unless r: the one likeliest to beat r throughout
+        p = simplices[s, 0]
+        c, low = -1, 0.0
+        for e in range(indptr[p], indptr[p + 1]):
+            if data[e] > low:
+                c, low = indices[e], data[e]
+        a = 1
+        while c != r and low > bound and a < k:
+            low = min(low, _stored(indptr, indices, data, simplices[s, a], c))
+            a += 1
+        out[s] = c != r and low > bound
+    return out
+
+
+def beaten_simplices(simplices, values, r, mine=None):
+    """Whether region ``r`` loses at every point of each simplex, by a test that needs no
+    cut: the region leading at its first point has, at every one of its points, a value
+    above r's largest there (``values`` CSR, points x regions, sorted indices, a region
+    not stored at a point being 0 there). ``mine``: region r's value at every point (0
+    where not stored), read from ``values`` when not given.
+
+    Each region's function is linear on a simplex, so that region beats r everywhere in
+    it, on its faces too: none of r's cells, nor a face they share with a cell of a
+    simplex beside them, lies in a simplex flagged. The test is conservative (r may lose
+    everywhere to several regions in turn, and is then not flagged), by a margin far
+    beyond a cut's rounding.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> from ndboundary._compiled_partition import beaten_simplices
+    >>> values = sp.csr_matrix(np.array([[3.0, 1.0], [3.0, 2.0], [1.0, 3.0]]))
+    >>> beaten_simplices(np.array([[0, 1], [1, 2]]), values, 1).tolist()
+    [True, False]
+    """
+    mine = np.asarray(values[:, r].toarray(), dtype=np.float64).ravel() if mine is None else mine
+    return _beaten(np.ascontiguousarray(simplices, dtype=np.int64), mine, values.indptr, values.indices,
+                   np.ascontiguousarray(values.data, dtype=np.float64), int(r))  # fmt: skip

@@ -332,6 +332,40 @@ def test_sparse_sweep_cuts_as_the_dense_one(dim, n, L):
     np.testing.assert_array_equal(rows(sparse.cells), rows(dense.cells))
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_beaten_simplices_hold_no_cell_of_the_region(dim):
+    """A simplex flagged as beaten for region r holds none of r's cells in the partition
+    of every simplex, nor a point of them (on its faces): r's cells lie in the simplices
+    left. The test flags most of the simplices that hold none."""
+    from ndboundary._compiled_partition import beaten_simplices
+
+    rng = np.random.default_rng(dim)
+    mesh = kuhn_grid(12 if dim == 2 else 5, dim, jitter=0.2, random_state=dim)
+    P, S = mesh.points, mesh.simplices
+    values = voronoi_values(P, rng.uniform(-1, 1, (6, dim))) + 0.02 * rng.normal(size=(len(P), 6))
+    values = sp.csr_matrix(values - values.min() + 1.0)  # stored >= 1, as the partition shifts them
+    cells = partition(P, S, values).cells
+    corners = cells.points[cells.simplices]
+    parent = np.argmin(_outside(P[S], corners.mean(axis=1)), axis=0)  # the simplex holding each cell
+    for r in range(6):
+        beaten = beaten_simplices(S, values, r)
+        holds = np.zeros(len(S), dtype=bool)
+        holds[parent[cells.regions == r]] = True
+        assert holds.any() and not (beaten & holds).any()
+        points = corners[cells.regions == r].reshape(-1, dim)
+        assert _outside(P[S[~beaten]], points).min(axis=0).max() < 1e-9
+        assert beaten.sum() >= 0.7 * (~holds).sum()
+
+
+def _outside(corners, x):
+    """How far, in barycentric coordinates, each of the points ``x`` (m, k) lies outside
+    each simplex of ``corners`` (n, k + 1, k): shape (n, m), 0 inside it or on it."""
+    T = np.transpose(corners[:, 1:] - corners[:, :1], (0, 2, 1))
+    lam = np.linalg.solve(T[:, None], (x[None] - corners[:, :1])[..., None])[..., 0]
+    bary = np.concatenate([1 - lam.sum(axis=2, keepdims=True), lam], axis=2)
+    return np.maximum(-bary.min(axis=2), 0.0)
+
+
 def test_a_facet_of_three_cells_pairs_them_in_turn():
     """Three triangles on one edge (not a manifold): the edge lies between the first and
     the second cell and between the second and the third, where their regions differ."""

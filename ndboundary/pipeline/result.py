@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 
 from .._arrays import expand_ranges, unique_values, used_vertices
 from .._compiled import unique_pairs
-from .._compiled_partition import point_simplices
+from .._compiled_partition import beaten_simplices, point_simplices
 from .._threads import available_threads
 from ..domains.image import GridBand
 from ..domains.pointcloud_operators import StencilDomain
@@ -378,7 +378,7 @@ class _RegionCuts:
         self.values.data = self.values.data - self.values.data.min() + 1.0
         self.columns = self.values.tocsc()
         self._at_point = point_simplices(simplices, points.shape[0])
-        self._scratch = threading.local()  # a table of the points per thread
+        self._scratch = threading.local()  # tables of the points per thread
         self._measures = {}
         self._interfaces = None
         self._kept = {}  # pieces with the largest region, kept from cuts made for boundaries
@@ -393,18 +393,27 @@ class _RegionCuts:
     def _partition(self, r):
         """``(partition, j, present)``: the partition of the simplices storing region
         ``r``, whose regions are those stored there (``present``, increasing), ``r`` being
-        its region ``j``; it keeps the cells with a point of region ``j``'s cells only,
-        all that its boundary needs. Region ``r``'s measure is kept for :meth:`measure`.
+        its region ``j``; it keeps only the cells with a facet's worth of points of region
+        ``j``'s cells, all that its boundary needs. Region ``r``'s measure is kept for :meth:`measure`.
         """
         c = self.columns
         stored = c.indices[c.indptr[r] : c.indptr[r + 1]]
-        if stored.size == 0:  # the region wins in none of these simplices
-            self._measures[r] = 0.0
-            empty = partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2)))
-            return empty, 0, np.array([r])
         indptr, ids = self._at_point  # the simplices at the points storing r
         chosen = unique_values(ids[expand_ranges(indptr[stored], indptr[stored + 1] - indptr[stored])])
         simplices = self.simplices[chosen]
+        # less those where another region beats r at every point: none of r's cells, nor a
+        # face they share with a cell beside them, lies there
+        mine = getattr(self._scratch, "mine", None)  # r's values at every point, 0 elsewhere
+        if mine is None:
+            mine = self._scratch.mine = np.zeros(self.points.shape[0])
+        mine[stored] = c.data[c.indptr[r] : c.indptr[r + 1]]
+        kept = ~beaten_simplices(simplices, self.values, r, mine)
+        mine[stored] = 0.0
+        chosen, simplices = chosen[kept], simplices[kept]
+        if chosen.size == 0:  # the region wins in none of these simplices
+            self._measures[r] = 0.0
+            empty = partition(np.zeros((0, self.points.shape[1])), self.simplices[:0], np.zeros((0, 2)))
+            return empty, 0, np.array([r])
         used = unique_values(simplices)
         slot = getattr(self._scratch, "slot", None)
         if slot is None:
@@ -420,11 +429,12 @@ class _RegionCuts:
         j = int(np.searchsorted(present, r))
         mine = regions == j
         self._measures[r] = float(simplex_measures(X, S[mine]).sum())
-        # region j's boundary lies between its cells and cells with a point in common: only
-        # those are kept, so that the interfaces of the other regions are not sought
+        # region j's boundary lies between its cells and cells with a facet in common, whose
+        # points are all points of j's cells: only those are kept, so that the interfaces
+        # of the other regions are not sought
         touched = np.zeros(X.shape[0], dtype=bool)
         touched[S[mine]] = True
-        near = touched[S].any(axis=1)
+        near = np.count_nonzero(touched[S], axis=1) >= S.shape[1] - 1
         part = Partition(
             Cells(X, S[near], regions[near], None, parents), present.size,
             lambda: float(simplex_measures(self.points, self.simplices[chosen]).sum()),
