@@ -360,6 +360,9 @@ class _RegionCuts:
     region stored there, holds each of the region's cells exactly as the partition of
     the whole complex does (point ids keep their order, so every cut is triangulated
     alike), and so its boundary, which only cells of other regions next to them border.
+    Of those simplices, the ones where another region beats it at every point
+    (:func:`~ndboundary._compiled_partition.beaten_simplices`) hold none of its cells, nor
+    a face they share, and are left out before the cut.
 
     The region stored at the most points (an atlas's background, whose cut alone would be
     larger than any other by tens of times) is never cut: each interface piece comes from
