@@ -592,13 +592,13 @@ def _stored(indptr, indices, data, p, c):  # pragma: no cover - compiled
     "b1[::1](i8[:, ::1], f8[::1], i8[::1], i8[::1], f8[::1], i8)",
 )
 @numba.njit(cache=True, nogil=True)
-def _beaten(simplices, mine, indptr, indices, data, r):  # pragma: no cover - compiled
+def _beaten(simplices, own, indptr, indices, data, r):  # pragma: no cover - compiled
     n, k = simplices.shape
     out = np.zeros(n, dtype=np.bool_)
     for s in range(n):
-        top = 0.0  # region r's largest value at the simplex's points (``mine``: r's values)
+        top = 0.0  # region r's largest value at the simplex's points (``own``: r's values)
         for a in range(k):
-            top = max(top, mine[simplices[s, a]])
+            top = max(top, own[simplices[s, a]])
         bound = top + 1e-9 * (1.0 + top)  # beaten by a margin no rounding of a cut reaches
         # the region leading at the first point, unless r: the one likeliest to beat r throughout
         p = simplices[s, 0]
@@ -614,11 +614,11 @@ def _beaten(simplices, mine, indptr, indices, data, r):  # pragma: no cover - co
     return out
 
 
-def beaten_simplices(simplices, values, r, mine=None):
+def beaten_simplices(simplices, values, r, own=None):
     """Whether region ``r`` loses at every point of each simplex, by a test that needs no
     cut: the region leading at its first point has, at every one of its points, a value
     above r's largest there (``values`` CSR, points x regions, sorted indices, a region
-    not stored at a point being 0 there). ``mine``: region r's value at every point (0
+    not stored at a point being 0 there). ``own``: region r's value at every point (0
     where not stored), read from ``values`` when not given.
 
     Each region's function is linear on a simplex, so that region beats r everywhere in
@@ -635,6 +635,6 @@ def beaten_simplices(simplices, values, r, mine=None):
     >>> beaten_simplices(np.array([[0, 1], [1, 2]]), values, 1).tolist()
     [True, False]
     """
-    mine = np.asarray(values[:, r].toarray(), dtype=np.float64).ravel() if mine is None else mine
-    return _beaten(np.ascontiguousarray(simplices, dtype=np.int64), mine, values.indptr, values.indices,
+    own = np.asarray(values[:, r].toarray(), dtype=np.float64).ravel() if own is None else own
+    return _beaten(np.ascontiguousarray(simplices, dtype=np.int64), own, values.indptr, values.indices,
                    np.ascontiguousarray(values.data, dtype=np.float64), int(r))  # fmt: skip

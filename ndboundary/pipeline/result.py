@@ -406,12 +406,14 @@ class _RegionCuts:
         simplices = self.simplices[chosen]
         # less those where another region beats r at every point: none of r's cells, nor a
         # face they share with a cell beside them, lies there
-        mine = getattr(self._scratch, "mine", None)  # r's values at every point, 0 elsewhere
-        if mine is None:
-            mine = self._scratch.mine = np.zeros(self.points.shape[0])
-        mine[stored] = c.data[c.indptr[r] : c.indptr[r + 1]]
-        kept = ~beaten_simplices(simplices, self.values, r, mine)
-        mine[stored] = 0.0
+        own = getattr(self._scratch, "own", None)  # r's values at every point, 0 elsewhere
+        if own is None:
+            own = self._scratch.own = np.zeros(self.points.shape[0])
+        own[stored] = c.data[c.indptr[r] : c.indptr[r + 1]]
+        try:
+            kept = ~beaten_simplices(simplices, self.values, r, own)
+        finally:
+            own[stored] = 0.0
         chosen, simplices = chosen[kept], simplices[kept]
         if chosen.size == 0:  # the region wins in none of these simplices
             self._measures[r] = 0.0
