@@ -146,15 +146,15 @@ class _RegionMethods:
         cached = self.__dict__.get("_mixed_cache")
         if cached is None:
             beside = self.__dict__.pop("_cut_beside", None)
+            lead = _argmax_rows(values)
             if beside is not None:
                 far, far_part, shift = beside
-                lead = _argmax_rows(values)
                 if _still_mixed(self.domain, values, lead, far, shift):
                     # the elements cut beside the fit are left out, and joined to the rest's cut
                     cached = _mixed_of(self.domain, values, lead, skip=far, shift=shift)
                     self.__dict__["_far_part"] = far_part, shift
             if cached is None:
-                cached = _mixed_of(self.domain, values)
+                cached = _mixed_of(self.domain, values, lead)
             self.__dict__["_mixed_cache"] = cached
         return cached
 
